@@ -1,0 +1,87 @@
+"""Hydraulic fluid: density, effective bulk modulus with entrained air, viscosity.
+
+Defaults are a mineral hydraulic oil, ISO VG 32 at 40 C (shared HYDRAULICS.md:
+density 850-870 kg/m^3, viscosity ~0.03 Pa s, pure-oil bulk modulus
+1.4-1.8 GPa).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from gmt.errors import check_range
+
+
+@dataclass(frozen=True)
+class FluidParameters:
+    """Fluid properties (SI).
+
+    Attributes
+    ----------
+    density : float
+        Density at the reference pressure, [kg/m^3].
+    bulk_modulus : float
+        Bulk modulus of the air-free oil, [Pa].
+    air_fraction : float
+        Volume fraction of entrained (undissolved) air at the reference
+        pressure, [-]; 0 gives pure oil.
+    reference_pressure : float
+        Pressure at which ``air_fraction`` is stated, [Pa] (absolute).
+    air_polytropic_index : float
+        Polytropic exponent of the air bubbles, [-]: 1.4 (adiabatic) suits
+        pumping at 50-100 Hz.
+    viscosity : float
+        Dynamic viscosity, [Pa s].
+    """
+
+    density: float = 860.0
+    bulk_modulus: float = 1.6e9
+    air_fraction: float = 0.0
+    reference_pressure: float = 1.0e5
+    air_polytropic_index: float = 1.4
+    viscosity: float = 0.03
+
+    def __post_init__(self):
+        check_range("density", self.density, 0.0, 5000.0, unit="kg/m^3")
+        check_range("bulk_modulus", self.bulk_modulus, 0.0, 1e13, unit="Pa")
+        check_range("air_fraction", self.air_fraction, 0.0, 0.5, unit="-", low_open=False)
+        check_range("reference_pressure", self.reference_pressure, 0.0, 1e8, unit="Pa")
+        check_range("air_polytropic_index", self.air_polytropic_index, 1.0, 1.67, unit="-",
+                    low_open=False, high_open=False)
+        check_range("viscosity", self.viscosity, 0.0, 10.0, unit="Pa s")
+
+
+#: Pressure below which the air model is not evaluated, [Pa]: keeps the
+#: effective bulk modulus finite when a chamber is sucked towards vacuum.
+MINIMUM_PRESSURE = 1.0e3
+
+
+def air_fraction_at(fluid: FluidParameters, pressure):
+    """Volume fraction of entrained air at a pressure, [-].
+
+    The air mass is fixed; its volume follows p V^n = const, the oil's
+    volume change is neglected against the air's.
+    """
+    p = np.maximum(pressure, MINIMUM_PRESSURE)
+    a0 = fluid.air_fraction
+    air = a0 * (fluid.reference_pressure / p) ** (1.0 / fluid.air_polytropic_index)
+    return air / (1.0 - a0 + air)
+
+
+def effective_bulk_modulus(fluid: FluidParameters, pressure):
+    """Effective bulk modulus of the oil-air mixture, [Pa].
+
+    1 / beta_e = (1 - a) / beta_oil + a / (n p), a the air fraction at p:
+    series compliance of oil and air (Merritt, Hydraulic Control Systems,
+    1967, sec. 2.5). With no air it is the oil's modulus.
+
+    Examples
+    --------
+    >>> f = FluidParameters(air_fraction=0.005)
+    >>> round(float(effective_bulk_modulus(f, 2e6)) / 1e9, 2)
+    1.2
+    """
+    a = air_fraction_at(fluid, pressure)
+    p = np.maximum(pressure, MINIMUM_PRESSURE)
+    return 1.0 / ((1.0 - a) / fluid.bulk_modulus + a / (fluid.air_polytropic_index * p))
