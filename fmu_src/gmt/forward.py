@@ -46,6 +46,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+from scipy.optimize import brentq
 
 from . import mechanics
 from .calibration import DEFAULT_CALIBRATION
@@ -142,8 +143,37 @@ def operating_point(params: TransducerParameters, excitation: Excitation,
         if not (mu_imag >= 0.0 and math.isfinite(mu_imag)):
             raise ParameterError(f"mu_imag = {mu_imag:g} is outside the allowed range [0, inf)")
         mu_i = float(mu_imag)
+    if mu_imag is None and not amplitude_permeability(bm, hm) > mu_i:
+        bmax = largest_flux_density_amplitude(params, f, hm, regime)
+        raise ParameterError(
+            f"flux_density_amplitude = {bm:g} T ({source}) makes mu' imaginary (eq 20) at "
+            f"f = {f:g} Hz, I_m = {im:g} A: mu'' from the losses (eq 16) grows with B_m "
+            f"faster than B_m/(mu_0 H_m), so B_m must lie in the allowed range "
+            f"(0, {bmax:.6g}) T")
     mu_r = real_permeability(bm, hm, mu_i)
     return OperatingPoint(f, im, hm, bm, source, mu_r, mu_i, losses)
+
+
+def largest_flux_density_amplitude(params: TransducerParameters, frequency: float,
+                                   field_amplitude: float, regime: str = "intermediate") -> float:
+    """Largest B_m for which eq 20 gives a real mu' with mu'' from the losses, [T].
+
+    B_m / (mu_0 H_m) grows linearly with B_m while mu'' of eq 16 grows as
+    B_m^n, B_m^2 and B_m^1.5 (all faster), so eq 20 is real on (0, B_max) and
+    B_max is the root of B/(mu_0 H_m) = mu''(B).
+    """
+    def margin(b):
+        losses = separate_losses(params, frequency, field_amplitude, b, regime)
+        return (amplitude_permeability(b, field_amplitude)
+                - imaginary_permeability(losses.total, field_amplitude, frequency,
+                                         params.rod_volume))
+    hi = 1e-3
+    while margin(hi) > 0.0 and hi < 1e3:
+        hi *= 2.0
+    lo = hi / 2.0
+    while margin(lo) <= 0.0 and lo > 1e-12:
+        lo /= 2.0
+    return brentq(margin, lo, hi, xtol=1e-15, rtol=1e-12)
 
 
 def quadrature_current(current, previous_current, current_amplitude,

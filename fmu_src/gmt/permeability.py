@@ -56,8 +56,7 @@ def real_permeability(flux_density_amplitude, field_amplitude, mu_imag):
         raise ParameterError(
             f"flux_density_amplitude = {flux_density_amplitude:g} T makes mu' "
             f"imaginary (eq 20): B_m/(mu_0 H_m) = {mod:g} must exceed "
-            f"mu'' = {mu_imag:g}, i.e. B_m > {mu_imag * MU_0 * field_amplitude:g} T "
-            f"at H_m = {field_amplitude:g} A/m")
+            f"mu'' = {mu_imag:g} at H_m = {field_amplitude:g} A/m")
     return math.sqrt(mod * mod - mu_imag * mu_imag)
 
 
