@@ -1,0 +1,313 @@
+"""The FMU's variable table, defined once for both slaves and the build.
+
+Both slaves (``fmu_src/smeha_gmt_fmu.py``, FMI 2.0, and
+``fmu_src/smeha_gmt_fmu3.py``, FMI 3.0) register their variables from
+:data:`VARIABLES`; :mod:`smeha.fmu_build` writes the units of the FMI 2.0
+model description from the same table, and ``docs/FMU.md`` documents it.
+
+Inside an FMU this file is bundled as ``resources/smeha_fmu_interface.py`` (a
+module name unique to this project, so that it cannot collide with another
+Python FMU in the same host process). It therefore imports nothing from
+:mod:`smeha` and does not import :mod:`gmt` at module level; :func:`make_transducer`
+and :func:`check_against_gmt` import ``gmt`` when called, which inside an FMU
+is the bundled copy.
+
+Names of the parameters are the field names of :class:`gmt.TransducerParameters`,
+:class:`gmt.Excitation` and :class:`gmt.DriveParameters`; their start values are
+those classes' defaults (paper, Table 2). :func:`check_against_gmt` fails the
+build when the two drift apart.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+#: modelName / modelIdentifier of the FMI 2.0 FMU (the FMU is ``SmehaGmt.fmu``).
+MODEL_NAME_FMI2 = "SmehaGmt"
+#: modelName / modelIdentifier of the FMI 3.0 FMU (``SmehaGmt3.fmu``).
+MODEL_NAME_FMI3 = "SmehaGmt3"
+#: Slave module names (unique to this project: one Python interpreter serves
+#: every pythonfmu FMU of a host process, and modules are shared by name).
+SLAVE_MODULE_FMI2 = "smeha_gmt_fmu"
+SLAVE_MODULE_FMI3 = "smeha_gmt_fmu3"
+#: Name under which this file is bundled in the FMU's resources.
+BUNDLED_INTERFACE_MODULE = "smeha_fmu_interface"
+
+AUTHOR = "smeha developers"
+LICENSE = "MIT"
+DESCRIPTION = ("Giant magnetostrictive transducer (GMT) of a smart-material "
+               "electrohydrostatic actuator: amplifier, inverse compensator and the "
+               "complex-permeability model of eq 30 (smeha, gmt package)")
+
+#: Accepted values of the String parameter ``model_variant``.
+MODEL_VARIANTS = ("paper",)
+#: Accepted values of the String parameter ``branch_rule`` (gmt.parameters.BRANCH_RULES).
+BRANCH_RULES = ("control", "demand")
+
+#: DefaultExperiment: five periods of the paper's 50 Hz case at a 10 us step.
+DEFAULT_EXPERIMENT = {"start_time": 0.0, "stop_time": 0.1, "step_size": 1e-5}
+
+#: Units: name -> exponents of the SI base units (kg, m, s, A, K, mol, cd, rad).
+#: ``None`` marks a unit that integer exponents cannot express (the Steinmetz
+#: law's T^n and the excess-loss law's T^1.5): it is declared by name only.
+UNITS: dict[str, dict[str, int] | None] = {
+    "1": {},
+    "A": {"A": 1},
+    "A/m": {"A": 1, "m": -1},
+    "A/V": {"kg": -1, "m": -2, "s": 3, "A": 2},
+    "Hz": {"s": -1},
+    "N": {"kg": 1, "m": 1, "s": -2},
+    "N.s/m": {"kg": 1, "s": -1},
+    "N/m": {"kg": 1, "s": -2},
+    "T": {"kg": 1, "s": -2, "A": -1},
+    "V": {"kg": 1, "m": 2, "s": -3, "A": -1},
+    "W.s/(m3.T^n)": None,  # K_h of eq 7; the exponent n is itself a parameter
+    "W.s/(m3.(A/m)3)": {"kg": 1, "m": 2, "s": -2, "A": -3},  # K'_h of eq 6
+    "W.s2/(m3.T2)": {"kg": -1, "m": -1, "s": 3, "A": 2},  # K_e of eq 9
+    "W.s1.5/(m3.T1.5)": None,  # K_ex of eq 11: half-integer exponents
+    "kg": {"kg": 1},
+    "m": {"m": 1},
+    "m/V": {"kg": -1, "m": -1, "s": 3, "A": 1},
+    "m/s": {"m": 1, "s": -1},
+    "m2": {"m": 2},
+    "m2/A2": {"m": 2, "A": -2},
+    "s": {"s": 1},  # FMI 3.0 independent variable time
+}
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One FMU variable.
+
+    Attributes
+    ----------
+    name : str
+        Variable name (a field name of the gmt dataclasses for parameters).
+    kind : {"Real", "Integer", "Boolean", "String"}
+        FMI 2.0 type (FMI 3.0: Float64, Int32, Boolean, String).
+    causality : {"input", "parameter", "output"}
+    unit : str or None
+        Key of :data:`UNITS` (every Real has one; "1" for dimensionless).
+    description : str
+    start : float, int, bool, str or None
+        Start value (inputs and parameters); outputs start at :attr:`initial_value`.
+    group : {"input", "transducer", "excitation", "drive", "model", "output"}
+        Which gmt object a parameter goes to.
+    """
+
+    name: str
+    kind: str
+    causality: str
+    unit: str | None
+    description: str
+    start: Any
+    group: str
+
+    @property
+    def variability(self) -> str:
+        """FMI variability: fixed parameters, continuous Reals, discrete others."""
+        if self.causality == "parameter":
+            return "fixed"
+        return "continuous" if self.kind == "Real" else "discrete"
+
+    @property
+    def initial_value(self):
+        """Value the slave holds before its first step."""
+        if self.start is not None:
+            return self.start
+        return {"Real": 0.0, "Integer": 0, "Boolean": False, "String": ""}[self.kind]
+
+
+def _in(name, unit, description, start=0.0):
+    return Variable(name, "Real", "input", unit, description, start, "input")
+
+
+def _par(group, name, unit, description, start, kind="Real"):
+    return Variable(name, kind, "parameter", unit if kind == "Real" else None,
+                    description, start, group)
+
+
+def _out(name, unit, description, kind="Real"):
+    return Variable(name, kind, "output", unit if kind == "Real" else None,
+                    description, None, "output")
+
+
+_T, _E, _D, _M = "transducer", "excitation", "drive", "model"
+
+#: Every variable, in registration order (inputs, parameters, outputs).
+VARIABLES: tuple[Variable, ...] = (
+    # -- inputs ----------------------------------------------------------------
+    _in("u", "V", "Control signal u: uncompensated, coil current i = amplifier_gain*u; "
+        "compensated, demanded displacement y_d = displacement_per_volt*(u - control_offset) "
+        "above the bottom of the stroke (Figure 9). Held over the step."),
+    _in("external_force", "N", "External axial force on the output rod, opposing "
+        "elongation (e.g. pump-chamber pressure times piston area), eq 27. Held over the step."),
+    # -- TransducerParameters (paper, Table 2) -----------------------------------
+    _par(_T, "rod_diameter", "m", "Diameter d of the Terfenol-D rod (Table 2)", 10e-3),
+    _par(_T, "rod_length", "m", "Length L of the rod, eq 1 (Table 2)", 80e-3),
+    _par(_T, "mass", "kg", "Equivalent moving mass m, eq 27 (Table 2)", 0.02),
+    _par(_T, "damping", "N.s/m", "Equivalent viscous damping c, eq 27 (Table 2)", 2945.0),
+    _par(_T, "stiffness", "N/m", "Equivalent stiffness K, eq 27 (Table 2)", 1.963e7),
+    _par(_T, "bias_magnetization", "A/m", "Bias magnetisation M_b of the permanent "
+         "magnet, eq 25 (Table 2)", 250e3),
+    _par(_T, "coil_turns", "1", "Excitation coil turns N, eq 1 (Table 2)", 1300.0),
+    _par(_T, "hysteresis_coefficient", "W.s/(m3.T^n)", "Hysteresis loss coefficient "
+         "K_h of eq 7 (Table 2)", 85805.0),
+    _par(_T, "steinmetz_exponent", "1", "Steinmetz exponent n of eq 7, in [1, 3] "
+         "(Table 2)", 1.8092),
+    _par(_T, "eddy_coefficient", "W.s2/(m3.T2)", "Eddy-current loss coefficient K_e "
+         "of eq 9 (Table 2)", 2753.39),
+    _par(_T, "excess_coefficient", "W.s1.5/(m3.T1.5)", "Excess (anomalous) loss "
+         "coefficient K_ex of eq 11 (Table 2)", 895.80),
+    _par(_T, "magnetostriction_coefficient", "m2/A2", "Magnetostriction coefficient "
+         "K_lambda of eq 26 (Table 2)", 1.4694e-14),
+    _par(_T, "sense_turns", "1", "Sensing-coil turns N_c, eq 21 (Table 2)", 150.0),
+    _par(_T, "sense_area", "m2", "Sensing-coil cross-section A_c, eq 21 (Table 2)", 380e-6),
+    _par(_T, "leakage_coefficient", "1", "Flux leakage coefficient k_f >= 1, eq 1 "
+         "(Table 2)", 1.1),
+    _par(_T, "piston_area", "m2", "Pump piston area A_d, eq 39 (Table 2)", 1256e-6),
+    _par(_T, "low_field_hysteresis_coefficient", "W.s/(m3.(A/m)3)", "Low-field "
+         "(Rayleigh) hysteresis coefficient K'_h of eq 6; 0 = not identified", 0.0),
+    # -- Excitation: the operating point of the complex permeability -------------
+    _par(_E, "frequency", "Hz", "Excitation frequency f of the operating point, "
+         "in (0, 1000] Hz (eqs 1-2)", 50.0),
+    _par(_E, "current_amplitude", "A", "Current amplitude I_m of the operating point, "
+         "in (0, 100] A (eqs 1-2)", 1.0),
+    _par(_E, "flux_density_amplitude", "T", "Measured flux-density amplitude B_m "
+         "(Table 1); 0 = take it from the Table 1 calibration", 0.0),
+    # -- DriveParameters: amplifier and inverse compensator (Figure 9) -----------
+    _par(_D, "amplifier_gain", "A/V", "Amplifier gain K_a, coil current per volt of "
+         "control signal", 1.0),
+    _par(_D, "current_limit", "A", "Largest coil current magnitude the amplifier "
+         "delivers", 3.0),
+    _par(_D, "compensated", None, "true: inverse compensator in the loop (Figure 9); "
+         "false: i = amplifier_gain*u", False, kind="Boolean"),
+    _par(_D, "displacement_per_volt", "m/V", "Compensated drive: demanded displacement "
+         "per volt of control signal (paper: 10 um/V)", 10e-6),
+    _par(_D, "control_offset", "V", "Compensated drive: control signal u_0 that "
+         "commands the bottom of the stroke", 0.0),
+    _par(_D, "branch_rule", None, "Compensated drive: root of eq 33 chosen by the sign "
+         "of u(n)-u(n-1), \"control\" (Figure 9), or of the demanded magnetisation, "
+         "\"demand\"", "control", kind="String"),
+    # -- model selection ----------------------------------------------------------
+    _par(_M, "model_variant", None, "Transducer model; only \"paper\" (eqs 1-37 of the "
+         "source paper) exists, anything else is an error", "paper", kind="String"),
+    # -- outputs ------------------------------------------------------------------
+    _out("current", "A", "Coil current i delivered over the last step"),
+    _out("displacement", "m", "Rod displacement y at the end of the last step, including "
+         "the bias displacement (eq 30)"),
+    _out("velocity", "m/s", "Rod velocity dy/dt at the end of the last step"),
+    _out("field", "A/m", "Applied magnetic field H over the last step (eq 1)"),
+    _out("flux_density", "T", "Flux density B over the last step (eq 4)"),
+    _out("magnetization", "A/m", "Magnetisation M of the coil field over the last step "
+         "(eq 5)"),
+    _out("strain", "1", "Magnetostrictive strain lambda = K_lambda (M_b + M)^2, bias "
+         "included, over the last step (eq 25)"),
+    _out("force", "N", "Magnetostrictive (blocked) force A_r E^H lambda over the last "
+         "step (eq 28)"),
+    _out("saturated", None, "true when the last step's current was limited or the "
+         "compensator's demand was out of reach", kind="Boolean"),
+    _out("saturation_count", None, "Steps saturated since initialisation or reset",
+         kind="Integer"),
+)
+
+BY_NAME: dict[str, Variable] = {v.name: v for v in VARIABLES}
+INPUTS = tuple(v.name for v in VARIABLES if v.causality == "input")
+PARAMETERS = tuple(v.name for v in VARIABLES if v.causality == "parameter")
+OUTPUTS = tuple(v.name for v in VARIABLES if v.causality == "output")
+TRANSDUCER_PARAMETERS = tuple(v.name for v in VARIABLES if v.group == _T)
+EXCITATION_PARAMETERS = tuple(v.name for v in VARIABLES if v.group == _E)
+DRIVE_PARAMETERS = tuple(v.name for v in VARIABLES if v.group == _D)
+#: Real outputs copied from a gmt.TransducerOutput, in :data:`OUTPUTS` order.
+REAL_OUTPUTS = tuple(v.name for v in VARIABLES if v.causality == "output" and v.kind == "Real")
+
+
+def coerce(name: str, value):
+    """``value`` converted to the Python type of variable ``name`` (no range check)."""
+    kind = BY_NAME[name].kind
+    if kind == "Real":
+        return float(value)
+    if kind == "Integer":
+        return int(value)
+    if kind == "Boolean":
+        return bool(value)
+    return str(value)
+
+
+def parameter_values(source) -> dict:
+    """The parameters' current values, read as attributes of ``source`` (a slave)."""
+    return {name: coerce(name, getattr(source, name)) for name in PARAMETERS}
+
+
+def make_transducer(values: dict):
+    """Build the ``gmt.Transducer`` for a set of parameter values.
+
+    Parameters
+    ----------
+    values : dict
+        Parameter name -> value, as :func:`parameter_values` returns.
+
+    Raises
+    ------
+    gmt.ParameterError
+        A value outside the range gmt accepts, or an unknown ``model_variant``.
+    """
+    import gmt  # inside an FMU: the bundled copy (resources/gmt)
+
+    variant = values["model_variant"]
+    if variant not in MODEL_VARIANTS:
+        raise gmt.ParameterError(
+            f"model_variant = {variant!r} is not one of {MODEL_VARIANTS}")
+    params = gmt.TransducerParameters(**{n: values[n] for n in TRANSDUCER_PARAMETERS})
+    excitation = gmt.Excitation(**{n: values[n] for n in EXCITATION_PARAMETERS})
+    drive = gmt.DriveParameters(**{n: values[n] for n in DRIVE_PARAMETERS})
+    return gmt.Transducer(params, excitation, drive)
+
+
+def output_values(out) -> tuple:
+    """Real outputs (in :data:`REAL_OUTPUTS` order), ``saturated`` and ``saturation_count``.
+
+    Parameters
+    ----------
+    out : gmt.TransducerOutput
+    """
+    m = out.magnetics
+    reals = (out.current, out.displacement, out.velocity, m.field, m.flux_density,
+             m.magnetization, m.strain, m.force)
+    return tuple(float(x) for x in reals), bool(out.saturated), int(out.saturation_count)
+
+
+def check_against_gmt() -> None:
+    """Raise ``AssertionError`` if the table's parameters differ from gmt's dataclasses.
+
+    Checks names and order of every field of TransducerParameters, Excitation and
+    DriveParameters and that each start value equals the field's default.
+    """
+    import dataclasses
+
+    import gmt
+
+    pairs = ((gmt.TransducerParameters, TRANSDUCER_PARAMETERS),
+             (gmt.Excitation, EXCITATION_PARAMETERS),
+             (gmt.DriveParameters, DRIVE_PARAMETERS))
+    problems = []
+    for cls, names in pairs:
+        fields = {f.name: f.default for f in dataclasses.fields(cls)}
+        if tuple(fields) != names:
+            problems.append(f"{cls.__name__} fields {tuple(fields)} != FMU parameters {names}")
+            continue
+        for name in names:
+            start = BY_NAME[name].start
+            default = fields[name]
+            same = (start == default if not isinstance(default, float)
+                    else math.isclose(start, default, rel_tol=0.0, abs_tol=0.0))
+            if not same:
+                problems.append(f"{name}: FMU start {start!r} != gmt default {default!r}")
+    if tuple(BRANCH_RULES) != tuple(gmt.parameters.BRANCH_RULES):
+        problems.append(f"branch rules {BRANCH_RULES} != gmt {gmt.parameters.BRANCH_RULES}")
+    for v in VARIABLES:
+        if v.kind == "Real" and v.unit not in UNITS:
+            problems.append(f"{v.name}: unit {v.unit!r} is not in UNITS")
+    if problems:
+        raise AssertionError("FMU interface out of date with gmt:\n  " + "\n  ".join(problems))

@@ -1,0 +1,524 @@
+"""Child-process side of the FMU tests: run an FMU (or the gmt reference) and write JSON.
+
+    python tests/fmu_runner.py COMMAND OUT.json [ARGS...]
+
+Commands
+--------
+``reference OUT``          step gmt.Transducer (the repository's gmt) through every case
+``behaviour OUT FMU``      FMU trajectories, two instances, reset, FMU state (fmpy)
+``bad_input OUT FMU``      one fresh instance per bad input; FMI statuses and log messages
+``memory OUT FMU N``       RSS while stepping N times
+``cosim OUT FMU``          the FMI 2.0 FMU in libcosimpy and in fmpy, same inputs
+
+Why a child process: pythonfmu FMUs run in the host's interpreter, and a host
+that already imported ``gmt`` makes the FMU use that copy instead of the one
+bundled in the FMU. The pytest process has imported gmt (conftest, doctests),
+so every FMU is run here, in a process that has not: the FMU commands never
+import gmt themselves, check that it is absent before the FMU loads, and
+report which file the FMU's gmt came from. The reference runs in another child,
+which imports the repository's gmt and no FMU.
+
+Importable without side effects (pytest's doctest collection imports it).
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+
+#: Output columns, as in smeha.fmu_interface.OUTPUTS.
+OUTPUTS = ("current", "displacement", "velocity", "field", "flux_density", "magnetization",
+           "strain", "force", "saturated", "saturation_count")
+REALS = OUTPUTS[:8]
+
+
+# -- test cases (identical in every process: seeded) ----------------------------------
+def make_case(name: str):
+    """(parameters, steps h_k, inputs u_k, forces F_k) of a named case.
+
+    u_k and F_k are the inputs at t_k = sum(h_0..h_{k-1}), held over [t_k, t_k + h_k).
+    """
+    import numpy as np
+
+    if name == "fixed50":  # paper's uncompensated drive, i = cos(2 pi 50 t) A
+        params, n, f, a, off = {}, 4000, 50.0, 1.0, 0.0
+        h = np.full(n, 1e-5)
+        force = np.zeros(n)
+    elif name == "random100":  # 100 Hz with Table 1's B_m, heavier rod, random steps
+        params = {"frequency": 100.0, "flux_density_amplitude": 0.0531, "mass": 0.03}
+        n, f, a, off = 1500, 100.0, 1.0, 0.0
+        rng = np.random.default_rng(3)
+        h = rng.uniform(2e-6, 4e-5, n)
+        force = rng.uniform(-50.0, 50.0, n)
+    elif name == "comp_control":  # compensated, Figure 9's rule, u = 2.2 + 2.2 cos(100 pi t)
+        params = {"compensated": True}
+        n, f, a, off = 4000, 50.0, 2.2, 2.2
+        h = np.full(n, 1e-5)
+        force = np.zeros(n)
+    elif name == "comp_demand":  # compensated, demand rule, 70 Hz, current limit, random
+        params = {"compensated": True, "branch_rule": "demand", "frequency": 70.0,
+                  "current_limit": 0.9, "damping": 3000.0, "amplifier_gain": 1.5}
+        n, f, a, off = 1500, 70.0, 1.9, 1.9
+        rng = np.random.default_rng(7)
+        h = rng.uniform(2e-6, 4e-5, n)
+        force = rng.uniform(-20.0, 20.0, n)
+    else:
+        raise KeyError(name)
+    t = np.concatenate(([0.0], np.cumsum(h)[:-1]))
+    u = off + a * np.cos(2 * math.pi * f * t)
+    return params, h.tolist(), u.tolist(), force.tolist()
+
+
+CASES = ("fixed50", "random100", "comp_control", "comp_demand")
+
+
+# -- reference: the repository's gmt ------------------------------------------------------
+def reference(out_path):
+    import dataclasses
+
+    import gmt
+
+    results = {"gmt_file": gmt.__file__}
+    for name in CASES:
+        params, h, u, force = make_case(name)
+
+        def pick(cls):
+            return {f.name: params[f.name] for f in dataclasses.fields(cls) if f.name in params}
+
+        tr = gmt.Transducer(gmt.TransducerParameters(**pick(gmt.TransducerParameters)),
+                            gmt.Excitation(**pick(gmt.Excitation)),
+                            gmt.DriveParameters(**pick(gmt.DriveParameters)))
+        rows = []
+        for hk, uk, fk in zip(h, u, force):
+            o = tr.step(uk, hk, fk)
+            m = o.magnetics
+            rows.append([o.current, o.displacement, o.velocity, m.field, m.flux_density,
+                         m.magnetization, m.strain, m.force, float(o.saturated),
+                         float(o.saturation_count)])
+        results[name] = rows
+    _write(out_path, results)
+
+
+# -- fmpy wrapper for FMI 2.0 and 3.0 -------------------------------------------------------
+_CALLBACKS = []  # keep ctypes callbacks alive
+
+
+class Fmu:
+    """One FMU instance through fmpy, FMI 2.0 or 3.0, with its log captured."""
+
+    def __init__(self, path, name="i1", unzipdir=None):
+        from fmpy import extract, read_model_description
+
+        self.md = md = read_model_description(path)
+        self.fmi = md.fmiVersion[0]
+        self.dir = unzipdir or extract(path)
+        self.vars = {v.name: v for v in md.modelVariables}
+        self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        self.logs = []
+        self._out_vr = [self.vr[n] for n in REALS]
+        if self.fmi == "2":
+            from ctypes import byref
+
+            from fmpy.fmi2 import (FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE,
+                                   fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
+                                   fmi2CallbackLoggerTYPE, free)
+            from fmpy.logging import addLoggerProxy
+
+            def logger(env, inst, status, category, message):
+                self.logs.append((int(status), (category or b"").decode(), message.decode()))
+
+            cb = fmi2CallbackFunctions()
+            cb.logger = fmi2CallbackLoggerTYPE(logger)
+            cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+            cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+            addLoggerProxy(byref(cb))
+            _CALLBACKS.append(cb)
+            self.s = FMU2Slave(guid=md.guid, unzipDirectory=self.dir,
+                               modelIdentifier=md.coSimulation.modelIdentifier,
+                               instanceName=name)
+            self.s.instantiate(callbacks=cb, loggingOn=True)
+        else:
+            from fmpy.fmi3 import FMU3Slave
+
+            def logger(env, status, category, message):
+                self.logs.append((int(status), (category or b"").decode(), message.decode()))
+
+            self.s = FMU3Slave(guid=md.guid, unzipDirectory=self.dir,
+                               modelIdentifier=md.coSimulation.modelIdentifier,
+                               instanceName=name)
+            self.s.instantiate(loggingOn=True, logMessage=logger)
+
+    # every call returns the FMI status (0 ok, 1 warning, 2 discard, 3 error, 4 fatal)
+    def call(self, function, *args):
+        from fmpy.fmi1 import FMICallException
+
+        try:
+            function(*args)
+            return 0
+        except FMICallException as exc:
+            return exc.status
+
+    def set(self, name, value):
+        kind = self.vars[name].type
+        vr = [self.vr[name]]
+        setter = {"Real": "setReal", "Float64": "setFloat64", "Boolean": "setBoolean",
+                  "String": "setString", "Integer": "setInteger", "Int32": "setInt32"}[kind]
+        return self.call(getattr(self.s, setter), vr, [value])
+
+    def init(self, params=None):
+        statuses = [self.set(k, v) for k, v in (params or {}).items()]
+        if self.fmi == "2":
+            statuses.append(self.call(self.s.setupExperiment, None, 0.0))
+            statuses.append(self.call(self.s.enterInitializationMode))
+        else:
+            statuses.append(self.call(self.s.enterInitializationMode, None, 0.0))
+        statuses.append(self.call(self.s.exitInitializationMode))
+        return statuses
+
+    def inputs(self, u, force):
+        if self.fmi == "2":
+            self.s.setReal([self.vr["u"], self.vr["external_force"]], [u, force])
+        else:
+            self.s.setFloat64([self.vr["u"], self.vr["external_force"]], [u, force])
+
+    def step(self, t, h):
+        return self.call(self.s.doStep, t, h)
+
+    def outputs(self):
+        s = self.s
+        if self.fmi == "2":
+            reals = s.getReal(self._out_vr)
+            sat = s.getBoolean([self.vr["saturated"]])[0]
+            count = s.getInteger([self.vr["saturation_count"]])[0]
+        else:
+            reals = s.getFloat64(self._out_vr)
+            sat = s.getBoolean([self.vr["saturated"]])[0]
+            count = s.getInt32([self.vr["saturation_count"]])[0]
+        return list(reals) + [float(bool(sat)), float(count)]
+
+    def get_state(self):
+        return self.s.getFMUstate() if self.fmi == "2" else self.s.getFMUState()
+
+    def set_state(self, state):
+        f = self.s.setFMUstate if self.fmi == "2" else self.s.setFMUState
+        return self.call(f, state)
+
+    def serialize(self, state):
+        f = self.s.serializeFMUstate if self.fmi == "2" else self.s.serializeFMUState
+        return bytes(f(state))
+
+    def deserialize(self, data):
+        f = self.s.deSerializeFMUstate if self.fmi == "2" else self.s.deserializeFMUState
+        return f(data)
+
+    def reset(self):
+        return self.call(self.s.reset)
+
+
+def run_case(fmu, name, start=0, stop=None, t0=0.0):
+    """Step ``fmu`` through steps [start, stop) of a case; return (rows, statuses, t)."""
+    _, h, u, force = make_case(name)
+    stop = len(h) if stop is None else stop
+    rows, statuses, t = [], [], t0
+    for k in range(start, stop):
+        fmu.inputs(u[k], force[k])
+        statuses.append(fmu.step(t, h[k]))
+        t += h[k]
+        rows.append(fmu.outputs())
+    return rows, statuses, t
+
+
+def _case_time(name, k):
+    _, h, _, _ = make_case(name)
+    return math.fsum(h[:k])
+
+
+# -- behaviour: trajectories, instances, reset, state ---------------------------------------
+def behaviour(out_path, fmu_path):
+    before = "gmt" in sys.modules
+    res = {"gmt_imported_before_fmu": before}
+    fmus = {}
+    for name in CASES:
+        fmu = Fmu(fmu_path, name=name, unzipdir=fmus["fixed50"].dir if fmus else None)
+        if not fmus:
+            res["gmt_file"] = sys.modules["gmt"].__file__
+            res["unzipdir"] = fmu.dir
+        params = make_case(name)[0]
+        res[f"init_{name}"] = fmu.init(params)
+        rows, statuses, _ = run_case(fmu, name)
+        res[f"solo_{name}"] = rows
+        res[f"status_{name}"] = sorted(set(statuses))
+        fmus[name] = fmu
+    unzip = fmus["fixed50"].dir
+
+    # two instances in one process, stepped alternately
+    a = Fmu(fmu_path, "pair_a", unzip)
+    b = Fmu(fmu_path, "pair_b", unzip)
+    a.init(make_case("fixed50")[0])
+    b.init(make_case("comp_demand")[0])
+    _, ha, ua, fa = make_case("fixed50")
+    _, hb, ub, fb = make_case("comp_demand")
+    ta = tb = 0.0
+    rows_a, rows_b = [], []
+    for k in range(max(len(ha), len(hb))):
+        if k < len(ha):
+            a.inputs(ua[k], fa[k])
+            a.step(ta, ha[k])
+            ta += ha[k]
+            rows_a.append(a.outputs())
+        if k < len(hb):
+            b.inputs(ub[k], fb[k])
+            b.step(tb, hb[k])
+            tb += hb[k]
+            rows_b.append(b.outputs())
+    res["pair_fixed50"], res["pair_comp_demand"] = rows_a, rows_b
+
+    # reset: same parameters again, and back to the start values
+    r = Fmu(fmu_path, "reset", unzip)
+    r.init(make_case("comp_demand")[0])
+    run_case(r, "comp_demand", 0, 600)
+    res["reset_status"] = r.reset()
+    r.init(make_case("comp_demand")[0])
+    res["reset_same"] = run_case(r, "comp_demand")[0]
+    run_case(r, "comp_demand", 0, 300)
+    r.reset()
+    r.init()  # no parameters set: the start values apply again
+    res["reset_defaults"] = run_case(r, "fixed50")[0]
+
+    # FMU state: save at k1, run to k2, restore, replay
+    k1, k2 = 700, 1400
+    s = Fmu(fmu_path, "state", unzip)
+    s.init(make_case("comp_demand")[0])
+    run_case(s, "comp_demand", 0, k1)
+    t1 = _case_time("comp_demand", k1)
+    st = s.get_state()
+    blob = s.serialize(st)
+    res["state_bytes"] = len(blob)
+    res["state_json_keys"] = sorted(json.loads(blob.decode()))
+    first = run_case(s, "comp_demand", k1, k2, t1)[0]
+    res["state_set_status"] = s.set_state(st)
+    again = run_case(s, "comp_demand", k1, k2, t1)[0]
+    st2 = s.deserialize(blob)
+    res["state_reserialized_equal"] = s.serialize(st2) == blob
+    s.set_state(st2)
+    from_bytes = run_case(s, "comp_demand", k1, k2, t1)[0]
+    s.set_state(st)  # a state can be restored more than once
+    twice = run_case(s, "comp_demand", k1, k2, t1)[0]
+    # into another instance initialised with different (default) parameters
+    other = Fmu(fmu_path, "state_other", unzip)
+    other.init()
+    run_case(other, "fixed50", 0, 50)
+    other.set_state(other.deserialize(blob))
+    moved = run_case(other, "comp_demand", k1, k2, t1)[0]
+    res.update(state_first=first, state_again=again, state_from_bytes=from_bytes,
+               state_twice=twice, state_moved=moved, state_k1=k1, state_k2=k2)
+    res["logs"] = {n: f.logs for n, f in {**fmus, "a": a, "b": b, "reset": r, "state": s,
+                                            "other": other}.items()}
+    _write(out_path, res)
+
+
+# -- bad input --------------------------------------------------------------------------------
+def bad_input(out_path, fmu_path):
+    results = {"gmt_imported_before_fmu": "gmt" in sys.modules}
+    unzip = None
+    clean_cache = {}
+
+    def fresh(name, params=None):
+        nonlocal unzip
+        fmu = Fmu(fmu_path, name, unzip)
+        unzip = fmu.dir
+        init = fmu.init(params)
+        return fmu, init
+
+    def clean(params, inputs):
+        """Outputs after stepping a fresh instance through ``inputs`` [(u, F, h)]."""
+        key = json.dumps([params, inputs])
+        if key not in clean_cache:
+            fmu, _ = fresh(f"clean{len(clean_cache)}", params)
+            t = 0.0
+            for u, f, h in inputs:
+                fmu.inputs(u, f)
+                fmu.step(t, h)
+                t += h
+            clean_cache[key] = fmu.outputs()
+        return clean_cache[key]
+
+    def input_case(name, params, bad):
+        """10 good steps, one bad (u, F, h), 10 good: the bad step must change nothing."""
+        fmu, init = fresh(name, params)
+        good = [(1.0 + 0.1 * k, 5.0, 1e-5) for k in range(20)]
+        statuses, t = [], 0.0
+        for k, (u, f, h) in enumerate(good):
+            if k == 10:
+                fmu.inputs(bad[0], bad[1])
+                statuses.append(fmu.step(t, bad[2]))
+            fmu.inputs(u, f)
+            statuses.append(fmu.step(t, h))
+            t += h
+        results[name] = {"init": init, "bad_step": statuses[10], "statuses": statuses,
+                         "recovered_exactly": fmu.outputs() == clean(params, good),
+                         "logs": fmu.logs}
+
+    nan, inf = float("nan"), float("inf")
+    input_case("u_nan", {}, (nan, 0.0, 1e-5))
+    input_case("u_inf", {}, (inf, 0.0, 1e-5))
+    input_case("u_nan_compensated", {"compensated": True}, (nan, 0.0, 1e-5))
+    input_case("force_nan_compensated", {"compensated": True}, (1.0, nan, 1e-5))
+    input_case("force_minus_inf", {}, (1.0, -inf, 1e-5))
+    input_case("step_zero", {}, (1.0, 0.0, 0.0))
+    input_case("step_negative", {}, (1.0, 0.0, -1e-5))
+    input_case("step_nan", {"compensated": True}, (1.0, 0.0, nan))
+    input_case("step_inf", {}, (1.0, 0.0, inf))
+
+    def parameter_case(name, params):
+        fmu, init = fresh(name, params)
+        fmu.inputs(1.0, 0.0)
+        steps = [fmu.step(0.0, 1e-5), fmu.step(1e-5, 1e-5)]
+        results[name] = {"init": init, "bad_step": steps[0], "statuses": steps,
+                         "logs": fmu.logs}
+
+    parameter_case("frequency_zero", {"frequency": 0.0})
+    parameter_case("frequency_negative", {"frequency": -50.0})
+    parameter_case("frequency_nan", {"frequency": nan})
+    parameter_case("current_amplitude_zero", {"current_amplitude": 0.0})
+    parameter_case("current_amplitude_negative", {"current_amplitude": -1.0})
+    parameter_case("rod_length_negative", {"rod_length": -0.08})
+    parameter_case("steinmetz_exponent_out_of_range", {"steinmetz_exponent": 5.0})
+    parameter_case("leakage_coefficient_below_one", {"leakage_coefficient": 0.5})
+    parameter_case("mass_inf", {"mass": inf})
+    parameter_case("flux_density_amplitude_too_large", {"flux_density_amplitude": 3.0})
+    parameter_case("current_limit_zero", {"current_limit": 0.0, "compensated": True})
+    parameter_case("branch_rule_unknown", {"branch_rule": "sideways"})
+    parameter_case("model_variant_unknown", {"model_variant": "maxwell"})
+
+    # a fixed parameter set after initialisation is refused and changes nothing
+    fmu, init = fresh("parameter_after_init")
+    set_status = fmu.set("mass", 1.0)
+    fmu.inputs(1.0, 0.0)
+    step = fmu.step(0.0, 1e-5)
+    results["parameter_after_init"] = {
+        "init": init, "set": set_status, "bad_step": step,
+        "recovered_exactly": fmu.outputs() == clean({}, [(1.0, 0.0, 1e-5)]),
+        "logs": fmu.logs}
+
+    # many failures in a row in one instance (two exceptions reaching pythonfmu crash it)
+    fmu, init = fresh("repeated_failures", {"frequency": -1.0})
+    statuses = [fmu.step(0.0, 1e-5) for _ in range(3)]
+    fmu.reset()
+    statuses += fmu.init()
+    fmu.inputs(nan, 0.0)
+    statuses += [fmu.step(0.0, 1e-5) for _ in range(3)]
+    fmu.inputs(1.0, 0.0)
+    statuses += [fmu.step(0.0, 0.0), fmu.step(0.0, 1e-5)]
+    results["repeated_failures"] = {"init": init, "statuses": statuses, "logs": fmu.logs}
+
+    # a corrupt serialised state
+    fmu, init = fresh("corrupt_state")
+    fmu.inputs(1.0, 0.0)
+    fmu.step(0.0, 1e-5)
+    try:
+        st = fmu.deserialize(b"{not json")
+        set_status = fmu.set_state(st)
+    except Exception as exc:  # fmpy raises on a failed call
+        set_status = getattr(exc, "status", repr(exc))
+    step = fmu.step(1e-5, 1e-5)
+    results["corrupt_state"] = {"init": init, "set": set_status, "bad_step": step,
+                                "recovered_exactly": fmu.outputs()
+                                == clean({}, [(1.0, 0.0, 1e-5)] * 2),
+                                "logs": fmu.logs}
+    results["process_survived"] = True
+    _write(out_path, results)
+
+
+# -- memory -------------------------------------------------------------------------------------
+def rss_mb() -> float:
+    """Resident set size of this process, [MB] (Linux /proc)."""
+    with open("/proc/self/status") as fh:
+        for line in fh:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024.0
+    return math.nan
+
+
+def memory(out_path, fmu_path, n):
+    n = int(float(n))
+    fmu = Fmu(fmu_path, "memory")
+    fmu.init()
+    h, w = 1e-5, 2 * math.pi * 50.0
+    samples = []
+    t = 0.0
+    warmup = min(10000, n // 10)
+    for k in range(n):
+        fmu.inputs(math.cos(w * t), 0.0)
+        fmu.step(t, h)
+        fmu.outputs()
+        t += h
+        if k + 1 == warmup or (k + 1) % max(1, n // 10) == 0:
+            samples.append((k + 1, rss_mb()))
+    _write(out_path, {"steps": n, "samples": samples})
+
+
+# -- libcosimpy ------------------------------------------------------------------------------------
+def cosim(out_path, fmu_path, n="2000"):
+    """fixed50 (first n steps) in libcosimpy and in fmpy; fixed step 10 us."""
+    n = int(n)
+    from libcosimpy.CosimEnums import CosimVariableType  # noqa: F401
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimManipulator import CosimManipulator
+    from libcosimpy.CosimObserver import CosimObserver
+    from libcosimpy.CosimSlave import CosimLocalSlave
+
+    log_output_level(CosimLogLevel.WARNING)
+    before = "gmt" in sys.modules
+    _, h, u, force = make_case("fixed50")
+    h = h[:n]
+    step_ns = round(h[0] * 1e9)
+    ex = CosimExecution.from_step_size(step_size=step_ns)
+    slave = CosimLocalSlave(fmu_path=os.path.abspath(fmu_path), instance_name="gmt")
+    if not slave.ptr():
+        raise RuntimeError("libcosim could not load the FMU")
+    idx = ex.add_local_slave(slave)
+    vr = {v.name.decode(): v.reference for v in ex.slave_variables(idx)}
+    obs = CosimObserver.create_last_value()
+    ex.add_observer(obs)
+    man = CosimManipulator.create_override()
+    ex.add_manipulator(man)
+    ex.real_initial_value(idx, vr["u"], u[0])
+    ex.real_initial_value(idx, vr["external_force"], force[0])
+    ex.real_initial_value(idx, vr["frequency"], 50.0)
+    rows = []
+    for k in range(n):
+        man.slave_real_values(idx, [vr["u"], vr["external_force"]], [u[k], force[k]])
+        if not ex.step(1):
+            raise RuntimeError(f"libcosim step {k} failed: {ex.status()}")
+        reals = obs.last_real_values(idx, [vr[c] for c in REALS])
+        sat = obs.last_boolean_values(idx, [vr["saturated"]])
+        count = obs.last_integer_values(idx, [vr["saturation_count"]])
+        rows.append(list(reals) + [float(bool(sat[0])), float(count[0])])
+    status = ex.status()
+    # libcosim keeps time in integer nanoseconds and hands the FMU
+    # h_k = t_{k+1}/1e9 - t_k/1e9 (not always 1e-5 exactly): give fmpy the same steps
+    fm = Fmu(fmu_path, "fmpy")
+    fm.init()
+    fmpy_rows = []
+    for k in range(n):
+        t, t_next = k * step_ns / 1e9, (k + 1) * step_ns / 1e9
+        fm.inputs(u[k], force[k])
+        fm.step(t, t_next - t)
+        fmpy_rows.append(fm.outputs())
+    _write(out_path, {"gmt_imported_before_fmu": before, "libcosim": rows, "fmpy": fmpy_rows,
+                      "final_time_ns": status.current_time, "error_code": status.error_code})
+
+
+def _write(path, obj):
+    with open(path, "w") as fh:
+        json.dump(obj, fh, default=str)
+
+
+COMMANDS = {"reference": reference, "behaviour": behaviour, "bad_input": bad_input,
+            "memory": memory, "cosim": cosim}
+
+if __name__ == "__main__":
+    COMMANDS[sys.argv[1]](*sys.argv[2:])

@@ -1,0 +1,266 @@
+"""The FMI 2.0 FMU (issue #3): build, model description, equality with gmt, state, errors.
+
+The FMU is built once per session in a child process and run in other
+children that never import the repository's gmt; see ``tests/fmu_fixtures.py``.
+Expected trajectories come from :class:`gmt.Transducer` stepped with the same
+inputs (the FMU's contract is to be that model, step for step), computed in a
+separate child.
+"""
+from __future__ import annotations
+
+import subprocess
+import sys
+import uuid
+import zipfile
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+import pytest
+
+try:
+    from fmu_fixtures import (bad_input, behaviour, build_fmus, child_env,  # noqa: F401
+                              fmu_dist, max_relative_difference, reference, run_runner,
+                              runner_dir)
+except ImportError:  # tests/ imported as a package
+    from tests.fmu_fixtures import (bad_input, behaviour, build_fmus, child_env,  # noqa: F401
+                                    fmu_dist, max_relative_difference, reference,
+                                    run_runner, runner_dir)
+
+from smeha import fmu_interface as iface
+
+pytestmark = pytest.mark.integration
+
+CASES = ("fixed50", "random100", "comp_control", "comp_demand")
+#: Required by the issue: FMU and gmt agree to 1e-12 relative (they run the same
+#: code on the same doubles, so in practice the difference is exactly 0).
+RTOL = 1e-12
+
+
+def model_description(fmu) -> ET.Element:
+    with zipfile.ZipFile(fmu) as z:
+        return ET.fromstring(z.read("modelDescription.xml"))
+
+
+# -- build and model description ------------------------------------------------------------
+def test_build_writes_fmi2_fmu_with_bundled_gmt(fmu_dist):
+    fmu = fmu_dist["2"]
+    assert fmu.is_file()
+    with zipfile.ZipFile(fmu) as z:
+        names = set(z.namelist())
+        assert z.read("resources/slavemodule.txt").decode().strip() == "smeha_gmt_fmu"
+    assert {"resources/gmt/__init__.py", "resources/gmt/transducer.py",
+            "resources/smeha_gmt_fmu.py", "resources/smeha_fmu_interface.py",
+            "binaries/linux64/SmehaGmt.so"} <= names
+    assert not any("__pycache__" in n for n in names)
+    root = model_description(fmu)
+    assert root.get("fmiVersion") == "2.0"
+    cs = root.find("CoSimulation")
+    assert cs.get("modelIdentifier") == "SmehaGmt"
+    assert cs.get("canGetAndSetFMUstate") == "true"
+    assert cs.get("canSerializeFMUstate") == "true"
+    assert cs.get("canHandleVariableCommunicationStepSize") == "true"
+
+
+def test_fmpy_validation_finds_no_problems(fmu_dist):
+    from fmpy.validation import validate_fmu
+
+    assert validate_fmu(str(fmu_dist["2"])) == []
+    cli = [sys.executable, "-c", "import sys; from fmpy.cli import main; sys.exit(main())",
+           "validate", str(fmu_dist["2"])]
+    proc = subprocess.run(cli, capture_output=True, text=True, env=child_env(), timeout=120)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "No problems found" in proc.stdout
+
+
+def test_interface_names_causality_and_types(fmu_dist):
+    svs = model_description(fmu_dist["2"]).find("ModelVariables").findall("ScalarVariable")
+    got = {sv.get("name"): (sv.get("causality"), sv[0].tag) for sv in svs}
+    # names and types required by the issue
+    assert {n: got[n] for n in ("u", "external_force")} == {
+        "u": ("input", "Real"), "external_force": ("input", "Real")}
+    outputs = {"current": "Real", "displacement": "Real", "velocity": "Real", "field": "Real",
+               "flux_density": "Real", "magnetization": "Real", "strain": "Real",
+               "force": "Real", "saturated": "Boolean", "saturation_count": "Integer"}
+    assert {n: got[n] for n in outputs} == {n: ("output", t) for n, t in outputs.items()}
+    params = {n for n, (c, _) in got.items() if c == "parameter"}
+    import gmt  # the pytest process may import gmt: it never loads an FMU
+
+    expected = (set(gmt.TransducerParameters.field_names())
+                | {"frequency", "current_amplitude", "flux_density_amplitude",
+                   "amplifier_gain", "current_limit", "compensated", "displacement_per_volt",
+                   "control_offset", "branch_rule", "model_variant"})
+    assert params == expected
+    assert got["compensated"][1] == "Boolean"
+    assert got["branch_rule"][1] == got["model_variant"][1] == "String"
+    by_name = {sv.get("name"): sv for sv in svs}
+    assert by_name["saturation_count"].get("variability") == "discrete"
+    assert all(by_name[p].get("variability") == "fixed" for p in params)
+
+
+def test_interface_table_matches_gmt():
+    iface.check_against_gmt()
+
+
+def test_every_variable_has_description_and_every_real_a_defined_unit(fmu_dist):
+    root = model_description(fmu_dist["2"])
+    defined = {u.get("name"): u for u in root.find("UnitDefinitions")}
+    for sv in root.find("ModelVariables").findall("ScalarVariable"):
+        assert sv.get("description"), sv.get("name")
+        real = sv.find("Real")
+        if real is not None:
+            assert real.get("unit") in defined, sv.get("name")
+            assert real.get("unit") == iface.BY_NAME[sv.get("name")].unit
+
+    def base(name):
+        b = defined[name].find("BaseUnit")
+        return {k: int(v) for k, v in b.attrib.items()}
+    # SI: N = kg m s^-2, V = kg m^2 s^-3 A^-1, T = kg s^-2 A^-1 (BIPM SI brochure, table 4)
+    assert base("N") == {"kg": 1, "m": 1, "s": -2}
+    assert base("V") == {"kg": 1, "m": 2, "s": -3, "A": -1}
+    assert base("T") == {"kg": 1, "s": -2, "A": -1}
+    assert base("A/m") == {"A": 1, "m": -1}
+    assert base("1") == {}
+    units = {sv.get("name"): sv.find("Real").get("unit")
+             for sv in root.find("ModelVariables").findall("ScalarVariable")
+             if sv.find("Real") is not None}
+    assert (units["u"], units["external_force"], units["displacement"], units["velocity"],
+            units["field"], units["flux_density"], units["force"], units["frequency"]) == (
+        "V", "N", "m", "m/s", "A/m", "T", "N", "Hz")
+
+
+def test_initial_unknowns_list_every_output(fmu_dist):
+    root = model_description(fmu_dist["2"])
+    svs = root.find("ModelVariables").findall("ScalarVariable")
+    outputs = [i + 1 for i, sv in enumerate(svs) if sv.get("causality") == "output"]
+    structure = root.find("ModelStructure")
+    assert [int(u.get("index")) for u in structure.find("Outputs")] == outputs
+    assert [int(u.get("index")) for u in structure.find("InitialUnknowns")] == outputs
+
+
+def test_default_experiment_is_the_50_hz_case(fmu_dist):
+    de = model_description(fmu_dist["2"]).find("DefaultExperiment")
+    assert (float(de.get("startTime")), float(de.get("stopTime")),
+            float(de.get("stepSize"))) == (0.0, 0.1, 1e-5)
+
+
+def test_two_builds_give_the_same_model_description_but_the_date(fmu_dist, tmp_path):
+    proc = build_fmus(tmp_path, "both")
+    assert proc.returncode == 0, proc.stderr
+    from smeha.fmu_build import deterministic_guid
+
+    for name, id_attr in (("SmehaGmt.fmu", "guid"), ("SmehaGmt3.fmu", "instantiationToken")):
+        first, second = fmu_dist["dir"] / name, tmp_path / name
+        roots = [model_description(f) for f in (first, second)]
+        for r in roots:
+            del r.attrib["generationDateAndTime"]
+        assert ET.tostring(roots[0]) == ET.tostring(roots[1])
+        # GUID policy: uuid5 of the model description with GUID and date blanked
+        assert roots[0].get(id_attr) == deterministic_guid(model_description(first))
+        uuid.UUID(roots[0].get(id_attr))
+        with zipfile.ZipFile(first) as a, zipfile.ZipFile(second) as b:
+            assert a.namelist() == b.namelist()
+            for member in a.namelist():
+                if member != "modelDescription.xml":
+                    assert a.read(member) == b.read(member), member
+
+
+# -- running: the FMU is gmt, step for step ---------------------------------------------------
+def test_fmu_runs_its_bundled_gmt(behaviour):
+    res = behaviour("2")
+    assert res["gmt_imported_before_fmu"] is False
+    assert Path(res["gmt_file"]).parent == Path(res["unzipdir"]) / "resources" / "gmt"
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_outputs_equal_gmt_time_stepping_model(behaviour, reference, case):
+    res = behaviour("2")
+    assert res[f"status_{case}"] == [0]
+    assert all(s == 0 for s in res[f"init_{case}"])
+    assert max_relative_difference(res[f"solo_{case}"], reference[case]) <= RTOL
+
+
+def test_compensated_cases_exercise_saturation(reference):
+    # the state tests need a non-trivial counter; comp_demand has a 0.9 A current limit
+    assert reference["comp_demand"][-1][9] > 0
+
+
+def test_two_instances_in_one_process_are_independent(behaviour, reference):
+    res = behaviour("2")
+    assert max_relative_difference(res["pair_fixed50"], reference["fixed50"]) <= RTOL
+    assert max_relative_difference(res["pair_comp_demand"], reference["comp_demand"]) <= RTOL
+
+
+def test_reset_gives_the_trajectory_of_a_fresh_instance(behaviour, reference):
+    res = behaviour("2")
+    assert res["reset_status"] == 0
+    assert res["reset_same"] == reference["comp_demand"]
+    # after fmi2Reset the parameters are back at their start values
+    assert res["reset_defaults"] == reference["fixed50"]
+
+
+def test_fmu_state_round_trip_is_bit_identical(behaviour, reference):
+    res = behaviour("2")
+    k1, k2 = res["state_k1"], res["state_k2"]
+    first = res["state_first"]
+    assert res["state_set_status"] == 0
+    assert res["state_again"] == first  # get/set
+    assert res["state_from_bytes"] == first  # serialize/deserialize
+    assert res["state_twice"] == first  # one state restored twice
+    assert res["state_moved"] == first  # into an instance built with other parameters
+    assert res["state_reserialized_equal"]
+    assert max_relative_difference(first, reference["comp_demand"][k1:k2]) <= RTOL
+    assert res["state_json_keys"] == ["built_from", "problem", "transducer", "variables"]
+
+
+# -- bad input never kills the host ------------------------------------------------------------
+INPUT_CASES = ("u_nan", "u_inf", "u_nan_compensated", "force_nan_compensated",
+               "force_minus_inf", "step_zero", "step_negative", "step_nan", "step_inf")
+PARAMETER_CASES = {
+    "frequency_zero": "frequency", "frequency_negative": "frequency",
+    "frequency_nan": "frequency", "current_amplitude_zero": "current_amplitude",
+    "current_amplitude_negative": "current_amplitude", "rod_length_negative": "rod_length",
+    "steinmetz_exponent_out_of_range": "steinmetz_exponent",
+    "leakage_coefficient_below_one": "leakage_coefficient", "mass_inf": "mass",
+    "flux_density_amplitude_too_large": "flux_density_amplitude",
+    "current_limit_zero": "current_limit", "branch_rule_unknown": "branch_rule",
+    "model_variant_unknown": "model_variant"}
+DISCARD, ERROR = 2, 3
+
+
+def check_bad_input(results):
+    assert results["process_survived"] is True
+    assert results["gmt_imported_before_fmu"] is False
+    for name in INPUT_CASES:
+        r = results[name]
+        assert r["bad_step"] == DISCARD, name
+        assert [s for i, s in enumerate(r["statuses"]) if i != 10] == [0] * 20, name
+        assert r["recovered_exactly"], name  # the discarded step changed nothing
+        assert any(status == DISCARD and "discarded" in msg for status, _, msg in r["logs"])
+    for name, parameter in PARAMETER_CASES.items():
+        r = results[name]
+        assert all(s == 0 for s in r["init"]), name
+        assert r["statuses"] == [DISCARD, DISCARD], name
+        assert any(status == ERROR and parameter in msg for status, _, msg in r["logs"]), name
+    after = results["parameter_after_init"]
+    assert after["bad_step"] == 0 and after["recovered_exactly"]
+    assert any(s == ERROR and "mass" in m for s, _, m in after["logs"])
+    assert all(s in (0, DISCARD) for s in results["repeated_failures"]["statuses"])
+    corrupt = results["corrupt_state"]
+    assert corrupt["bad_step"] == 0 and corrupt["recovered_exactly"]
+    assert any(s == ERROR for s, _, _ in corrupt["logs"])
+    # nothing ever returned fatal
+    for r in results.values():
+        if isinstance(r, dict):
+            assert all(s != 4 for s, _, _ in r["logs"])
+
+
+def test_bad_input_is_logged_and_discarded_never_fatal(bad_input):
+    check_bad_input(bad_input("2"))
+
+
+# -- memory --------------------------------------------------------------------------------------
+def test_memory_is_flat_over_1e5_steps(fmu_dist, runner_dir):
+    res = run_runner("memory", runner_dir / "memory", fmu_dist["2"], 100000)
+    samples = res["samples"]
+    growth = samples[-1][1] - samples[0][1]  # after 1e4 warm-up steps to 1e5 steps, [MB]
+    assert growth < 2.0, samples
