@@ -35,7 +35,7 @@ except ImportError:  # pragma: no cover - source tree
     from smeha import fmu_interface as iface
 
 try:  # gmt needs numpy, scipy and control from the host's Python environment
-    import gmt
+    gmt = iface.physics()  # resources/smeha_fmu_gmt: the FMU's own copy
     _IMPORT_PROBLEM = None
 except Exception as exc:  # reported by every instance instead of crashing the host
     gmt = None
@@ -120,7 +120,7 @@ class SmehaGmt(Fmi2Slave):
                 used = Path(gmt.__file__).resolve()
                 if bundled not in used.parents:
                     self._report(f"gmt is imported from {used.parent}, not from the FMU's "
-                                 f"resources: the host (or another FMU) imported gmt first",
+                                 f"resources: another FMU loaded smeha_fmu_gmt first",
                                  Fmi2Status.warning)
         except Exception as exc:
             self._transducer = None

@@ -5,6 +5,12 @@ Subcommands
 ``smeha paper [--json] [--plots DIR] [--branch-rule control|demand]``
     Reproduce the paper's model results and compare with its data
     (:mod:`smeha.paper`); optionally write the figures (:mod:`smeha.plots`).
+``smeha simulate --frequency HZ --mode {uncompensated,compensated} [...]``
+    One co-simulation of the EHA (transducer FMU + hydraulics) with the flow
+    check of eqs 40/41 (:mod:`smeha.flowstudy`).
+``smeha flow [--frequencies 50,70,80,100] [--ideal] [--json] [--plot FILE]``
+    The flow study: both modes at each frequency, against eqs 40/41 and the
+    paper's Table 3; ``--loads`` adds the load lines.
 ``smeha build [...]``
     Build the FMU(s); arguments go unchanged to :func:`smeha.fmu_build.main`.
 
@@ -25,6 +31,8 @@ import json
 import os
 import sys
 from pathlib import Path
+
+import numpy as np
 
 import gmt
 
@@ -101,8 +109,174 @@ def _run_build(args) -> int:
     return status if isinstance(status, int) else 1
 
 
+def _positive_float(text):
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (value > 0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a positive finite number")
+    return value
+
+
+def _frequencies(text):
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of "
+                                         "frequencies in Hz") from None
+    if not values or any(not (0 < v <= 1000) for v in values):
+        raise argparse.ArgumentTypeError(f"{text!r}: frequencies must lie in (0, 1000] Hz")
+    return values
+
+
+def _add_cosim_options(p):
+    p.add_argument("--ideal", action="store_true",
+                   help="ideal limit: stiff oil, fast wide valves, no load (eqs 40/41 hold)")
+    p.add_argument("--step", type=_positive_float, default=20e-6,
+                   help="communication step [s] (default 2e-05)")
+    p.add_argument("--cycles", type=_positive_float, default=8.0,
+                   help="simulated pumping cycles (default 8; the first 2 are discarded)")
+    p.add_argument("--backend", choices=("fmu", "direct"), default="fmu",
+                   help="transducer through the FMU and fmpy (default) or gmt in-process")
+    p.add_argument("--fmu", metavar="FILE", help="transducer FMU (default dist/SmehaGmt.fmu, "
+                                                 "built if missing or out of date)")
+    p.add_argument("--branch-rule", choices=gmt.parameters.BRANCH_RULES, default="control",
+                   help="compensator root rule (default 'control', Figure 9)")
+
+
+def _add_simulate(subparsers):
+    p = subparsers.add_parser(
+        "simulate", help="one co-simulation of the EHA: transducer FMU + hydraulics",
+        description="Co-simulate the transducer FMU with the pump chamber, valves V1-V4, "
+                    "cylinder and accumulator, and check the cylinder flow against eq 40 "
+                    "(uncompensated) or eq 41 (compensated).")
+    p.add_argument("--frequency", type=_positive_float, required=True, help="pumping frequency [Hz]")
+    p.add_argument("--mode", choices=("uncompensated", "compensated"), required=True)
+    p.add_argument("--duration", type=_positive_float,
+                   help="simulated time [s] (default: --cycles pumping cycles)")
+    p.add_argument("--load", type=float, help="load on the cylinder, opposing 'down' [N] "
+                                               "(default 150 realistic, 0 ideal)")
+    _add_cosim_options(p)
+    p.add_argument("--csv", metavar="FILE", help="write the time series (SI) as CSV")
+    p.add_argument("--plot", metavar="FILE", help="write a PNG of the run")
+    p.add_argument("--json", action="store_true", help="print only a JSON object")
+    p.set_defaults(run=_run_simulate)
+
+
+def _case_from(args, frequency, mode, load=None):
+    from .flowstudy import Case
+    cycles = args.cycles
+    if getattr(args, "duration", None):
+        cycles = args.duration * frequency
+    return Case(frequency=frequency, mode=mode, ideal=args.ideal, load=load, step=args.step,
+                cycles=cycles, backend=args.backend, branch_rule=args.branch_rule)
+
+
+def _fmu_for(args):
+    from . import flowstudy
+    if args.backend != "fmu":
+        return None
+    if args.fmu:
+        if not Path(args.fmu).is_file():
+            raise FileNotFoundError(f"--fmu {args.fmu}: no such file")
+        return Path(args.fmu)
+    return flowstudy.ensure_fmu(quiet=getattr(args, "json", False))
+
+
+def _progress_bar(total_steps, label, quiet):
+    from tqdm import tqdm
+    bar = tqdm(total=total_steps, desc=label, unit="step", disable=quiet, leave=False,
+               file=sys.stderr, mininterval=0.5)
+
+    def update(done, n):
+        bar.n = done
+        bar.refresh() if done == n else None
+        if done % 200 == 0:
+            bar.update(0)
+    return bar, update
+
+
+def _run_simulate(args) -> int:
+    from . import flowstudy
+    case = _case_from(args, args.frequency, args.mode, args.load)
+    fmu = _fmu_for(args)
+    n = int(round(case.cycles / case.frequency / case.step))
+    bar, update = _progress_bar(n, f"{case.mode} {case.frequency:g} Hz", args.json)
+    try:
+        record, check, row = flowstudy.run_case(case, fmu, progress=update)
+    finally:
+        bar.close()
+    if args.csv:
+        np.savetxt(args.csv, np.column_stack([record[n] for n in record.dtype.names]),
+                   delimiter=",", header=",".join(record.dtype.names), comments="")
+    if args.plot:
+        from .flowplots import plot_run
+        plot_run(record, row, args.plot)
+    if args.json:
+        print(json.dumps(row))
+        return 0
+    print(f"{row['mode']} at {row['frequency_Hz']:g} Hz, {row['circuit']} circuit, load "
+          f"{row['load_N']:g} N, step {row['step_s']:g} s, backend {row['backend']}")
+    eq = "eq 41" if case.mode == "compensated" else "eq 40"
+    print(f"  mean cylinder flow   {row['flow_sim_m3_s']:.4e} m^3/s ({row['flow_sim_L_min']:.4f} L/min)")
+    print(f"  {eq} flow f A_d dy   {row['flow_eq_m3_s']:.4e} m^3/s (ratio {row['flow_ratio']:.4f})")
+    print(f"  dy                   {row['dy_um']:.3f} um between the valve switching instants")
+    if row["flow_paper_m3_s"] is not None:
+        print(f"  paper, Table 3       {row['flow_paper_m3_s']:.4e} m^3/s (dy {row['dy_paper_um']:g} um)")
+    print(f"  volume balance       {row['volume_imbalance_m3']:.2e} m^3 of "
+          f"{row['volume_pumped_m3']:.2e} m^3 pumped; wall {row['wall_s']:.1f} s")
+    return 0
+
+
+def _add_flow(subparsers):
+    p = subparsers.add_parser(
+        "flow", help="cylinder flow against frequency, both modes (the flow study)",
+        description="Co-simulate both modes at each frequency and compare the mean "
+                    "cylinder flow with eqs 40/41 and the paper's Table 3.")
+    p.add_argument("--frequencies", type=_frequencies, default=[50.0, 70.0, 80.0, 100.0],
+                   help="comma-separated frequencies [Hz] (default 50,70,80,100)")
+    p.add_argument("--load", type=float, help="load on the cylinder [N] "
+                                               "(default 150 realistic, 0 ideal)")
+    p.add_argument("--loads", metavar="N,N,...",
+                   help="also trace the load line: flow against load at each frequency")
+    p.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1),
+                   help="worker processes (default 2)")
+    _add_cosim_options(p)
+    p.add_argument("--json", action="store_true", help="print only a JSON object {rows: [...]}")
+    p.add_argument("--plot", metavar="FILE", help="write flow against frequency (PNG)")
+    p.set_defaults(run=_run_flow)
+
+
+def _run_flow(args) -> int:
+    from . import flowstudy
+    fmu = _fmu_for(args)
+    cases = [_case_from(args, f, m, args.load) for f in args.frequencies
+             for m in flowstudy.MODES]
+    if args.loads:
+        try:
+            loads = [float(v) for v in args.loads.split(",") if v.strip()]
+        except ValueError:
+            raise UsageError(f"--loads {args.loads!r} is not a comma-separated list") from None
+        cases += [_case_from(args, f, m, load) for f in args.frequencies
+                  for m in flowstudy.MODES for load in loads]
+    rows = flowstudy.run_cases(cases, fmu, workers=max(1, args.workers), quiet=args.json)
+    table = [r for r in rows if r["load_N"] == cases[0].load_force]
+    if args.plot:
+        from .flowplots import plot_flow
+        plot_flow(rows, args.plot)
+    if args.json:
+        print(json.dumps({"rows": rows}))
+        return 0
+    print(flowstudy.format_table(table))
+    if args.loads:
+        print()
+        print(flowstudy.format_load_lines(rows))
+    return 0
+
+
 #: Registration functions of the subcommands, in the order ``--help`` lists them.
-SUBCOMMANDS = (_add_paper, _add_build)
+SUBCOMMANDS = (_add_paper, _add_simulate, _add_flow, _add_build)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -136,7 +310,7 @@ def main(argv=None) -> int:
     args.extra = extra
     try:
         return args.run(args)
-    except (gmt.ParameterError, UsageError) as exc:
+    except (gmt.ParameterError, UsageError, ValueError) as exc:
         print(f"smeha {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except FileNotFoundError as exc:

@@ -177,7 +177,7 @@ def _stage(fmi: str, staging: Path) -> Path:
     staging.mkdir(parents=True)
     shutil.copy2(script, staging / script.name)
     shutil.copy2(Path(iface.__file__), staging / f"{iface.BUNDLED_INTERFACE_MODULE}.py")
-    shutil.copytree(FMU_SRC / "gmt", staging / "gmt",
+    shutil.copytree(FMU_SRC / "gmt", staging / iface.BUNDLED_PHYSICS_PACKAGE,
                     ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
     return staging / script.name
 
@@ -193,13 +193,13 @@ def _worker(fmi: str, workdir: str) -> None:
     if fmi == "2":
         from pythonfmu.builder import FmuBuilder
         FmuBuilder.build_FMU(script, dest=work / "raw",
-                             project_files=[script.parent / "gmt",
+                             project_files=[script.parent / iface.BUNDLED_PHYSICS_PACKAGE,
                                             script.parent / "smeha_fmu_interface.py"],
                              **FMI2_OPTIONS)
     else:
         from pythonfmu3 import FmuBuilder as Fmu3Builder
         Fmu3Builder.build_FMU(script, dest=work / "raw",
-                              project_files=[script.parent / "gmt",
+                              project_files=[script.parent / iface.BUNDLED_PHYSICS_PACKAGE,
                                              script.parent / "smeha_fmu_interface.py"],
                               **FMI3_OPTIONS)
 

@@ -33,6 +33,23 @@ SLAVE_MODULE_FMI2 = "smeha_gmt_fmu"
 SLAVE_MODULE_FMI3 = "smeha_gmt_fmu3"
 #: Name under which this file is bundled in the FMU's resources.
 BUNDLED_INTERFACE_MODULE = "smeha_fmu_interface"
+#: Name under which the gmt package is bundled in the FMU's resources. Unique to
+#: this project, so that a host that has imported its own ``gmt`` (the smeha
+#: co-simulation master does) cannot make the FMU run the host's copy: one Python
+#: interpreter serves every pythonfmu FMU of a process, and modules are shared by
+#: name. gmt imports itself only relatively, so it works under any name.
+BUNDLED_PHYSICS_PACKAGE = "smeha_fmu_gmt"
+
+
+def physics():
+    """The gmt package: inside an FMU its bundled copy, elsewhere the installed one."""
+    import importlib
+    import importlib.util
+    # fall back only when the bundled package is absent, not when it fails to
+    # import (a missing numpy must surface, not switch to the host's copy)
+    if importlib.util.find_spec(BUNDLED_PHYSICS_PACKAGE) is not None:
+        return importlib.import_module(BUNDLED_PHYSICS_PACKAGE)
+    return importlib.import_module("gmt")
 
 AUTHOR = "smeha developers"
 LICENSE = "MIT"
@@ -253,7 +270,7 @@ def make_transducer(values: dict):
     gmt.ParameterError
         A value outside the range gmt accepts, or an unknown ``model_variant``.
     """
-    import gmt  # inside an FMU: the bundled copy (resources/gmt)
+    gmt = physics()  # inside an FMU: the bundled copy (resources/smeha_fmu_gmt)
 
     variant = values["model_variant"]
     if variant not in MODEL_VARIANTS:
@@ -286,7 +303,7 @@ def check_against_gmt() -> None:
     """
     import dataclasses
 
-    import gmt
+    gmt = physics()
 
     pairs = ((gmt.TransducerParameters, TRANSDUCER_PARAMETERS),
              (gmt.Excitation, EXCITATION_PARAMETERS),

@@ -100,3 +100,16 @@ def open_area(valve: ValveParameters, opening):
 def opening_rate(valve: ValveParameters, opening, command):
     """d(opening)/dt of a first-order valve, (command - opening) / tau, [1/s]."""
     return (command - opening) / valve.opening_time
+
+
+def orifice_flow_derivative(area, pressure_difference, density, discharge_coefficient,
+                            transition_pressure):
+    """dQ/d(dp) of :func:`orifice_flow`, [m^3/(s Pa)].
+
+    C_d A sqrt(2/rho) (dp^2/2 + dp_t^2) / (dp^2 + dp_t^2)^(5/4), positive
+    everywhere, largest at dp = 0.
+    """
+    dp2 = pressure_difference * pressure_difference
+    t2 = transition_pressure * transition_pressure
+    return (discharge_coefficient * area * np.sqrt(2.0 / density) * (0.5 * dp2 + t2)
+            / (dp2 + t2) ** 1.25)

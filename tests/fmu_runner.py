@@ -242,7 +242,7 @@ def behaviour(out_path, fmu_path):
     for name in CASES:
         fmu = Fmu(fmu_path, name=name, unzipdir=fmus["fixed50"].dir if fmus else None)
         if not fmus:
-            res["gmt_file"] = sys.modules["gmt"].__file__
+            res["gmt_file"] = sys.modules["smeha_fmu_gmt"].__file__
             res["unzipdir"] = fmu.dir
         params = make_case(name)[0]
         res[f"init_{name}"] = fmu.init(params)

@@ -48,7 +48,7 @@ def test_build_writes_fmi2_fmu_with_bundled_gmt(fmu_dist):
     with zipfile.ZipFile(fmu) as z:
         names = set(z.namelist())
         assert z.read("resources/slavemodule.txt").decode().strip() == "smeha_gmt_fmu"
-    assert {"resources/gmt/__init__.py", "resources/gmt/transducer.py",
+    assert {"resources/smeha_fmu_gmt/__init__.py", "resources/smeha_fmu_gmt/transducer.py",
             "resources/smeha_gmt_fmu.py", "resources/smeha_fmu_interface.py",
             "binaries/linux64/SmehaGmt.so"} <= names
     assert not any("__pycache__" in n for n in names)
@@ -168,7 +168,7 @@ def test_two_builds_give_the_same_model_description_but_the_date(fmu_dist, tmp_p
 def test_fmu_runs_its_bundled_gmt(behaviour):
     res = behaviour("2")
     assert res["gmt_imported_before_fmu"] is False
-    assert Path(res["gmt_file"]).parent == Path(res["unzipdir"]) / "resources" / "gmt"
+    assert Path(res["gmt_file"]).parent == Path(res["unzipdir"]) / "resources" / "smeha_fmu_gmt"
 
 
 @pytest.mark.parametrize("case", CASES)

@@ -69,7 +69,7 @@ def test_fmi3_declares_units_natively(fmu_dist):
 def test_fmi3_runs_its_bundled_gmt(behaviour):
     res = behaviour("3")
     assert res["gmt_imported_before_fmu"] is False
-    assert Path(res["gmt_file"]).parent == Path(res["unzipdir"]) / "resources" / "gmt"
+    assert Path(res["gmt_file"]).parent == Path(res["unzipdir"]) / "resources" / "smeha_fmu_gmt"
 
 
 @pytest.mark.parametrize("case", CASES)

@@ -1,0 +1,248 @@
+"""The flow study: the EHA's cylinder flow by co-simulation against eqs 40/41.
+
+Each case runs the transducer FMU (or, for comparison, gmt in-process) with
+the hydraulic circuit (:mod:`system_models`) and checks the mean cylinder flow
+against f A_d dy (:mod:`system_models.flowcheck`).
+
+Control signals: uncompensated, u = (I_m / K_a) cos(2 pi f t), so the coil
+current is i = I_m cos(2 pi f t) and the valves switch at i = -+I_m (eq 40);
+compensated, u = a + a cos(2 pi f t), the valves switch at u = 0 and u = 2a
+(eq 41), with a the paper's control amplitudes (2.2, 1.9, 1.7, 1.5 V at 50,
+70, 80, 100 Hz; interpolated linearly between) or, outside 50-100 Hz, 95 % of
+the half-stroke the transducer reaches at that frequency.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+import gmt
+from system_models import presets
+from system_models.cosim import (CosimSettings, DirectTransducer, FmuTransducer, cosimulate,
+                                 volume_balance)
+from system_models.flowcheck import flow_check
+
+MODES = ("uncompensated", "compensated")
+
+#: Paper, inverse-compensation section: control amplitude a [V] of
+#: u = a + a cos(2 pi f t) at each frequency [Hz].
+PAPER_CONTROL_AMPLITUDE = {50.0: 2.2, 70.0: 1.9, 80.0: 1.7, 100.0: 1.5}
+
+#: Paper, Table 3: dy [um] between the valve switching instants,
+#: uncompensated y(i=1) - y(i=-1) and compensated y(u=u_m) - y(u=0).
+PAPER_DY_UM = {50.0: (42.0 - 1.8, 46.0), 70.0: (38.0 - 3.0, 42.0),
+               80.0: (36.0 - 4.0, 40.0), 100.0: (31.2 - 4.6, 35.2)}
+
+#: Current amplitude I_m of the study, [A] (the paper's 1 A).
+CURRENT_AMPLITUDE = 1.0
+
+
+def control_amplitude(frequency: float, params: gmt.TransducerParameters | None = None,
+                      drive: gmt.DriveParameters | None = None) -> float:
+    """a [V] of the compensated control signal u = a + a cos(2 pi f t) (module docstring)."""
+    f = float(frequency)
+    table = sorted(PAPER_CONTROL_AMPLITUDE.items())
+    if table[0][0] <= f <= table[-1][0]:
+        fs, amps = zip(*table)
+        return float(np.interp(f, fs, amps))
+    params = params or gmt.TransducerParameters()
+    drive = drive or gmt.DriveParameters()
+    point = gmt.operating_point(params, gmt.Excitation(f, CURRENT_AMPLITUDE))
+    low, high = gmt.inverse.stroke(params, point)
+    return 0.95 * (high - low) / (2.0 * drive.displacement_per_volt)
+
+
+def control_signal(mode: str, frequency: float, amplitude: float | None = None):
+    """u(t) [V] for a mode; returns (callable, a or None)."""
+    w = 2.0 * math.pi * frequency
+    if mode == "uncompensated":
+        return (lambda t: CURRENT_AMPLITUDE * math.cos(w * t)), None
+    if mode == "compensated":
+        a = control_amplitude(frequency) if amplitude is None else amplitude
+        return (lambda t: a + a * math.cos(w * t)), a
+    raise gmt.ParameterError(f"mode = {mode!r} is not one of {MODES}")
+
+
+@dataclass(frozen=True)
+class Case:
+    """One co-simulation of the study."""
+
+    frequency: float
+    mode: str
+    ideal: bool = False
+    load: float | None = None  # [N]; None: 0 ideal, REALISTIC_LOAD otherwise
+    step: float = 20e-6  # communication step [s]
+    cycles: float = 8.0  # simulated time in pumping cycles
+    backend: str = "fmu"  # "fmu" or "direct"
+    branch_rule: str = "control"
+
+    @property
+    def load_force(self) -> float:
+        if self.load is not None:
+            return float(self.load)
+        return 0.0 if self.ideal else presets.REALISTIC_LOAD
+
+
+def default_fmu_path() -> Path:
+    """dist/SmehaGmt.fmu of the source tree."""
+    from . import fmu_build
+    return fmu_build.REPO / "dist" / "SmehaGmt.fmu"
+
+
+def ensure_fmu(path: Path | None = None, quiet: bool = False) -> Path:
+    """Build the FMI 2.0 FMU unless it exists and is newer than its sources."""
+    from . import fmu_build, fmu_interface
+    path = Path(path) if path else default_fmu_path()
+    sources = list((fmu_build.FMU_SRC).rglob("*.py")) + [Path(fmu_interface.__file__),
+                                                        Path(fmu_build.__file__)]
+    newest = max(p.stat().st_mtime for p in sources)
+    if path.is_file() and path.stat().st_mtime >= newest:
+        return path
+    if not quiet:
+        print(f"building the transducer FMU into {path.parent} ...", flush=True)
+    return fmu_build.build("2", out=path.parent)
+
+
+def free_dy(frequency: float, mode: str, branch_rule: str = "control") -> float:
+    """dy of the transducer alone (no oil, no force) between the same instants, [m].
+
+    Uncompensated: y(i = I_m) - y(i = -I_m) in steady state (eq 40);
+    compensated: y(u = 2a) - y(u = 0) of the compensated drive (eq 41).
+    """
+    params = gmt.TransducerParameters()
+    if mode == "uncompensated":
+        point = gmt.operating_point(params, gmt.Excitation(frequency, CURRENT_AMPLITUDE))
+        return gmt.loop_metrics(params, point)["dy"]
+    from .paper import compensated_run
+    run = compensated_run(params, frequency, control_amplitude(frequency), branch_rule)
+    half = run.displacement.size // 2  # u = 2a at the cycle's start, u = 0 half way
+    return float(run.displacement[0] - run.displacement[half])
+
+
+def run_case(case: Case, fmu_path: Path | None = None, progress=None):
+    """Run one case; return (record, FlowCheck, row dict)."""
+    params = gmt.TransducerParameters()
+    drive = gmt.DriveParameters(compensated=case.mode == "compensated",
+                                branch_rule=case.branch_rule)
+    control, a = control_signal(case.mode, case.frequency)
+    circuit = presets.ideal_circuit() if case.ideal else presets.realistic_circuit()
+    settings = CosimSettings(duration=case.cycles / case.frequency, step=case.step,
+                             load_force=case.load_force)
+    start = {"frequency": case.frequency, "current_amplitude": CURRENT_AMPLITUDE,
+             "compensated": drive.compensated, "branch_rule": drive.branch_rule}
+    if case.backend == "fmu":
+        backend = FmuTransducer(fmu_path or default_fmu_path(), start)
+    elif case.backend == "direct":
+        backend = DirectTransducer(params, gmt.Excitation(case.frequency, CURRENT_AMPLITUDE),
+                                   drive)
+    else:
+        raise gmt.ParameterError(f"backend = {case.backend!r} is not one of ('fmu', 'direct')")
+    wall = time.perf_counter()
+    try:
+        record = cosimulate(backend, control, circuit, settings, progress=progress)
+    finally:
+        backend.close()
+    wall = time.perf_counter() - wall
+    check = flow_check(record, case.frequency, circuit.chamber.piston_area)
+    imbalance, pumped = volume_balance(record, circuit)
+    half = len(record) // 2
+    paper = PAPER_DY_UM.get(float(case.frequency))
+    paper_dy = None if paper is None else paper[MODES.index(case.mode)]
+    dy_free = free_dy(case.frequency, case.mode, case.branch_rule)
+    row = {
+        "frequency_Hz": case.frequency, "mode": case.mode,
+        "circuit": "ideal" if case.ideal else "realistic", "load_N": case.load_force,
+        "flow_sim_m3_s": check.flow_sim, "flow_eq_m3_s": check.flow_eq,
+        "flow_ratio": check.ratio, "dy_um": check.dy * 1e6,
+        "flow_sim_L_min": check.flow_sim * 6e4,
+        "flow_paper_m3_s": (None if paper_dy is None
+                            else case.frequency * circuit.chamber.piston_area * paper_dy * 1e-6),
+        "dy_paper_um": paper_dy,
+        "dy_free_um": dy_free * 1e6,
+        "flow_free_m3_s": case.frequency * circuit.chamber.piston_area * dy_free,
+        "delivered_fraction": check.flow_sim / (case.frequency * circuit.chamber.piston_area
+                                                * dy_free),
+        "control_amplitude_V": a,
+        "load_pressure_Pa": float(np.mean(record["p_big"][half:] - record["p_small"][half:])),
+        "p_pump_min_Pa": float(record["p_pump"][half:].min()),
+        "p_pump_max_Pa": float(record["p_pump"][half:].max()),
+        "volume_imbalance_m3": imbalance, "volume_pumped_m3": pumped,
+        "cycles_averaged": check.cycles, "step_s": case.step, "backend": case.backend,
+        "wall_s": wall,
+    }
+    return record, check, row
+
+
+def _run_one(args):
+    case, fmu_path = args
+    _, _, row = run_case(case, fmu_path)
+    return row
+
+
+def run_cases(cases, fmu_path=None, workers: int = 1, quiet: bool = False) -> list[dict]:
+    """Run many cases (in worker processes when ``workers`` > 1), with a progress bar.
+
+    Rows come back in the order of ``cases``. Each worker process loads its
+    own FMU instances.
+    """
+    from tqdm import tqdm
+    jobs = [(c, fmu_path) for c in cases]
+    with tqdm(total=len(jobs), desc="co-simulations", unit="run", disable=quiet,
+              file=__import__("sys").stderr) as bar:
+        if workers <= 1 or len(jobs) == 1:
+            rows = []
+            for job in jobs:
+                rows.append(_run_one(job))
+                bar.update(1)
+            return rows
+        import concurrent.futures as cf
+        import multiprocessing
+        ctx = multiprocessing.get_context("spawn")
+        with cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+            futures = [pool.submit(_run_one, job) for job in jobs]
+            for _ in cf.as_completed(futures):
+                bar.update(1)
+            return [f.result() for f in futures]
+
+
+def format_table(rows) -> str:
+    """The flow table for the terminal."""
+    head = (f"{'f [Hz]':>6}  {'mode':<13}  {'circuit':<9}  {'load [N]':>8}  {'q sim [m3/s]':>12}  "
+            f"{'q eq40/41':>10}  {'sim/eq':>6}  {'dy [um]':>7}  {'q paper':>10}  "
+            f"{'dy paper':>8}  {'dy free':>7}  {'q/q free':>8}  {'q [L/min]':>9}")
+    lines = ["Cylinder flow: co-simulation against eqs 40/41 and the paper's Table 3",
+             "(dy: the rod between the valve switching instants of this run; dy free: the "
+             "transducer alone, no oil; q/q free: delivered flow over f A_d dy free, the flow "
+             "eqs 40/41 give for the free transducer, as the paper computes them)", head]
+    for r in rows:
+        paper = "-" if r["flow_paper_m3_s"] is None else f"{r['flow_paper_m3_s']:.3e}"
+        dyp = "-" if r["dy_paper_um"] is None else f"{r['dy_paper_um']:.1f}"
+        lines.append(f"{r['frequency_Hz']:>6g}  {r['mode']:<13}  {r['circuit']:<9}  "
+                     f"{r['load_N']:>8g}  {r['flow_sim_m3_s']:>12.4e}  {r['flow_eq_m3_s']:>10.4e}  "
+                     f"{r['flow_ratio']:>6.3f}  {r['dy_um']:>7.2f}  {paper:>10}  {dyp:>8}  "
+                     f"{r['dy_free_um']:>7.2f}  {r['delivered_fraction']:>8.3f}  "
+                     f"{r['flow_sim_L_min']:>9.4f}")
+    by = {(r["frequency_Hz"], r["mode"]): r for r in rows}
+    gains = [f"{f:g} Hz: {by[(f, 'compensated')]['flow_sim_m3_s'] / by[(f, 'uncompensated')]['flow_sim_m3_s']:.3f}"
+             for f in sorted({r["frequency_Hz"] for r in rows})
+             if (f, "compensated") in by and (f, "uncompensated") in by
+             and by[(f, "uncompensated")]["flow_sim_m3_s"] != 0]
+    if gains:
+        lines.append("compensated / uncompensated flow: " + ", ".join(gains))
+    return "\n".join(lines)
+
+
+def format_load_lines(rows) -> str:
+    """Flow against load pressure (p_B - p_S) for each frequency and mode."""
+    lines = ["Load lines: mean cylinder flow against load pressure p_B - p_S",
+             f"{'f [Hz]':>6}  {'mode':<13}  {'load [N]':>8}  {'p_B - p_S [MPa]':>15}  "
+             f"{'q sim [m3/s]':>12}  {'q [L/min]':>9}"]
+    for r in sorted(rows, key=lambda r: (r["frequency_Hz"], r["mode"], r["load_N"])):
+        lines.append(f"{r['frequency_Hz']:>6g}  {r['mode']:<13}  {r['load_N']:>8g}  "
+                     f"{r['load_pressure_Pa'] / 1e6:>15.3f}  {r['flow_sim_m3_s']:>12.4e}  "
+                     f"{r['flow_sim_L_min']:>9.4f}")
+    return "\n".join(lines)

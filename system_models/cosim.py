@@ -1,0 +1,393 @@
+"""Co-simulation of the transducer FMU with the hydraulic circuit.
+
+An explicit master loop (fmpy ``FMU2Slave``) that, each communication step of
+length h, gives the transducer its control signal u and the axial force of
+the pump chamber on its rod, takes back the rod's displacement and velocity,
+and integrates the hydraulics over the step.
+
+Why not plain explicit coupling
+-------------------------------
+The chamber's oil is far stiffer than the rod: beta A_d^2 / V ~ 9e8 N/m
+against K = 2e7 N/m (shared HYDRAULICS.md). Rod and oil form a ~30 kHz
+oscillator; exchanging the force and the motion once per step with a
+zero-order hold (Jacobi or Gauss-Seidel) goes unstable unless h is far below
+its period. This master couples the two implicitly through the FMU's state
+save/restore:
+
+1. save the FMU state at t;
+2. guess the held force F (the end pressure of the last step times A_d);
+3. restore, step the FMU over [t, t + h] with F held, read y(t + h), v(t + h);
+4. integrate the circuit over the step along the cubic Hermite rod
+   trajectory through (y, v) at both ends, with backward Euler (L-stable:
+   the valve orifices make the oil stiffer still), the chamber fed the rod's
+   secant velocity over each substep so the swept volume is exact;
+5. the residual r(F) = F - A_d * mean(p_P) over the step: impulse balance,
+   so the momentum the rod receives equals the momentum the oil delivers;
+6. quasi-Newton (secant) on r, its slope carried from step to step, until
+   |r| is below ``force_tolerance``; the last FMU step taken is the one kept.
+
+The transducer's mechanics are affine in F for a held current, so the secant
+slope is exact and two iterations usually suffice. The same loop runs with
+the FMU (:class:`FmuTransducer`) or with :class:`gmt.Transducer` in-process
+(:class:`DirectTransducer`), so the FMU can be checked against the direct
+coupling.
+"""
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+from typing import Callable, Protocol
+
+import numpy as np
+
+import gmt
+
+from .circuit import CircuitInputs, CircuitParameters, initial_state, valve_flows
+from .controller import pump_phase, valve_commands
+from .implicit import backward_euler
+
+#: Fields of the structured array :func:`cosimulate` returns (SI).
+RESULT_FIELDS = (
+    "time", "control", "current", "rod_displacement", "rod_velocity", "force",
+    "p_pump", "p_big", "p_small", "p_accumulator", "piston_position", "piston_velocity",
+    "q_v1", "q_v2", "q_v3", "q_v4", "volume_into_big", "compression_volume",
+    "compressing", "iterations",
+)
+
+
+class TransducerBackend(Protocol):
+    """What the master needs from a transducer (FMU or in-process)."""
+
+    def rod_state(self) -> tuple:
+        """(y, v) of the rod now, [m, m/s]."""
+
+    def step(self, time: float, step: float, control: float, force: float) -> tuple:
+        """Advance over [time, time + step]; return (y, v, current) at the end."""
+
+    def save(self): ...
+
+    def restore(self, state) -> None: ...
+
+    def close(self) -> None: ...
+
+
+class DirectTransducer:
+    """:class:`gmt.Transducer` behind the backend interface (no FMI)."""
+
+    def __init__(self, params=None, excitation=None, drive=None):
+        self.model = gmt.Transducer(params, excitation, drive)
+
+    def rod_state(self):
+        return self.model.forward.displacement, self.model.forward.velocity
+
+    def step(self, time, step, control, force):
+        out = self.model.step(control, step, force)
+        return out.displacement, out.velocity, out.current
+
+    def save(self):
+        return self.model.get_state()
+
+    def restore(self, state):
+        self.model.set_state(state)
+
+    def close(self):
+        pass
+
+
+class FmuTransducer:
+    """The transducer FMU (FMI 2.0 co-simulation) driven through fmpy.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.fmu`` file.
+    start_values : dict
+        Parameter name -> value (names of :mod:`smeha.fmu_interface`).
+    instance_name : str
+    """
+
+    def __init__(self, path, start_values=None, instance_name="transducer"):
+        from fmpy import extract, read_model_description
+        from fmpy.fmi2 import FMU2Slave
+
+        self._unzipdir = extract(str(path))
+        md = read_model_description(self._unzipdir)
+        self._vr = {v.name: v.valueReference for v in md.modelVariables}
+        self._types = {v.name: v.type for v in md.modelVariables}
+        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=self._unzipdir,
+                             modelIdentifier=md.coSimulation.modelIdentifier,
+                             instanceName=instance_name)
+        self.fmu.instantiate()
+        self.fmu.setupExperiment(startTime=0.0)
+        self.fmu.enterInitializationMode()
+        for name, value in (start_values or {}).items():
+            self.set(name, value)
+        self.fmu.exitInitializationMode()
+        self._in = [self._vr["u"], self._vr["external_force"]]
+        self._out = [self._vr["displacement"], self._vr["velocity"], self._vr["current"]]
+        self._state = None
+
+    def rod_state(self):
+        return tuple(self.fmu.getReal(self._out[:2]))
+
+    def set(self, name, value):
+        """Set one variable by name, whatever its FMI type."""
+        vr = [self._vr[name]]
+        kind = self._types[name]
+        if kind == "Real":
+            self.fmu.setReal(vr, [float(value)])
+        elif kind == "Integer":
+            self.fmu.setInteger(vr, [int(value)])
+        elif kind == "Boolean":
+            self.fmu.setBoolean(vr, [bool(value)])
+        else:
+            self.fmu.setString(vr, [str(value)])
+
+    def step(self, time, step, control, force):
+        self.fmu.setReal(self._in, [control, force])
+        self.fmu.doStep(currentCommunicationPoint=time, communicationStepSize=step)
+        return tuple(self.fmu.getReal(self._out))
+
+    def save(self):
+        # one saved state at a time: free the previous one (flat memory)
+        if self._state is not None:
+            self.fmu.freeFMUstate(self._state)
+        self._state = self.fmu.getFMUstate()
+        return self._state
+
+    def restore(self, state):
+        self.fmu.setFMUstate(state)
+
+    def close(self):
+        if self._state is not None:
+            self.fmu.freeFMUstate(self._state)
+            self._state = None
+        self.fmu.terminate()
+        self.fmu.freeInstance()
+        import shutil
+        shutil.rmtree(self._unzipdir, ignore_errors=True)
+
+
+@dataclass(frozen=True)
+class CosimSettings:
+    """Settings of one co-simulation run.
+
+    Attributes
+    ----------
+    duration : float
+        Simulated time, [s].
+    step : float
+        Communication step h, [s].
+    direction : {"down", "up"}
+        Commanded cylinder direction (Figure 2).
+    load_force : float
+        External load on the cylinder, opposing "down", [N].
+    force_tolerance : float
+        Interface residual |F - A_d mean(p_P)| accepted, [N]; 1e-4 N is
+        0.08 Pa of chamber pressure, above the hydraulics' Newton noise.
+    max_iterations : int
+        Secant iterations per step before giving up.
+    substeps : int
+        Backward-Euler substeps of the hydraulics per communication step.
+    """
+
+    duration: float = 0.1
+    step: float = 20e-6
+    direction: str = "down"
+    load_force: float = 0.0
+    force_tolerance: float = 1e-4
+    max_iterations: int = 25
+    substeps: int = 1
+
+    def __post_init__(self):
+        gmt.errors.check_range("duration", self.duration, 0.0, 1e4, unit="s")
+        gmt.errors.check_range("step", self.step, 0.0, 1.0, unit="s")
+        gmt.errors.check_range("force_tolerance", self.force_tolerance, 0.0, 1e6, unit="N")
+        if self.direction not in ("down", "up"):
+            raise gmt.ParameterError(f"direction = {self.direction!r} is not one of ('down', 'up')")
+
+
+#: Range kept for the interface slope dr/dF of the secant iteration.
+SLOPE_RANGE = (0.5, 1.0e4)
+
+
+class CouplingError(RuntimeError):
+    """The interface iteration did not converge in a step."""
+
+
+def _hermite(y0, v0, y1, v1, h):
+    """Cubic through (y0, v0) at 0 and (y1, v1) at h: returns (y(s), v(s)) callables."""
+    dy = y1 - y0
+
+    def pos(s):
+        r = s / h
+        return (y0 + v0 * s + (3 * dy - h * (2 * v0 + v1)) * r * r
+                + (h * (v0 + v1) - 2 * dy) * r * r * r)
+
+    def vel(s):
+        r = s / h
+        return (v0 + (3 * dy - h * (2 * v0 + v1)) * 2 * r / h
+                + (h * (v0 + v1) - 2 * dy) * 3 * r * r / h)
+
+    return pos, vel
+
+
+def _integrate_step(x, rod0, rod1, commands, load, params, h, substeps, held_valves):
+    """Integrate the circuit over one step.
+
+    Returns (x_end, mean p_P, volume into B, compression volume, halvings).
+    """
+    pos, vel = _hermite(rod0[0], rod0[1], rod1[0], rod1[1], h)
+
+    def inputs_over(s0, s1):
+        # secant velocity: the chamber receives exactly A_d (y(s1) - y(s0))
+        return CircuitInputs(pos(s1), (pos(s1) - pos(s0)) / (s1 - s0), commands, load)
+
+    x = np.array(x, dtype=float)
+    x[6:10] = np.where(held_valves, commands, x[6:10])
+    x_end, p_integral, volume_big, compressed, halvings = backward_euler(
+        x, h, inputs_over, params, substeps)
+    return x_end, p_integral / h, volume_big, compressed, halvings
+
+
+def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
+               circuit: CircuitParameters, settings: CosimSettings,
+               progress: Callable[[int, int], None] | None = None) -> np.ndarray:
+    """Run one co-simulation.
+
+    Parameters
+    ----------
+    backend : TransducerBackend
+        The transducer (FMU or direct), initialised and at rest.
+    control : callable
+        u(t), [V].
+    circuit : CircuitParameters
+    settings : CosimSettings
+    progress : callable, optional
+        Called as progress(steps_done, n_steps).
+
+    Returns
+    -------
+    numpy structured array
+        One record per communication point t_k = k h (fields
+        :data:`RESULT_FIELDS`): the state at t_k and the inputs held over
+        [t_k, t_k + h) (control, current, force, valve phase); the last record
+        carries the final state only. ``volume_into_big`` is the net volume
+        that has entered the big cavity through V1 and V2 since t = 0, and
+        ``compression_volume`` the oil volume taken up by compression in the
+        chamber and cavities since t = 0, [m^3] (see :func:`volume_balance`).
+    """
+    h = settings.step
+    n_steps = int(round(settings.duration / h))
+    area = circuit.chamber.piston_area
+    held_valves = np.array([v.response != "first_order" for v in circuit.valves])
+    delays = [v.opening_time if v.response == "delay" else 0.0 for v in circuit.valves]
+    max_delay = max(delays)
+    x = initial_state(circuit)
+    rod = backend.rod_state()
+    force = x[0] * area
+    out = np.zeros(n_steps + 1, dtype=[(name, float) for name in RESULT_FIELDS])
+    history = deque()  # (time, commands) kept for max_delay, for delayed valves
+    slope = None
+    volume_big = 0.0
+    compressed = 0.0
+    u_prev, compressing = control(0.0), True
+    for k in range(n_steps + 1):
+        t = k * h
+        u = control(t)
+        if k > 0:
+            compressing = pump_phase(u, u_prev, compressing)
+        rec = out[k]
+        rec["time"], rec["control"], rec["compressing"] = t, u, float(compressing)
+        rec["rod_displacement"], rec["rod_velocity"] = rod
+        rec["volume_into_big"] = volume_big
+        rec["compression_volume"] = compressed
+        _record_circuit(rec, x, circuit)
+        if k == n_steps:
+            rec["force"] = force
+            break
+        cmd_now = tuple(1.0 if c else 0.0 for c in valve_commands(settings.direction, compressing))
+        history.append((t, cmd_now))
+        while len(history) > 1 and history[1][0] <= t - max_delay:
+            history.popleft()
+        commands = tuple(_command_at(history, t - delays[j], j) for j in range(4))
+        saved = backend.save()
+        f_k, r_prev, f_prev = force, None, None
+        substeps = settings.substeps
+        for it in range(1, settings.max_iterations + 1):
+            if it > 1:
+                backend.restore(saved)
+            y1, v1, current = backend.step(t, h, u, f_k)
+            x1, p_mean, dvol, dcomp, halvings = _integrate_step(
+                x, rod, (y1, v1), commands, settings.load_force, circuit, h, substeps,
+                held_valves)
+            if halvings:
+                # repeat with that discretisation throughout, so r(F) stays smooth
+                substeps *= 2 ** halvings
+                r_prev = f_prev = None
+                continue
+            r = f_k - area * p_mean
+            if abs(r) <= settings.force_tolerance:
+                break
+            # secant slope dr/dF, carried over from step to step; updated only
+            # from iterates far enough apart that Newton's tolerance in the
+            # hydraulics cannot corrupt it, and kept in its physical range:
+            # dr/dF = 1 + A_d dp/dF >= 1 (pushing the rod back lowers the
+            # chamber pressure), up to ~1e3 for the stiffest (ideal) oil
+            if r_prev is not None and abs(f_k - f_prev) > 1e3 * settings.force_tolerance:
+                slope = min(max((r - r_prev) / (f_k - f_prev), SLOPE_RANGE[0]), SLOPE_RANGE[1])
+            f_prev, r_prev = f_k, r
+            f_k = f_k - r / (slope if slope else 1.0)
+        else:
+            raise CouplingError(
+                f"interface force did not converge in {settings.max_iterations} iterations "
+                f"at t = {t:g} s (residual {r:g} N); reduce the step")
+        rec["current"], rec["force"], rec["iterations"] = current, f_k, it
+        volume_big += dvol
+        compressed += dcomp
+        x, rod, force, u_prev = x1, (y1, v1), f_k, u
+        if progress is not None:
+            progress(k + 1, n_steps)
+    return out
+
+
+def _command_at(history, time, valve):
+    """Command of one valve in force at ``time`` (the last issued at or before it)."""
+    cmd = history[0][1][valve]
+    for t, c in history:
+        if t <= time + 1e-15:
+            cmd = c[valve]
+        else:
+            break
+    return cmd
+
+
+def _record_circuit(rec, x, circuit: CircuitParameters):
+    from .accumulator import accumulator_pressure
+    rec["p_pump"], rec["p_big"], rec["p_small"] = x[0], x[1], x[2]
+    rec["p_accumulator"] = accumulator_pressure(circuit.accumulator, x[3])
+    rec["piston_position"], rec["piston_velocity"] = x[4], x[5]
+    q = valve_flows(x, circuit)
+    rec["q_v1"], rec["q_v2"], rec["q_v3"], rec["q_v4"] = q
+
+
+def volume_balance(record, circuit: CircuitParameters) -> tuple[float, float]:
+    """Oil volume bookkeeping of a run: (imbalance, pumped volume), [m^3].
+
+    Continuity over the whole circuit: the volume the rod and piston sweep out
+    of the chamber and cavities, plus the oil stored in the accumulator, plus
+    the oil absorbed by compression, sums to zero. The imbalance is that sum
+    at the end of the run (round-off when every flow leaving one volume enters
+    another); the pumped volume, A_d times the rod's total travel, gives its
+    scale.
+    """
+    from .accumulator import oil_volume_at
+    first, last = record[0], record[-1]
+    cyl, ch = circuit.cylinder, circuit.chamber
+    dx = last["piston_position"] - first["piston_position"]
+    geometric = (-ch.piston_area * (last["rod_displacement"] - first["rod_displacement"])
+                 + cyl.big_area * dx - cyl.small_area * dx
+                 + oil_volume_at(circuit.accumulator, last["p_accumulator"])
+                 - oil_volume_at(circuit.accumulator, first["p_accumulator"]))
+    pumped = ch.piston_area * float(np.sum(np.abs(np.diff(record["rod_displacement"]))))
+    return float(geometric + last["compression_volume"]), pumped

@@ -1,0 +1,149 @@
+"""Implicit (backward) Euler for the hydraulic circuit over one communication step.
+
+The orifices and the stiff oil give the circuit time constants near 1 us
+(V / (beta dQ/dp) for an open valve and a 2.5 cm^3 chamber), far below a
+20 us communication step: only an L-stable implicit method can step it.
+Backward Euler with Newton's method on the analytic Jacobian
+(:func:`system_models.circuit.jacobian`) is L-stable, first order, and keeps
+every linear invariant of the equations exactly -- in particular the volume
+balance, so volumes passed between chambers add up to round-off.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .chamber import chamber_volume
+from .circuit import CircuitParameters, jacobian, rhs, valve_flows
+from .cylinder import cavity_volumes
+from .fluid import effective_bulk_modulus
+
+#: Newton convergence: absolute tolerance per state (p_P, p_B, p_S [Pa],
+#: V_A [m^3], x [m], v [m/s], openings [-]).
+NEWTON_ATOL = np.array([1e-3, 1e-3, 1e-3, 1e-18, 1e-13, 1e-10, 1e-12, 1e-12, 1e-12, 1e-12])
+NEWTON_RTOL = 1e-10
+#: Scale of each state for the residual norm of the line search.
+RESIDUAL_SCALE = np.array([1e3, 1e3, 1e3, 1e-12, 1e-9, 1e-6, 1e-6, 1e-6, 1e-6, 1e-6])
+
+
+def _norm(residual):
+    return float(np.max(np.abs(residual) / RESIDUAL_SCALE))
+
+
+class IntegrationError(RuntimeError):
+    """Newton's method did not converge within a substep."""
+
+
+def backward_euler(x0, h, inputs_over, params: CircuitParameters, substeps: int = 1,
+                   max_newton: int = 60, max_halvings: int = 10):
+    """Advance the circuit by h in ``substeps`` backward-Euler steps.
+
+    Parameters
+    ----------
+    x0 : array
+        State at the start, (see :data:`system_models.circuit.STATE_NAMES`).
+    h : float
+        Step, [s].
+    inputs_over : callable
+        (s0, s1) -> CircuitInputs for the substep from s0 to s1 (times into
+        the step). Giving the rod's secant velocity (y(s1) - y(s0)) / (s1 - s0)
+        there makes the volume the rod sweeps exact, A_d (y(s1) - y(s0)),
+        whatever the step: the pumped volume then carries no first-order
+        error.
+    params : CircuitParameters
+    substeps : int
+        Substeps per step.
+    max_newton : int
+        Newton iterations per substep before that substep is halved.
+    max_halvings : int
+        How often a substep may be halved (a valve snapping open across a
+        large pressure difference can need it) before giving up.
+
+    Returns
+    -------
+    (array, float, float, float, int)
+        State at h; the time integral of p_P over the step [Pa s]; the net
+        volume into the big cavity (V1 in, V2 out) [m^3]; and the oil volume
+        taken up by compression in the chamber and both cavities,
+        sum(V / beta dp) [m^3] -- all by the same backward-Euler quadrature as
+        the states, so the volume balance closes to round-off; and the most
+        halvings any substep needed (0 when none). A caller that repeats the
+        step (the co-simulation's interface iteration) should repeat it with
+        ``substeps * 2**halvings`` uniform substeps, so that every repetition
+        uses the same discretisation.
+
+    Raises
+    ------
+    IntegrationError
+        Newton failed even on the smallest substep.
+    """
+    dt = h / substeps
+    x = np.array(x0, dtype=float)
+    totals = [0.0, 0.0, 0.0, 0]
+    for j in range(substeps):
+        x = _advance(x, j * dt, (j + 1) * dt, inputs_over, params, max_newton,
+                     max_halvings, totals, 0)
+    return x, totals[0], totals[1], totals[2], totals[3]
+
+
+def _advance(x, s0, s1, inputs_over, params, max_newton, halvings_left, totals, depth):
+    """One backward-Euler substep from s0 to s1, halved recursively on failure."""
+    xn = _newton(x, s1 - s0, inputs_over(s0, s1), params, max_newton)
+    if xn is None:
+        if halvings_left == 0:
+            raise IntegrationError(
+                f"Newton did not converge on a {s1 - s0:g} s substep")
+        mid = 0.5 * (s0 + s1)
+        totals[3] = max(totals[3], depth + 1)
+        x = _advance(x, s0, mid, inputs_over, params, max_newton, halvings_left - 1, totals,
+                     depth + 1)
+        return _advance(x, mid, s1, inputs_over, params, max_newton, halvings_left - 1,
+                        totals, depth + 1)
+    q = valve_flows(xn, params)
+    totals[0] += (s1 - s0) * xn[0]
+    totals[1] += (s1 - s0) * (q.v1 - q.v2)
+    totals[2] += compression_volume(x, xn, inputs_over(s0, s1), params)
+    return xn
+
+
+def compression_volume(x_old, x_new, inputs, params: CircuitParameters) -> float:
+    """Oil volume absorbed by compression over a substep, sum(V/beta (p_new - p_old)), [m^3].
+
+    Evaluated at the end of the substep, as backward Euler evaluates the
+    pressure equations: chamber, big cavity, small cavity.
+    """
+    fl = params.fluid
+    vb, vs = cavity_volumes(params.cylinder, x_new[4])
+    vp = chamber_volume(params.chamber, inputs.rod_displacement)
+    return sum(vol / effective_bulk_modulus(fl, x_new[i]) * (x_new[i] - x_old[i])
+               for i, vol in ((0, vp), (1, vb), (2, vs)))
+
+
+def _newton(x, dt, inputs, params, max_newton):
+    """Solve xn = x + dt f(xn) by damped Newton; None when it does not converge."""
+    eye = np.eye(x.size)
+    xn = x.copy()
+    g = xn - x - dt * rhs(0.0, xn, inputs, params)
+    norm = _norm(g)
+    for _ in range(max_newton):
+        try:
+            delta = np.linalg.solve(eye - dt * jacobian(xn, inputs, params), -g)
+        except np.linalg.LinAlgError:
+            return None
+        # Damped Newton. On the orifice law Q ~ sign(dp) sqrt|dp| a full
+        # Newton step sends dp to -dp with the same residual: it cycles for
+        # ever. Each step must cut the residual in proportion to its length,
+        # else it is halved (Armijo with a strict factor).
+        lam = 1.0
+        while True:
+            trial = xn + lam * delta
+            g_trial = trial - x - dt * rhs(0.0, trial, inputs, params)
+            norm_trial = _norm(g_trial)
+            if norm_trial <= (1.0 - 0.5 * lam) * norm or lam < 1.0 / 1024:
+                break
+            lam *= 0.5
+        xn, g, norm = trial, g_trial, norm_trial
+        if not np.all(np.isfinite(xn)):
+            return None
+        if np.all(np.abs(lam * delta) <= NEWTON_ATOL + NEWTON_RTOL * np.abs(xn)):
+            return xn
+    return None
