@@ -13,6 +13,9 @@ Subcommands
     paper's Table 3; ``--loads`` adds the load lines.
 ``smeha build [...]``
     Build the FMU(s); arguments go unchanged to :func:`smeha.fmu_build.main`.
+``smeha identify DATA.csv [--oversample K] [--json]``
+    B_m, mu'' per measured run and the loss coefficients of eq 16
+    (:mod:`smeha.identify`; file format in :mod:`smeha.measured`).
 
 Adding a subcommand: write ``_add_<name>(subparsers)`` that registers its
 parser with ``set_defaults(run=_run_<name>)``, and append it to
@@ -136,7 +139,7 @@ def _add_cosim_options(p):
     p.add_argument("--step", type=_positive_float, default=20e-6,
                    help="communication step [s] (default 2e-05)")
     p.add_argument("--cycles", type=_positive_float, default=8.0,
-                   help="simulated pumping cycles (default 8; the first 2 are discarded)")
+                   help="simulated pumping cycles, at least 4 (default 8; the first 2 are discarded)")
     p.add_argument("--backend", choices=("fmu", "direct"), default="fmu",
                    help="transducer through the FMU and fmpy (default) or gmt in-process")
     p.add_argument("--fmu", metavar="FILE", help="transducer FMU (default dist/SmehaGmt.fmu, "
@@ -275,8 +278,43 @@ def _run_flow(args) -> int:
     return 0
 
 
+def _add_identify(subparsers):
+    p = subparsers.add_parser(
+        "identify", help="identify B_m, mu'' and the loss coefficients from measured runs",
+        description="Read a measurement file (docs/MEASURED.md), get B_m of each run from its "
+                    "sense voltage (eq 22) or its displacement, fit mu'' of each run to the "
+                    "measured loop with eq 30, and fit K_h, n, K_e, K_ex to the set of "
+                    "eqs 16 with standard uncertainties.")
+    p.add_argument("data", metavar="DATA.csv", help="measurement file (CSV, long form)")
+    p.add_argument("--oversample", type=int, default=1, metavar="K",
+                   help="run the model on a K times finer step than the data (cubic-spline "
+                        "current); K >= 16 removes the half-step hold delay for data from "
+                        "the physical transducer (default 1: the data's step)")
+    p.add_argument("--json", action="store_true",
+                   help="print only a JSON object {runs, loss_coefficients, correlation, ...}")
+    p.set_defaults(run=_run_identify)
+
+
+def _run_identify(args) -> int:
+    from . import identify, measured
+
+    if not Path(args.data).is_file():
+        raise FileNotFoundError(f"{args.data}: no such file")
+    if not 1 <= args.oversample <= 1000:
+        raise UsageError(f"--oversample {args.oversample} is outside the allowed range [1, 1000]")
+    runs = measured.read_measurements(args.data)  # DataError (a ValueError): exit 2
+    result = identify.identify(runs, oversample=args.oversample)
+    if args.json:
+        report = {"file": str(args.data), **result.as_dict()}
+        json.dump(report, sys.stdout, indent=2, allow_nan=False)
+        sys.stdout.write("\n")
+    else:
+        print(identify.format_identification(result, str(args.data)))
+    return 0
+
+
 #: Registration functions of the subcommands, in the order ``--help`` lists them.
-SUBCOMMANDS = (_add_paper, _add_simulate, _add_flow, _add_build)
+SUBCOMMANDS = (_add_paper, _add_simulate, _add_flow, _add_build, _add_identify)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -80,6 +80,15 @@ class Case:
     backend: str = "fmu"  # "fmu" or "direct"
     branch_rule: str = "control"
 
+    def __post_init__(self):
+        from system_models.flowcheck import MINIMUM_CYCLES
+        if not self.cycles >= MINIMUM_CYCLES:
+            raise gmt.ParameterError(
+                f"cycles = {self.cycles:g} is outside the allowed range [{MINIMUM_CYCLES}, inf): "
+                f"the flow check discards the first cycles and averages at least two more")
+        if self.mode not in MODES:
+            raise gmt.ParameterError(f"mode = {self.mode!r} is not one of {MODES}")
+
     @property
     def load_force(self) -> float:
         if self.load is not None:

@@ -10,9 +10,14 @@ Why not plain explicit coupling
 The chamber's oil is far stiffer than the rod: beta A_d^2 / V ~ 9e8 N/m
 against K = 2e7 N/m (shared HYDRAULICS.md). Rod and oil form a ~30 kHz
 oscillator; exchanging the force and the motion once per step with a
-zero-order hold (Jacobi or Gauss-Seidel) goes unstable unless h is far below
-its period. This master couples the two implicitly through the FMU's state
-save/restore:
+zero-order hold (Jacobi or Gauss-Seidel) is only conditionally stable. With
+stiff oil it diverges at a 20 us step (the ideal circuit: past 1e8 Pa within
+the first compression stroke, ``tests/test_cosim.py``); the realistic circuit
+survives it only because entrained air softens the oil at low pressure and
+the open valves join the chamber to far larger volumes -- a margin that
+vanishes as the oil gets stiffer or the chamber is isolated. This master
+couples the two implicitly through the FMU's state save/restore, stable
+whatever the stiffness:
 
 1. save the FMU state at t;
 2. guess the held force F (the end pressure of the last step times A_d);
@@ -35,6 +40,7 @@ coupling.
 from __future__ import annotations
 
 from collections import deque
+from pathlib import Path
 from dataclasses import dataclass
 from typing import Callable, Protocol
 
@@ -51,7 +57,7 @@ RESULT_FIELDS = (
     "time", "control", "current", "rod_displacement", "rod_velocity", "force",
     "p_pump", "p_big", "p_small", "p_accumulator", "piston_position", "piston_velocity",
     "q_v1", "q_v2", "q_v3", "q_v4", "volume_into_big", "compression_volume",
-    "compressing", "iterations",
+    "compressing", "valves_compressing", "iterations",
 )
 
 
@@ -94,6 +100,28 @@ class DirectTransducer:
         pass
 
 
+_EXTRACTED: dict = {}
+
+
+def _extracted(path) -> str:
+    """Extract an FMU once per process and file version; removed at exit.
+
+    Every instance of one FMU then runs from one resources directory, so the
+    Python modules the FMU brings (shared by name in the host's interpreter)
+    always come from the copy its slave expects.
+    """
+    import atexit
+    import shutil
+
+    from fmpy import extract
+    p = Path(path).resolve()
+    key = (str(p), p.stat().st_mtime_ns)
+    if key not in _EXTRACTED:
+        _EXTRACTED[key] = extract(str(p))
+        atexit.register(shutil.rmtree, _EXTRACTED[key], True)
+    return _EXTRACTED[key]
+
+
 class FmuTransducer:
     """The transducer FMU (FMI 2.0 co-simulation) driven through fmpy.
 
@@ -107,10 +135,10 @@ class FmuTransducer:
     """
 
     def __init__(self, path, start_values=None, instance_name="transducer"):
-        from fmpy import extract, read_model_description
+        from fmpy import read_model_description
         from fmpy.fmi2 import FMU2Slave
 
-        self._unzipdir = extract(str(path))
+        self._unzipdir = _extracted(path)
         md = read_model_description(self._unzipdir)
         self._vr = {v.name: v.valueReference for v in md.modelVariables}
         self._types = {v.name: v.type for v in md.modelVariables}
@@ -164,8 +192,6 @@ class FmuTransducer:
             self._state = None
         self.fmu.terminate()
         self.fmu.freeInstance()
-        import shutil
-        shutil.rmtree(self._unzipdir, ignore_errors=True)
 
 
 @dataclass(frozen=True)
@@ -271,7 +297,8 @@ def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
     numpy structured array
         One record per communication point t_k = k h (fields
         :data:`RESULT_FIELDS`): the state at t_k and the inputs held over
-        [t_k, t_k + h) (control, current, force, valve phase); the last record
+        [t_k, t_k + h) (control u(t_k + h/2), current, force, valve phase);
+        the last record
         carries the final state only. ``volume_into_big`` is the net volume
         that has entered the big cavity through V1 and V2 since t = 0, and
         ``compression_volume`` the oil volume taken up by compression in the
@@ -291,12 +318,15 @@ def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
     slope = None
     volume_big = 0.0
     compressed = 0.0
-    u_prev, compressing = control(0.0), True
+    compressing = True
+    u_next = control(0.0)
     for k in range(n_steps + 1):
         t = k * h
-        u = control(t)
-        if k > 0:
-            compressing = pump_phase(u, u_prev, compressing)
+        u, u_next = u_next, control(t + h)
+        # the controller generates u, so it knows where u goes over the coming
+        # step: the phase of [t, t + h) follows u(t + h) - u(t), and the valves
+        # switch at the control signal's extremes, not a step after them
+        compressing = pump_phase(u_next, u, compressing)
         rec = out[k]
         rec["time"], rec["control"], rec["compressing"] = t, u, float(compressing)
         rec["rod_displacement"], rec["rod_velocity"] = rod
@@ -305,19 +335,28 @@ def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
         _record_circuit(rec, x, circuit)
         if k == n_steps:
             rec["force"] = force
+            rec["valves_compressing"] = out[k - 1]["valves_compressing"] if k else compressing
             break
         cmd_now = tuple(1.0 if c else 0.0 for c in valve_commands(settings.direction, compressing))
         history.append((t, cmd_now))
         while len(history) > 1 and history[1][0] <= t - max_delay:
             history.popleft()
         commands = tuple(_command_at(history, t - delays[j], j) for j in range(4))
+        # phase the valves actually act on (after their dead times): V1 is open
+        # while compressing going down, V3 while compressing going up
+        rec["valves_compressing"] = commands[0 if settings.direction == "down" else 2]
+        # the value held over [t, t + h): u at the step's midpoint. A hold of
+        # u(t) would lag the signal by h/2 -- a first-order error in where the
+        # rod is when the valves switch; the midpoint value removes it
+        u_held = control(t + 0.5 * h)
+        rec["control"] = u_held
         saved = backend.save()
         f_k, r_prev, f_prev = force, None, None
         substeps = settings.substeps
         for it in range(1, settings.max_iterations + 1):
             if it > 1:
                 backend.restore(saved)
-            y1, v1, current = backend.step(t, h, u, f_k)
+            y1, v1, current = backend.step(t, h, u_held, f_k)
             x1, p_mean, dvol, dcomp, halvings = _integrate_step(
                 x, rod, (y1, v1), commands, settings.load_force, circuit, h, substeps,
                 held_valves)
@@ -345,7 +384,7 @@ def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
         rec["current"], rec["force"], rec["iterations"] = current, f_k, it
         volume_big += dvol
         compressed += dcomp
-        x, rod, force, u_prev = x1, (y1, v1), f_k, u
+        x, rod, force = x1, (y1, v1), f_k
         if progress is not None:
             progress(k + 1, n_steps)
     return out

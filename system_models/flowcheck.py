@@ -33,8 +33,17 @@ class FlowCheck:
         return d
 
 
+#: Cycles :func:`flow_check` discards by default, and the fewest a run needs.
+SKIP_CYCLES = 2
+MINIMUM_CYCLES = SKIP_CYCLES + 2
+
+
 def switching_instants(record):
-    """Indices where compression starts and where it ends.
+    """Indices where the valves switch to compression and back.
+
+    The phase the valves act on (``valves_compressing``, after their dead
+    times) defines the instants, as eq 39 defines dy between the valve
+    switching instants; with instant valves it is the commanded phase.
 
     Returns
     -------
@@ -42,14 +51,14 @@ def switching_instants(record):
         Record indices k whose phase differs from record k-1: compression
         starts (expanding -> compressing) and ends (compressing -> expanding).
     """
-    c = record["compressing"][:-1] > 0.5
+    c = record["valves_compressing"][:-1] > 0.5
     change = np.nonzero(c[1:] != c[:-1])[0] + 1
     starts = change[c[change]]
     ends = change[~c[change]]
     return starts, ends
 
 
-def flow_check(record, frequency: float, piston_area: float, skip_cycles: int = 2,
+def flow_check(record, frequency: float, piston_area: float, skip_cycles: int = SKIP_CYCLES,
                direction: str = "down") -> FlowCheck:
     """Compare the mean cylinder flow with eq 39 over whole cycles.
 
