@@ -23,11 +23,15 @@ whatever the stiffness:
 2. guess the held force F (the end pressure of the last step times A_d);
 3. restore, step the FMU over [t, t + h] with F held, read y(t + h), v(t + h);
 4. integrate the circuit over the step along the cubic Hermite rod
-   trajectory through (y, v) at both ends, with backward Euler (L-stable:
-   the valve orifices make the oil stiffer still), the chamber fed the rod's
-   secant velocity over each substep so the swept volume is exact;
-5. the residual r(F) = F - A_d * mean(p_P) over the step: impulse balance,
-   so the momentum the rod receives equals the momentum the oil delivers;
+   trajectory through (y, v) at both ends, with TR-BDF2 (second order and
+   L-stable: the valve orifices make the oil stiffer still), the chamber fed
+   the rod velocity each stage's formula implies so the swept volume is exact;
+5. the residual r(F) = F - A_d p_P(t + h): the held force equals the
+   chamber's force at the end of the step -- the implicit (backward) choice,
+   which damps the rod-oil mode however stiff the oil. (Matching the mean
+   pressure over the step instead balances the impulse exactly but leaves
+   that mode undamped at the interface: with TR-BDF2 hydraulics and the
+   ideal circuit's stiff oil it grows until the rod leaves its chamber.)
 6. quasi-Newton (secant) on r, its slope carried from step to step, until
    |r| is below ``force_tolerance``; the last FMU step taken is the one kept.
 
@@ -39,6 +43,7 @@ coupling.
 """
 from __future__ import annotations
 
+import math
 from collections import deque
 from pathlib import Path
 from dataclasses import dataclass
@@ -50,7 +55,7 @@ import gmt
 
 from .circuit import CircuitInputs, CircuitParameters, initial_state, valve_flows
 from .controller import pump_phase, valve_commands
-from .implicit import backward_euler
+from .implicit import IntegrationError, backward_euler, tr_bdf2
 
 #: Fields of the structured array :func:`cosimulate` returns (SI).
 RESULT_FIELDS = (
@@ -209,12 +214,15 @@ class CosimSettings:
     load_force : float
         External load on the cylinder, opposing "down", [N].
     force_tolerance : float
-        Interface residual |F - A_d mean(p_P)| accepted, [N]; 1e-4 N is
+        Interface residual |F - A_d p_P(t + h)| accepted, [N]; 1e-4 N is
         0.08 Pa of chamber pressure, above the hydraulics' Newton noise.
     max_iterations : int
         Secant iterations per step before giving up.
     substeps : int
-        Backward-Euler substeps of the hydraulics per communication step.
+        Substeps of the hydraulic integrator per communication step.
+    method : {"tr_bdf2", "backward_euler"}
+        Hydraulic integrator: TR-BDF2 (second order, L-stable; default) or
+        backward Euler (first order).
     """
 
     duration: float = 0.1
@@ -224,11 +232,15 @@ class CosimSettings:
     force_tolerance: float = 1e-4
     max_iterations: int = 25
     substeps: int = 1
+    method: str = "tr_bdf2"
 
     def __post_init__(self):
         gmt.errors.check_range("duration", self.duration, 0.0, 1e4, unit="s")
         gmt.errors.check_range("step", self.step, 0.0, 1.0, unit="s")
         gmt.errors.check_range("force_tolerance", self.force_tolerance, 0.0, 1e6, unit="N")
+        if self.method not in ("tr_bdf2", "backward_euler"):
+            raise gmt.ParameterError(
+                f"method = {self.method!r} is not one of ('tr_bdf2', 'backward_euler')")
         if self.direction not in ("down", "up"):
             raise gmt.ParameterError(f"direction = {self.direction!r} is not one of ('down', 'up')")
 
@@ -258,22 +270,30 @@ def _hermite(y0, v0, y1, v1, h):
     return pos, vel
 
 
-def _integrate_step(x, rod0, rod1, commands, load, params, h, substeps, held_valves):
+def _integrate_step(x, rod0, rod1, commands, load, params, h, substeps, held_valves,
+                    method="tr_bdf2"):
     """Integrate the circuit over one step.
 
-    Returns (x_end, mean p_P, volume into B, compression volume, halvings).
+    Returns (x_end, p_P at the end, volume into B, compression volume, halvings).
     """
     pos, vel = _hermite(rod0[0], rod0[1], rod1[0], rod1[1], h)
 
-    def inputs_over(s0, s1):
-        # secant velocity: the chamber receives exactly A_d (y(s1) - y(s0))
-        return CircuitInputs(pos(s1), (pos(s1) - pos(s0)) / (s1 - s0), commands, load)
-
     x = np.array(x, dtype=float)
     x[6:10] = np.where(held_valves, commands, x[6:10])
-    x_end, p_integral, volume_big, compressed, halvings = backward_euler(
-        x, h, inputs_over, params, substeps)
-    return x_end, p_integral / h, volume_big, compressed, halvings
+    if method == "tr_bdf2":
+        def inputs_at(s, velocity):
+            return CircuitInputs(pos(s), velocity, commands, load)
+
+        x_end, p_integral, volume_big, compressed, halvings = tr_bdf2(
+            x, h, inputs_at, params, substeps)
+    else:
+        def inputs_over(s0, s1):
+            # secant velocity: the chamber receives exactly A_d (y(s1) - y(s0))
+            return CircuitInputs(pos(s1), (pos(s1) - pos(s0)) / (s1 - s0), commands, load)
+
+        x_end, p_integral, volume_big, compressed, halvings = backward_euler(
+            x, h, inputs_over, params, substeps)
+    return x_end, x_end[0], volume_big, compressed, halvings
 
 
 def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
@@ -357,26 +377,40 @@ def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
             if it > 1:
                 backend.restore(saved)
             y1, v1, current = backend.step(t, h, u_held, f_k)
-            x1, p_mean, dvol, dcomp, halvings = _integrate_step(
-                x, rod, (y1, v1), commands, settings.load_force, circuit, h, substeps,
-                held_valves)
+            try:
+                x1, p_end, dvol, dcomp, halvings = _integrate_step(
+                    x, rod, (y1, v1), commands, settings.load_force, circuit, h, substeps,
+                    held_valves, settings.method)
+            except (gmt.ParameterError, IntegrationError):
+                if f_prev is None:
+                    raise
+                # the trial force drove the rod somewhere the oil cannot follow
+                # (e.g. emptying the chamber): back off towards the last force
+                # that integrated, and trust the slope less
+                f_k = 0.5 * (f_k + f_prev)
+                slope = None if slope is None else min(slope * 4.0, SLOPE_RANGE[1])
+                continue
             if halvings:
                 # repeat with that discretisation throughout, so r(F) stays smooth
                 substeps *= 2 ** halvings
                 r_prev = f_prev = None
                 continue
-            r = f_k - area * p_mean
+            r = f_k - area * p_end
             if abs(r) <= settings.force_tolerance:
                 break
             # secant slope dr/dF, carried over from step to step; updated only
             # from iterates far enough apart that Newton's tolerance in the
             # hydraulics cannot corrupt it, and kept in its physical range:
             # dr/dF = 1 + A_d dp/dF >= 1 (pushing the rod back lowers the
-            # chamber pressure), up to ~1e3 for the stiffest (ideal) oil
-            if r_prev is not None and abs(f_k - f_prev) > 1e3 * settings.force_tolerance:
+            # chamber pressure), up to ~1e3 and more for the stiffest oil
+            if r_prev is not None and abs(f_k - f_prev) > 10.0 * settings.force_tolerance:
                 slope = min(max((r - r_prev) / (f_k - f_prev), SLOPE_RANGE[0]), SLOPE_RANGE[1])
             f_prev, r_prev = f_k, r
-            f_k = f_k - r / (slope if slope else 1.0)
+            if slope is None:
+                # first step of the run: a small probe gives dr/dF by difference
+                f_k = f_k - math.copysign(min(abs(r), 1.0), r)
+            else:
+                f_k = f_k - r / slope
         else:
             raise CouplingError(
                 f"interface force did not converge in {settings.max_iterations} iterations "

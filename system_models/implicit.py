@@ -118,10 +118,16 @@ def compression_volume(x_old, x_new, inputs, params: CircuitParameters) -> float
                for i, vol in ((0, vp), (1, vb), (2, vs)))
 
 
-def _newton(x, dt, inputs, params, max_newton):
-    """Solve xn = x + dt f(xn) by damped Newton; None when it does not converge."""
+def _newton(x, dt, inputs, params, max_newton, rhs_vector=None, guess=None):
+    """Solve xn - dt f(xn) = r by damped Newton; None when it does not converge.
+
+    ``r`` is ``rhs_vector`` (default ``x``: backward Euler); ``guess`` starts
+    the iteration (default ``x``).
+    """
     eye = np.eye(x.size)
-    xn = x.copy()
+    r = x if rhs_vector is None else rhs_vector
+    x = r
+    xn = np.array(x if guess is None else guess, dtype=float)
     g = xn - x - dt * rhs(0.0, xn, inputs, params)
     norm = _norm(g)
     for _ in range(max_newton):
@@ -147,3 +153,96 @@ def _newton(x, dt, inputs, params, max_newton):
         if np.all(np.abs(lam * delta) <= NEWTON_ATOL + NEWTON_RTOL * np.abs(xn)):
             return xn
     return None
+
+
+#: TR-BDF2 (Bank, Coughran, Fichtner, Grosse, Rose & Smith 1985, IEEE Trans.
+#: Electron Devices 32; Hosea & Shampine 1996): a trapezoidal stage to
+#: t + gamma h, then BDF2 to t + h. gamma = 2 - sqrt(2) makes both stages use
+#: the same matrix I - d h J, d = gamma / 2, and the method L-stable.
+TRBDF2_GAMMA = 2.0 - np.sqrt(2.0)
+TRBDF2_D = TRBDF2_GAMMA / 2.0
+_A = 1.0 / (TRBDF2_GAMMA * (2.0 - TRBDF2_GAMMA))
+_B = (1.0 - TRBDF2_GAMMA) ** 2 / (TRBDF2_GAMMA * (2.0 - TRBDF2_GAMMA))
+
+
+def tr_bdf2(x0, h, inputs_at, params: CircuitParameters, substeps: int = 1,
+            max_newton: int = 60, max_halvings: int = 10):
+    """Advance the circuit by h with TR-BDF2: second order and L-stable.
+
+    Backward Euler's first-order error on the valve and oil transients costs
+    about 2 % of the delivered flow at a 20 us step (realistic circuit,
+    100 Hz); TR-BDF2 removes it at twice the work of one backward-Euler step.
+
+    Parameters
+    ----------
+    x0, h, params, substeps, max_newton, max_halvings
+        As :func:`backward_euler`.
+    inputs_at : callable
+        (s, velocity) -> CircuitInputs at time s into the step with the rod's
+        velocity as given. The caller's rod position y(s) is read from
+        ``inputs_at(s, 0.0).rod_displacement``; each stage is given the rod
+        velocity its own formula implies (the secant over the trapezoidal
+        stage, the BDF2 difference over the second), so the volume the rod
+        sweeps is exact and the volume balance closes to round-off.
+
+    Returns
+    -------
+    (array, float, float, float, int)
+        As :func:`backward_euler`: state at h; integral of p_P [Pa s]; net
+        volume into the big cavity [m^3]; oil volume taken up by
+        compression [m^3]; the most halvings any substep needed.
+    """
+    dt = h / substeps
+    x = np.array(x0, dtype=float)
+    totals = [0.0, 0.0, 0.0, 0]
+    for j in range(substeps):
+        x = _trbdf2_advance(x, j * dt, (j + 1) * dt, inputs_at, params, max_newton,
+                            max_halvings, totals, 0)
+    return x, totals[0], totals[1], totals[2], totals[3]
+
+
+def _quadrature_terms(x, inputs, params):
+    """(p_P, Q_V1 - Q_V2, net inflow of the three compressible volumes) at x."""
+    q = valve_flows(x, params)
+    dx = rhs(0.0, x, inputs, params)
+    fl = params.fluid
+    vb, vs = cavity_volumes(params.cylinder, x[4])
+    vp = chamber_volume(params.chamber, inputs.rod_displacement)
+    absorbed = sum(vol / effective_bulk_modulus(fl, x[i]) * dx[i]
+                   for i, vol in ((0, vp), (1, vb), (2, vs)))
+    return np.array([x[0], q.v1 - q.v2, absorbed])
+
+
+def _trbdf2_advance(x, s0, s1, inputs_at, params, max_newton, halvings_left, totals, depth):
+    dt = s1 - s0
+    sg = s0 + TRBDF2_GAMMA * dt
+    y0 = inputs_at(s0, 0.0).rod_displacement
+    yg = inputs_at(sg, 0.0).rod_displacement
+    y1 = inputs_at(s1, 0.0).rod_displacement
+    v_tr = (yg - y0) / (sg - s0)
+    v_bdf = (y1 - _A * yg + _B * y0) / (TRBDF2_D * dt)
+    in0, ing, in1 = inputs_at(s0, v_tr), inputs_at(sg, v_tr), inputs_at(s1, v_bdf)
+    c = TRBDF2_D * dt
+    g0 = _quadrature_terms(x, in0, params)
+    r1 = x + c * rhs(0.0, x, in0, params)
+    xg = _newton(x, c, ing, params, max_newton, rhs_vector=r1)
+    xn = None
+    if xg is not None:
+        xn = _newton(x, c, in1, params, max_newton, rhs_vector=_A * xg - _B * x, guess=xg)
+    if xn is None:
+        if halvings_left == 0:
+            raise IntegrationError(f"Newton did not converge on a {dt:g} s substep")
+        mid = 0.5 * (s0 + s1)
+        totals[3] = max(totals[3], depth + 1)
+        x = _trbdf2_advance(x, s0, mid, inputs_at, params, max_newton, halvings_left - 1,
+                            totals, depth + 1)
+        return _trbdf2_advance(x, mid, s1, inputs_at, params, max_newton, halvings_left - 1,
+                               totals, depth + 1)
+    gg = _quadrature_terms(xg, ing, params)
+    g1 = _quadrature_terms(xn, in1, params)
+    stage1 = c * (g0 + gg)  # trapezoidal over [s0, s0 + gamma dt]
+    total = _A * stage1 + c * g1  # BDF2 combination (the quadrature starts at 0)
+    totals[0] += total[0]
+    totals[1] += total[1]
+    totals[2] += total[2]
+    return xn
