@@ -60,7 +60,7 @@ from gmt.parameters import STEINMETZ_RANGE
 from gmt.permeability import amplitude_permeability, lag_angle
 from gmt.sensing import flux_density_amplitude_from_voltage
 
-from .measured import DataError, Run
+from .measured import DataError, Run, harmonic_basis
 
 #: The paper's scan range of mu'' ("varying its value from 0 to 10").
 SCAN_RANGE = (0.0, 10.0)
@@ -248,11 +248,7 @@ class Identification:
 
 def _harmonic_fit(time, signal, frequency, harmonics=HARMONICS):
     """Least-squares offset + harmonics; returns (coef, covariance, residual)."""
-    w = 2.0 * math.pi * frequency
-    cols = [np.ones_like(time)]
-    for k in range(1, harmonics + 1):
-        cols += [np.cos(k * w * time), np.sin(k * w * time)]
-    basis = np.column_stack(cols)
+    basis = harmonic_basis(time, frequency, harmonics)
     coef, *_ = np.linalg.lstsq(basis, signal, rcond=None)
     resid = signal - basis @ coef
     dof = max(time.size - basis.shape[1], 1)

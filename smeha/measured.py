@@ -164,13 +164,18 @@ class Run:
 # -- the current's fundamental frequency ---------------------------------------------------
 
 
-def _sinusoid_rss(time, signal, frequency, harmonics=3):
-    """Residual sum of squares of the best offset + harmonics 1..``harmonics`` of ``frequency``."""
+def harmonic_basis(time, frequency, harmonics):
+    """Columns [1, cos(k w t), sin(k w t) for k = 1..harmonics] for least squares."""
     w = 2.0 * np.pi * frequency
     cols = [np.ones_like(time)]
     for k in range(1, harmonics + 1):
         cols += [np.cos(k * w * time), np.sin(k * w * time)]
-    basis = np.column_stack(cols)
+    return np.column_stack(cols)
+
+
+def _sinusoid_rss(time, signal, frequency, harmonics=3):
+    """Residual sum of squares of the best offset + harmonics 1..``harmonics`` of ``frequency``."""
+    basis = harmonic_basis(time, frequency, harmonics)
     coef, *_ = np.linalg.lstsq(basis, signal, rcond=None)
     r = signal - basis @ coef
     return float(r @ r)
