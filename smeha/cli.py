@@ -11,6 +11,11 @@ Subcommands
 ``smeha flow [--frequencies 50,70,80,100] [--ideal] [--json] [--plot FILE]``
     The flow study: both modes at each frequency, against eqs 40/41 and the
     paper's Table 3; ``--loads`` adds the load lines.
+``smeha identify DATA.csv [--json]``
+    Identification from measured runs (:mod:`smeha.identify`).
+``smeha diagnose DATA.csv [--holdout RUN,...] [--json] [--report DIR]``
+    What the paper's model gets wrong on measured runs, the cause, the
+    extended model and its held-out gain (:mod:`smeha.diagnose`).
 ``smeha build [...]``
     Build the FMU(s); arguments go unchanged to :func:`smeha.fmu_build.main`.
 ``smeha identify DATA.csv [--oversample K] [--json]``
@@ -313,8 +318,61 @@ def _run_identify(args) -> int:
     return 0
 
 
+def _add_diagnose(subparsers):
+    p = subparsers.add_parser(
+        "diagnose", help="name the effect the paper's model misses in measured runs",
+        description="Fit the paper's model (eq 30, loss coefficients of eq 16) on the training "
+                    "runs, characterise its residuals (by branch, harmonic, frequency, drift), "
+                    "fit each candidate extension (gmt.extensions) and compare them on the "
+                    "held-out runs; print the cause (or 'none' / 'unexplained'), the evidence "
+                    "and the held-out gain (smeha.diagnose; docs/DIAGNOSE.md).")
+    p.add_argument("data", metavar="DATA.csv", help="measurement file (CSV, long form) with "
+                                                    "sense_voltage_V")
+    p.add_argument("--holdout", metavar="RUN,...",
+                   help="comma-separated names of the held-out runs (default: all runs at the "
+                        "middle and the second-highest frequency)")
+    p.add_argument("--json", action="store_true",
+                   help="print only a JSON object {cause, evidence, heldout_runs, "
+                        "heldout_rms_um, gain, candidates, ...}")
+    p.add_argument("--report", metavar="DIR",
+                   help="write PNG figures per run into DIR (loops, residual by branch, "
+                        "paper vs extended)")
+    p.set_defaults(run=_run_diagnose)
+
+
+def _run_diagnose(args) -> int:
+    from . import diagnose, measured
+
+    if not Path(args.data).is_file():
+        raise FileNotFoundError(f"{args.data}: no such file")
+    holdout = None
+    if args.holdout is not None:
+        holdout = [h.strip() for h in args.holdout.split(",") if h.strip()]
+        if not holdout:
+            raise UsageError(f"--holdout {args.holdout!r} names no run")
+    if args.report:
+        try:
+            Path(args.report).mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise UsageError(f"--report {args.report}: cannot create the directory "
+                             f"({exc.strerror or exc})") from None
+    runs = measured.read_measurements(args.data)  # DataError (a ValueError): exit 2
+    result = diagnose.diagnose(runs, holdout=holdout)
+    written = diagnose.write_report(result, args.report) if args.report else []
+    if args.json:
+        report = {"file": str(args.data), **result.as_dict()}
+        json.dump(report, sys.stdout, indent=2, allow_nan=False)
+        sys.stdout.write("\n")
+    else:
+        print(diagnose.format_diagnosis(result, str(args.data)))
+        for path in written:
+            print(f"wrote {path}")
+    return 0
+
+
 #: Registration functions of the subcommands, in the order ``--help`` lists them.
-SUBCOMMANDS = (_add_paper, _add_simulate, _add_flow, _add_build, _add_identify)
+SUBCOMMANDS = (_add_paper, _add_simulate, _add_flow, _add_build, _add_identify,
+               _add_diagnose)
 
 
 def build_parser() -> argparse.ArgumentParser:
