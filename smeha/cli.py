@@ -65,15 +65,21 @@ def _add_paper(subparsers):
     p.set_defaults(run=_run_paper)
 
 
+def _output_directory(option: str, path: str) -> Path:
+    """Create an output directory named on the command line; bad ones are usage errors."""
+    try:
+        Path(path).mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"{option} {path}: cannot create the directory "
+                         f"({exc.strerror or exc})") from None
+    return Path(path)
+
+
 def _run_paper(args) -> int:
     from . import paper
 
     if args.plots:
-        try:
-            Path(args.plots).mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise UsageError(f"--plots {args.plots}: cannot create the directory "
-                             f"({exc.strerror or exc})") from None
+        _output_directory("--plots", args.plots)
     params = gmt.TransducerParameters()
     runs = paper.compensated_runs(params, args.branch_rule)
     report = paper.paper_report(params, args.branch_rule, runs)
@@ -351,11 +357,7 @@ def _run_diagnose(args) -> int:
         if not holdout:
             raise UsageError(f"--holdout {args.holdout!r} names no run")
     if args.report:
-        try:
-            Path(args.report).mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise UsageError(f"--report {args.report}: cannot create the directory "
-                             f"({exc.strerror or exc})") from None
+        _output_directory("--report", args.report)
     runs = measured.read_measurements(args.data)  # DataError (a ValueError): exit 2
     result = diagnose.diagnose(runs, holdout=holdout)
     written = diagnose.write_report(result, args.report) if args.report else []
