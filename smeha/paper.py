@@ -334,10 +334,27 @@ COMPENSATED_KEYS = ("frequency_Hz", "control_amplitude_V", "branch_rule", "dy_co
 def paper_report(params: gmt.TransducerParameters | None = None,
                  branch_rule: str = "control",
                  runs: list[CompensatedRun] | None = None) -> dict:
-    """The whole comparison as one JSON-ready dict ``{"rows": ..., "compensated": ...}``."""
+    """The whole comparison as one JSON-ready dict.
+
+    ``{"rows": ..., "compensated": ..., "diagnosis": ...}``; the diagnosis is
+    :func:`smeha.paperdiag.paper_data_diagnosis`.
+    """
+    from .paperdiag import paper_data_diagnosis
     params = params or gmt.TransducerParameters()
     return {"rows": paper_rows(params),
-            "compensated": compensated_rows(params, branch_rule, runs)}
+            "compensated": compensated_rows(params, branch_rule, runs),
+            "diagnosis": _plain(paper_data_diagnosis(params))}
+
+
+def _plain(obj):
+    """numpy scalars to Python numbers, recursively (for json with allow_nan=False)."""
+    if isinstance(obj, dict):
+        return {k: _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
 
 
 # -- terminal tables ----------------------------------------------------------
@@ -419,4 +436,7 @@ def format_report(report: dict) -> str:
         "vs normalised u (comp) or i (unc); saturated: steps over the run)",
         format_table(comp, COMPENSATED_COLUMNS),
     ]
+    if "diagnosis" in report:
+        from .paperdiag import format_paper_diagnosis
+        parts += ["", format_paper_diagnosis(report["diagnosis"])]
     return "\n".join(parts)

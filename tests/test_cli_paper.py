@@ -87,7 +87,7 @@ def hand_steady_state(f, bm, im, samples=20000):
 
 # -- structure ---------------------------------------------------------------
 def test_json_structure(report):
-    assert set(report) == {"rows", "compensated"}
+    assert set(report) == {"rows", "compensated", "diagnosis"}
     assert len(report["rows"]) == 6  # paper, Table 1
     for row in report["rows"]:
         assert ROW_KEYS <= set(row)
