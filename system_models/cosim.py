@@ -254,7 +254,11 @@ class CouplingError(RuntimeError):
 
 
 def _hermite(y0, v0, y1, v1, h):
-    """Cubic through (y0, v0) at 0 and (y1, v1) at h: returns (y(s), v(s)) callables."""
+    """Cubic through (y0, v0) at 0 and (y1, v1) at h: the rod position y(s) as a callable.
+
+    The integrators derive the rod velocity they need from positions (secant or
+    stage formula), so only the position is returned.
+    """
     dy = y1 - y0
 
     def pos(s):
@@ -262,12 +266,7 @@ def _hermite(y0, v0, y1, v1, h):
         return (y0 + v0 * s + (3 * dy - h * (2 * v0 + v1)) * r * r
                 + (h * (v0 + v1) - 2 * dy) * r * r * r)
 
-    def vel(s):
-        r = s / h
-        return (v0 + (3 * dy - h * (2 * v0 + v1)) * 2 * r / h
-                + (h * (v0 + v1) - 2 * dy) * 3 * r * r / h)
-
-    return pos, vel
+    return pos
 
 
 def _integrate_step(x, rod0, rod1, commands, load, params, h, substeps, held_valves,
@@ -276,7 +275,7 @@ def _integrate_step(x, rod0, rod1, commands, load, params, h, substeps, held_val
 
     Returns (x_end, p_P at the end, volume into B, compression volume, halvings).
     """
-    pos, vel = _hermite(rod0[0], rod0[1], rod1[0], rod1[1], h)
+    pos = _hermite(rod0[0], rod0[1], rod1[0], rod1[1], h)
 
     x = np.array(x, dtype=float)
     x[6:10] = np.where(held_valves, commands, x[6:10])
@@ -284,14 +283,14 @@ def _integrate_step(x, rod0, rod1, commands, load, params, h, substeps, held_val
         def inputs_at(s, velocity):
             return CircuitInputs(pos(s), velocity, commands, load)
 
-        x_end, p_integral, volume_big, compressed, halvings = tr_bdf2(
+        x_end, _, volume_big, compressed, halvings = tr_bdf2(
             x, h, inputs_at, params, substeps)
     else:
         def inputs_over(s0, s1):
             # secant velocity: the chamber receives exactly A_d (y(s1) - y(s0))
             return CircuitInputs(pos(s1), (pos(s1) - pos(s0)) / (s1 - s0), commands, load)
 
-        x_end, p_integral, volume_big, compressed, halvings = backward_euler(
+        x_end, _, volume_big, compressed, halvings = backward_euler(
             x, h, inputs_over, params, substeps)
     return x_end, x_end[0], volume_big, compressed, halvings
 
