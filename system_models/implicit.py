@@ -1,12 +1,19 @@
-"""Implicit (backward) Euler for the hydraulic circuit over one communication step.
+"""Implicit integration of the hydraulic circuit over one communication step.
 
 The orifices and the stiff oil give the circuit time constants near 1 us
 (V / (beta dQ/dp) for an open valve and a 2.5 cm^3 chamber), far below a
-20 us communication step: only an L-stable implicit method can step it.
-Backward Euler with Newton's method on the analytic Jacobian
-(:func:`system_models.circuit.jacobian`) is L-stable, first order, and keeps
-every linear invariant of the equations exactly -- in particular the volume
-balance, so volumes passed between chambers add up to round-off.
+20 us communication step: only an L-stable implicit method can step it. Two
+are here, both with damped Newton on the analytic Jacobian
+(:func:`system_models.circuit.jacobian`) and recursive halving of a substep
+whose Newton iteration fails:
+
+* :func:`tr_bdf2` (the co-simulation's default): second order, L-stable;
+* :func:`backward_euler`: first order, L-stable, the most damping.
+
+Both feed the chamber the rod velocity their own formula implies, so the
+volume the rod sweeps is exact, and both return the flow and compression
+volumes as quadratures of the same method, so the oil volume balance closes
+(to round-off with backward Euler, to the Newton tolerance with TR-BDF2).
 """
 from __future__ import annotations
 
@@ -76,33 +83,47 @@ def backward_euler(x0, h, inputs_over, params: CircuitParameters, substeps: int 
     IntegrationError
         Newton failed even on the smallest substep.
     """
+    def substep(x, s0, s1):
+        inputs = inputs_over(s0, s1)
+        xn = _newton(x, s1 - s0, inputs, params, max_newton)
+        if xn is None:
+            return None
+        q = valve_flows(xn, params)
+        return xn, np.array([(s1 - s0) * xn[0], (s1 - s0) * (q.v1 - q.v2),
+                             compression_volume(x, xn, inputs, params)])
+
+    return _integrate(x0, h, substeps, substep, max_halvings)
+
+
+def _integrate(x0, h, substeps, substep, max_halvings):
+    """Run ``substep(x, s0, s1) -> (x_new, quadrature increments) or None`` over h.
+
+    A substep whose Newton iteration fails (None) is halved, recursively, at
+    most ``max_halvings`` times. Returns the state, the three quadratures and
+    the deepest halving used.
+    """
+    totals = np.zeros(3)
+    deepest = 0
+
+    def advance(x, s0, s1, left, depth):
+        nonlocal totals, deepest
+        result = substep(x, s0, s1)
+        if result is None:
+            if left == 0:
+                raise IntegrationError(f"Newton did not converge on a {s1 - s0:g} s substep")
+            mid = 0.5 * (s0 + s1)
+            deepest = max(deepest, depth + 1)
+            x = advance(x, s0, mid, left - 1, depth + 1)
+            return advance(x, mid, s1, left - 1, depth + 1)
+        xn, increments = result
+        totals = totals + increments
+        return xn
+
     dt = h / substeps
     x = np.array(x0, dtype=float)
-    totals = [0.0, 0.0, 0.0, 0]
     for j in range(substeps):
-        x = _advance(x, j * dt, (j + 1) * dt, inputs_over, params, max_newton,
-                     max_halvings, totals, 0)
-    return x, totals[0], totals[1], totals[2], totals[3]
-
-
-def _advance(x, s0, s1, inputs_over, params, max_newton, halvings_left, totals, depth):
-    """One backward-Euler substep from s0 to s1, halved recursively on failure."""
-    xn = _newton(x, s1 - s0, inputs_over(s0, s1), params, max_newton)
-    if xn is None:
-        if halvings_left == 0:
-            raise IntegrationError(
-                f"Newton did not converge on a {s1 - s0:g} s substep")
-        mid = 0.5 * (s0 + s1)
-        totals[3] = max(totals[3], depth + 1)
-        x = _advance(x, s0, mid, inputs_over, params, max_newton, halvings_left - 1, totals,
-                     depth + 1)
-        return _advance(x, mid, s1, inputs_over, params, max_newton, halvings_left - 1,
-                        totals, depth + 1)
-    q = valve_flows(xn, params)
-    totals[0] += (s1 - s0) * xn[0]
-    totals[1] += (s1 - s0) * (q.v1 - q.v2)
-    totals[2] += compression_volume(x, xn, inputs_over(s0, s1), params)
-    return xn
+        x = advance(x, j * dt, (j + 1) * dt, max_halvings, 0)
+    return x, float(totals[0]), float(totals[1]), float(totals[2]), deepest
 
 
 def compression_volume(x_old, x_new, inputs, params: CircuitParameters) -> float:
@@ -192,13 +213,9 @@ def tr_bdf2(x0, h, inputs_at, params: CircuitParameters, substeps: int = 1,
         volume into the big cavity [m^3]; oil volume taken up by
         compression [m^3]; the most halvings any substep needed.
     """
-    dt = h / substeps
-    x = np.array(x0, dtype=float)
-    totals = [0.0, 0.0, 0.0, 0]
-    for j in range(substeps):
-        x = _trbdf2_advance(x, j * dt, (j + 1) * dt, inputs_at, params, max_newton,
-                            max_halvings, totals, 0)
-    return x, totals[0], totals[1], totals[2], totals[3]
+    return _integrate(x0, h, substeps,
+                      lambda x, s0, s1: _trbdf2_substep(x, s0, s1, inputs_at, params, max_newton),
+                      max_halvings)
 
 
 def _quadrature_terms(x, inputs, params):
@@ -213,7 +230,8 @@ def _quadrature_terms(x, inputs, params):
     return np.array([x[0], q.v1 - q.v2, absorbed])
 
 
-def _trbdf2_advance(x, s0, s1, inputs_at, params, max_newton, halvings_left, totals, depth):
+def _trbdf2_substep(x, s0, s1, inputs_at, params, max_newton):
+    """One TR-BDF2 substep: (x_new, quadrature increments), or None if Newton fails."""
     dt = s1 - s0
     sg = s0 + TRBDF2_GAMMA * dt
     y0 = inputs_at(s0, 0.0).rod_displacement
@@ -223,26 +241,12 @@ def _trbdf2_advance(x, s0, s1, inputs_at, params, max_newton, halvings_left, tot
     v_bdf = (y1 - _A * yg + _B * y0) / (TRBDF2_D * dt)
     in0, ing, in1 = inputs_at(s0, v_tr), inputs_at(sg, v_tr), inputs_at(s1, v_bdf)
     c = TRBDF2_D * dt
-    g0 = _quadrature_terms(x, in0, params)
-    r1 = x + c * rhs(0.0, x, in0, params)
-    xg = _newton(x, c, ing, params, max_newton, rhs_vector=r1)
-    xn = None
-    if xg is not None:
-        xn = _newton(x, c, in1, params, max_newton, rhs_vector=_A * xg - _B * x, guess=xg)
+    xg = _newton(x, c, ing, params, max_newton, rhs_vector=x + c * rhs(0.0, x, in0, params))
+    if xg is None:
+        return None
+    xn = _newton(x, c, in1, params, max_newton, rhs_vector=_A * xg - _B * x, guess=xg)
     if xn is None:
-        if halvings_left == 0:
-            raise IntegrationError(f"Newton did not converge on a {dt:g} s substep")
-        mid = 0.5 * (s0 + s1)
-        totals[3] = max(totals[3], depth + 1)
-        x = _trbdf2_advance(x, s0, mid, inputs_at, params, max_newton, halvings_left - 1,
-                            totals, depth + 1)
-        return _trbdf2_advance(x, mid, s1, inputs_at, params, max_newton, halvings_left - 1,
-                               totals, depth + 1)
-    gg = _quadrature_terms(xg, ing, params)
-    g1 = _quadrature_terms(xn, in1, params)
-    stage1 = c * (g0 + gg)  # trapezoidal over [s0, s0 + gamma dt]
-    total = _A * stage1 + c * g1  # BDF2 combination (the quadrature starts at 0)
-    totals[0] += total[0]
-    totals[1] += total[1]
-    totals[2] += total[2]
-    return xn
+        return None
+    stage1 = c * (_quadrature_terms(x, in0, params) + _quadrature_terms(xg, ing, params))
+    # BDF2 combination of the trapezoidal stage (the quadrature starts at 0)
+    return xn, _A * stage1 + c * _quadrature_terms(xn, in1, params)
