@@ -11,6 +11,9 @@ Subcommands
 ``smeha flow [--frequencies 50,70,80,100] [--ideal] [--json] [--plot FILE]``
     The flow study: both modes at each frequency, against eqs 40/41 and the
     paper's Table 3; ``--loads`` adds the load lines.
+``smeha sweep SPEC.toml [--scheduler ADDRESS] [--workers N] [--out FILE] [--json] [--plot FILE]``
+    A grid of flow-study cases from a TOML spec on local processes or a
+    Dask cluster, resumable, into one CSV table (:mod:`smeha.sweep`).
 ``smeha identify DATA.csv [--json]``
     Identification from measured runs (:mod:`smeha.identify`).
 ``smeha diagnose DATA.csv [--holdout RUN,...] [--json] [--report DIR]``
@@ -289,6 +292,59 @@ def _run_flow(args) -> int:
     return 0
 
 
+def _add_sweep(subparsers):
+    p = subparsers.add_parser(
+        "sweep", help="a grid of co-simulations from a TOML spec, locally or on Dask",
+        description="Run every point of the spec's grid (docs/SWEEP.md) as a flow-study "
+                    "co-simulation on local worker processes or a Dask distributed cluster, "
+                    "into one CSV table; a rerun runs only the points missing or failed there.")
+    p.add_argument("spec", metavar="SPEC", help="sweep spec (TOML: [grid], [settings])")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="Dask scheduler, e.g. tcp://host:8786 (default: local processes)")
+    p.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1),
+                   help="local worker processes (default 2; ignored with --scheduler)")
+    p.add_argument("--out", metavar="FILE", help="result table (CSV; default sweep.csv beside "
+                                                  "SPEC)")
+    p.add_argument("--fmu", metavar="FILE", help="transducer FMU (default dist/SmehaGmt.fmu, "
+                                                 "built if missing or out of date)")
+    p.add_argument("--json", action="store_true",
+                   help="print only a JSON object {rows, skipped, failed, ran}")
+    p.add_argument("--plot", metavar="FILE", help="write flow against frequency (PNG)")
+    p.set_defaults(run=_run_sweep)
+
+
+def _run_sweep(args) -> int:
+    from . import flowstudy, sweep
+
+    points = sweep.read_spec(args.spec)  # SpecError (a ValueError): exit 2
+    if args.workers < 1:
+        raise UsageError(f"--workers {args.workers} is outside the allowed range [1, inf)")
+    out = Path(args.out) if args.out else Path(args.spec).parent / "sweep.csv"
+    fmu = None
+    if any(p.backend == "fmu" for p in points):
+        if args.fmu:
+            if not Path(args.fmu).is_file():
+                raise FileNotFoundError(f"--fmu {args.fmu}: no such file")
+            fmu = Path(args.fmu)
+        else:
+            fmu = flowstudy.ensure_fmu(quiet=args.json)
+    try:
+        result = sweep.run_sweep(points, out, fmu, workers=args.workers,
+                                 scheduler=args.scheduler, quiet=args.json)
+    except sweep.SweepError as exc:
+        print(f"smeha sweep: error: {exc}", file=sys.stderr)
+        return 1
+    if args.plot:
+        sweep.plot_sweep(result.rows, args.plot)
+    if args.json:
+        print(json.dumps(result.as_dict()))
+    else:
+        print(sweep.format_summary(result, out))
+        if args.plot:
+            print(f"wrote {args.plot}")
+    return 1 if result.failed else 0
+
+
 def _add_identify(subparsers):
     p = subparsers.add_parser(
         "identify", help="identify B_m, mu'' and the loss coefficients from measured runs",
@@ -374,7 +430,7 @@ def _run_diagnose(args) -> int:
 
 #: Registration functions of the subcommands, in the order ``--help`` lists them.
 SUBCOMMANDS = (_add_paper, _add_simulate, _add_flow, _add_build, _add_identify,
-               _add_diagnose)
+               _add_diagnose, _add_sweep)
 
 
 def build_parser() -> argparse.ArgumentParser:

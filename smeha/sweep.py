@@ -1,0 +1,471 @@
+"""Parameter sweeps: a grid of flow-study cases on local processes or a Dask cluster.
+
+A sweep spec is a TOML file (docs/SWEEP.md)::
+
+    [grid]
+    frequency = [50, 100]                         # [Hz]
+    mode = ["uncompensated", "compensated"]
+    load = [0, 150]                               # [N], optional
+    ideal = [false]                               # optional
+    [settings]                                    # optional
+    step = 20e-6                                  # communication step [s]
+    cycles = 6                                    # pumping cycles simulated
+    backend = "fmu"                               # "fmu" or "direct"
+    branch_rule = "control"                       # "control" or "demand"
+
+Every point of the cartesian product of the grid is one
+:class:`smeha.flowstudy.Case`, run by :func:`smeha.flowstudy.run_case`. The
+results form one table, one row per point (:data:`COLUMNS`), written as CSV.
+A point that fails is recorded with ``status = "failed"`` and its error; the
+others go on. A rerun onto the same table runs only the points that are
+missing or failed there (points are keyed by their grid values and settings).
+
+On a Dask cluster the FMU is not assumed to be on a shared file system: the
+client reads its bytes, broadcasts them to the workers once, and each task
+writes them to a content-addressed file in the worker's temporary directory
+(:func:`_worker_fmu`) before it loads the FMU.
+"""
+from __future__ import annotations
+
+import csv
+import hashlib
+import itertools
+import math
+import os
+import sys
+import tempfile
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import gmt
+
+from . import flowstudy
+
+#: Grid keys: the Case field each sets and the type check of its values.
+GRID_KEYS = ("frequency", "mode", "load", "ideal")
+#: Settings keys shared by every point, with their defaults (flowstudy.Case's).
+SETTINGS_DEFAULTS = {"step": 20e-6, "cycles": 8.0, "backend": "fmu", "branch_rule": "control"}
+BACKENDS = ("fmu", "direct")
+
+#: Result fields copied from flowstudy.run_case's row dict, SI with unit suffixes.
+RESULT_FIELDS = ("load_N", "flow_sim_m3_s", "flow_eq_m3_s", "flow_ratio", "dy_um",
+                 "flow_sim_L_min", "flow_paper_m3_s", "dy_paper_um", "dy_free_um",
+                 "flow_free_m3_s", "delivered_fraction", "control_amplitude_V",
+                 "load_pressure_Pa", "p_pump_min_Pa", "p_pump_max_Pa", "volume_imbalance_m3",
+                 "volume_pumped_m3", "cycles_averaged", "wall_s")
+#: Columns of the sweep table: the point (grid values and settings), its status, its results.
+KEY_COLUMNS = GRID_KEYS + tuple(SETTINGS_DEFAULTS)
+COLUMNS = KEY_COLUMNS + ("status", "error") + RESULT_FIELDS
+
+
+class SpecError(ValueError):
+    """A sweep spec or sweep table that cannot be used (exit status 2 on the command line)."""
+
+
+class SweepError(RuntimeError):
+    """The sweep cannot run at all, e.g. no scheduler at the address (exit status 1)."""
+
+
+@dataclass(frozen=True)
+class Point:
+    """One grid point: the values as the spec gives them (``load`` None if not in the grid)."""
+
+    frequency: float
+    mode: str
+    load: float | None
+    ideal: bool
+    step: float
+    cycles: float
+    backend: str
+    branch_rule: str
+
+    def case(self) -> flowstudy.Case:
+        return flowstudy.Case(frequency=self.frequency, mode=self.mode, ideal=self.ideal,
+                              load=self.load, step=self.step, cycles=self.cycles,
+                              backend=self.backend, branch_rule=self.branch_rule)
+
+    @property
+    def key(self) -> tuple:
+        """The key of the point in a sweep table (floats normalised, so CSV round-trips match)."""
+        return (float(self.frequency), self.mode, None if self.load is None else float(self.load),
+                bool(self.ideal), float(self.step), float(self.cycles), self.backend,
+                self.branch_rule)
+
+    def columns(self) -> dict:
+        return {"frequency": self.frequency, "mode": self.mode, "load": self.load,
+                "ideal": self.ideal, "step": self.step, "cycles": self.cycles,
+                "backend": self.backend, "branch_rule": self.branch_rule}
+
+
+@dataclass
+class SweepResult:
+    """Rows of the spec's points (grid order) and the counts of the run."""
+
+    rows: list[dict]
+    skipped: int = 0
+    failed: int = 0
+    ran: int = 0
+    kept: list[dict] = field(default_factory=list)  # table rows outside this grid, kept as read
+
+    def as_dict(self) -> dict:
+        return {"rows": self.rows, "skipped": self.skipped, "failed": self.failed,
+                "ran": self.ran}
+
+
+# --------------------------------------------------------------------------- spec
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _check_list(section: str, key: str, values, kind: str, check) -> list:
+    name = f"{section}.{key}"
+    if not isinstance(values, list):
+        raise SpecError(f"{name} = {values!r}: must be a list of {kind}")
+    if not values:
+        raise SpecError(f"{name} is an empty list; give at least one value")
+    for v in values:
+        if not check(v):
+            raise SpecError(f"{name}: {v!r} is not {kind}")
+    if len(set(values)) != len(values):
+        raise SpecError(f"{name} = {values!r} repeats a value")
+    return values
+
+
+def parse_spec(spec: dict) -> list[Point]:
+    """The grid points of a parsed spec (a dict as :mod:`tomllib` gives it).
+
+    Raises
+    ------
+    SpecError
+        Unknown sections or keys, wrong types, empty lists, or values a
+        :class:`~smeha.flowstudy.Case` rejects; the message names the key.
+    """
+    unknown = set(spec) - {"grid", "settings"}
+    if unknown:
+        raise SpecError(f"unknown section(s) {sorted(unknown)}; a spec has [grid] and "
+                        "optionally [settings]")
+    grid = spec.get("grid")
+    if not isinstance(grid, dict):
+        raise SpecError("the spec has no [grid] table")
+    unknown = set(grid) - set(GRID_KEYS)
+    if unknown:
+        raise SpecError(f"unknown key(s) grid.{', grid.'.join(sorted(unknown))}; "
+                        f"the grid keys are {GRID_KEYS}")
+    for key in ("frequency", "mode"):
+        if key not in grid:
+            raise SpecError(f"grid.{key} is missing")
+    freqs = _check_list("grid", "frequency", grid["frequency"], "a positive number [Hz]",
+                        lambda v: _is_number(v) and v > 0)
+    modes = _check_list("grid", "mode", grid["mode"], f"one of {flowstudy.MODES}",
+                        lambda v: v in flowstudy.MODES)
+    loads = (_check_list("grid", "load", grid["load"], "a finite number [N]", _is_number)
+             if "load" in grid else [None])
+    ideals = (_check_list("grid", "ideal", grid["ideal"], "true or false",
+                          lambda v: isinstance(v, bool)) if "ideal" in grid else [False])
+
+    settings = spec.get("settings", {})
+    if not isinstance(settings, dict):
+        raise SpecError("[settings] must be a table")
+    unknown = set(settings) - set(SETTINGS_DEFAULTS)
+    if unknown:
+        raise SpecError(f"unknown key(s) settings.{', settings.'.join(sorted(unknown))}; "
+                        f"the settings keys are {tuple(SETTINGS_DEFAULTS)}")
+    s = {**SETTINGS_DEFAULTS, **settings}
+    if not (_is_number(s["step"]) and s["step"] > 0):
+        raise SpecError(f"settings.step = {s['step']!r}: must be a positive number [s]")
+    if not _is_number(s["cycles"]):
+        raise SpecError(f"settings.cycles = {s['cycles']!r}: must be a number")
+    if s["backend"] not in BACKENDS:
+        raise SpecError(f"settings.backend = {s['backend']!r} is not one of {BACKENDS}")
+    if s["branch_rule"] not in gmt.parameters.BRANCH_RULES:
+        raise SpecError(f"settings.branch_rule = {s['branch_rule']!r} is not one of "
+                        f"{gmt.parameters.BRANCH_RULES}")
+    points = [Point(float(f), m, None if ld is None else float(ld), i, float(s["step"]),
+                    float(s["cycles"]), s["backend"], s["branch_rule"])
+              for f, m, ld, i in itertools.product(freqs, modes, loads, ideals)]
+    try:
+        points[0].case()  # the settings checks of Case (cycles) apply to every point alike
+    except gmt.ParameterError as exc:
+        raise SpecError(f"settings: {exc}") from None
+    return points
+
+
+def read_spec(path) -> list[Point]:
+    """Read and check a TOML sweep spec; return its grid points."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file")
+    try:
+        with open(path, "rb") as fh:
+            spec = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(f"{path}: not valid TOML ({exc})") from None
+    try:
+        return parse_spec(spec)
+    except SpecError as exc:
+        raise SpecError(f"{path}: {exc}") from None
+
+
+# --------------------------------------------------------------------------- table
+
+
+def _format(value) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def write_table(rows, path) -> Path:
+    """Write sweep rows as CSV (:data:`COLUMNS`; empty cells for None), atomically."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(COLUMNS)
+        for r in rows:
+            writer.writerow([_format(r.get(c)) for c in COLUMNS])
+    os.replace(tmp, path)
+    return path
+
+
+def _parse_cell(column: str, text: str):
+    if column in ("mode", "backend", "branch_rule", "status", "error"):
+        return text
+    if text == "":
+        return None
+    if column == "ideal":
+        if text.lower() not in ("true", "false"):
+            raise ValueError(f"ideal = {text!r}")
+        return text.lower() == "true"
+    return float(text)
+
+
+def read_table(path) -> list[dict]:
+    """Read a sweep table written by :func:`write_table`; [] if the file does not exist."""
+    path = Path(path)
+    if not path.is_file():
+        return []
+    with open(path, newline="") as fh:
+        reader = csv.DictReader(fh)
+        missing = [c for c in KEY_COLUMNS + ("status",) if c not in (reader.fieldnames or [])]
+        if missing:
+            raise SpecError(f"{path}: not a sweep table (no column(s) {missing}); "
+                            "give another --out")
+        rows = []
+        for n, raw in enumerate(reader, start=2):
+            try:
+                rows.append({c: _parse_cell(c, raw.get(c) or "") for c in COLUMNS})
+            except ValueError as exc:
+                raise SpecError(f"{path}, line {n}: bad value ({exc})") from None
+    return rows
+
+
+def row_key(row: dict) -> tuple:
+    """The point key (:attr:`Point.key`) of a table row."""
+    return Point(row["frequency"], row["mode"], row["load"], row["ideal"], row["step"],
+                 row["cycles"], row["backend"], row["branch_rule"]).key
+
+
+# --------------------------------------------------------------------------- tasks
+
+
+def _result_row(point: Point, row: dict | None, error: str | None) -> dict:
+    out = point.columns()
+    out["status"] = "ok" if error is None else "failed"
+    out["error"] = "" if error is None else error
+    for name in RESULT_FIELDS:
+        value = None if row is None else row.get(name)
+        out[name] = None if value is None else float(value)
+    return out
+
+
+def run_point(point: Point, fmu_path=None) -> dict:
+    """Run one point; a failure becomes a row with status "failed" and the error message."""
+    try:
+        _, _, row = flowstudy.run_case(point.case(), fmu_path)
+    except Exception as exc:  # noqa: BLE001 -- any failure of one point is recorded, not raised
+        return _result_row(point, None, f"{type(exc).__name__}: {exc}")
+    return _result_row(point, row, None)
+
+
+def _worker_fmu(name: str, data: bytes, digest: str) -> Path:
+    """The shipped FMU as a file on this worker: <tmp>/smeha-fmu/<digest>-<name>.
+
+    Content-addressed, so a stale or different FMU at the client's path on the
+    worker is never used; written atomically, so worker processes sharing a
+    temporary directory do not race.
+    """
+    folder = Path(tempfile.gettempdir()) / "smeha-fmu"
+    target = folder / f"{digest[:16]}-{name}"
+    if not target.is_file():
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=folder, suffix=".part")
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, target)
+    return target
+
+
+def run_point_shipped(point: Point, fmu: tuple | None) -> dict:
+    """Dask task: write the shipped FMU ``(name, bytes, sha256)`` to a file, run the point."""
+    fmu_path = None
+    if fmu is not None and point.backend == "fmu":
+        try:
+            fmu_path = _worker_fmu(*fmu)
+        except OSError as exc:
+            return _result_row(point, None, f"cannot write the shipped FMU on the worker: {exc}")
+    return run_point(point, fmu_path)
+
+
+# --------------------------------------------------------------------------- executors
+
+
+def _progress(total: int, quiet: bool):
+    from tqdm import tqdm
+    return tqdm(total=total, desc="sweep points", unit="point", disable=quiet, file=sys.stderr)
+
+
+def _run_local(points, fmu_path, workers: int, quiet: bool, on_result=None) -> list[dict]:
+    import concurrent.futures as cf
+    import multiprocessing
+
+    results = [None] * len(points)
+    with _progress(len(points), quiet) as bar:
+        if workers <= 1 or len(points) == 1:
+            for i, p in enumerate(points):
+                results[i] = run_point(p, fmu_path)
+                if on_result is not None:
+                    on_result(p, results[i])
+                bar.update(1)
+            return results
+        ctx = multiprocessing.get_context("spawn")
+        with cf.ProcessPoolExecutor(max_workers=min(workers, len(points)),
+                                    mp_context=ctx) as pool:
+            futures = {pool.submit(run_point, p, fmu_path): i for i, p in enumerate(points)}
+            for fut in cf.as_completed(futures):
+                i = futures[fut]
+                try:
+                    results[i] = fut.result()
+                except Exception as exc:  # noqa: BLE001 -- e.g. a worker process died
+                    results[i] = _result_row(points[i], None, f"{type(exc).__name__}: {exc}")
+                if on_result is not None:
+                    on_result(points[i], results[i])
+                bar.update(1)
+    return results
+
+
+def _run_dask(points, fmu_path, scheduler: str, quiet: bool, on_result=None) -> list[dict]:
+    try:
+        from dask.distributed import Client, as_completed
+    except ImportError:
+        raise SweepError("--scheduler needs dask.distributed: pip install dask distributed") \
+            from None
+    try:
+        client = Client(scheduler, timeout="20s")
+    except (OSError, TimeoutError) as exc:
+        raise SweepError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
+    results = [None] * len(points)
+    try:
+        fmu = None
+        if fmu_path is not None:
+            data = Path(fmu_path).read_bytes()
+            payload = (Path(fmu_path).name, data, hashlib.sha256(data).hexdigest())
+            fmu = client.scatter([payload], broadcast=True)[0]  # one future for the tuple
+        futures = {client.submit(run_point_shipped, p, fmu, pure=False): i
+                   for i, p in enumerate(points)}
+        with _progress(len(points), quiet) as bar:
+            for fut in as_completed(list(futures)):
+                i = futures[fut]
+                try:
+                    results[i] = fut.result()
+                except Exception as exc:  # noqa: BLE001 -- e.g. the worker was lost
+                    results[i] = _result_row(points[i], None, f"{type(exc).__name__}: {exc}")
+                if on_result is not None:
+                    on_result(points[i], results[i])
+                bar.update(1)
+    finally:
+        client.close()
+    return results
+
+
+def run_sweep(points, out, fmu_path=None, workers: int = 2, scheduler: str | None = None,
+              quiet: bool = False) -> SweepResult:
+    """Run the points not finished in the table ``out``, writing it as points finish.
+
+    Rows of ``out`` whose point is in ``points`` with status "ok" are kept and
+    not run again (``skipped``); rows of other points stay in the table, after
+    this grid's rows. The table is rewritten after every finished point, so an
+    interrupted sweep keeps what it had finished and a rerun picks up from there.
+    """
+    existing = read_table(out)
+    done = {row_key(r): r for r in existing if r["status"] == "ok"}
+    keys = {p.key for p in points}
+    kept = [r for r in existing if row_key(r) not in keys]
+    todo = [p for p in points if p.key not in done]
+    fresh = {}
+
+    def record(point, row):
+        fresh[point.key] = row
+        finished = [done.get(p.key) or fresh.get(p.key) for p in points]
+        write_table([r for r in finished if r is not None] + kept, out)
+
+    if scheduler and todo:
+        _run_dask(todo, fmu_path, scheduler, quiet, on_result=record)
+    elif todo:
+        _run_local(todo, fmu_path, workers, quiet, on_result=record)
+    rows = [done[p.key] if p.key in done else fresh[p.key] for p in points]
+    write_table(rows + kept, out)
+    return SweepResult(rows=rows, skipped=len(points) - len(todo),
+                       failed=sum(r["status"] != "ok" for r in rows), ran=len(todo), kept=kept)
+
+
+def format_summary(result: SweepResult, out) -> str:
+    """A short table of the sweep for the terminal."""
+    lines = [f"{'f [Hz]':>7}  {'mode':<13}  {'load [N]':>8}  {'ideal':<5}  {'status':<6}  "
+             f"{'q sim [m3/s]':>12}  {'sim/eq':>6}  {'dy [um]':>7}  {'wall [s]':>8}"]
+    for r in result.rows:
+        if r["status"] == "ok":
+            tail = (f"{r['flow_sim_m3_s']:>12.4e}  {r['flow_ratio']:>6.3f}  {r['dy_um']:>7.2f}  "
+                    f"{r['wall_s']:>8.1f}")
+        else:
+            tail = r["error"]
+        load = "-" if r["load"] is None else f"{r['load']:g}"
+        lines.append(f"{r['frequency']:>7g}  {r['mode']:<13}  {load:>8}  "
+                     f"{str(r['ideal']).lower():<5}  {r['status']:<6}  {tail}")
+    lines.append(f"{len(result.rows)} points: {result.ran} run, {result.skipped} skipped "
+                 f"(finished earlier), {result.failed} failed; table {out}")
+    return "\n".join(lines)
+
+
+def plot_sweep(rows, path) -> Path:
+    """Mean cylinder flow against frequency, one line per (mode, load, circuit); PNG."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ok = [r for r in rows if r["status"] == "ok"]
+    fig, ax = plt.subplots(figsize=(6.5, 4.8))
+    groups = sorted({(r["mode"], r["load_N"], r["ideal"]) for r in ok})
+    for mode, load, ideal in groups:
+        rs = sorted((r for r in ok if (r["mode"], r["load_N"], r["ideal"]) == (mode, load, ideal)),
+                    key=lambda r: r["frequency"])
+        ax.plot([r["frequency"] for r in rs], [r["flow_sim_m3_s"] * 1e6 for r in rs],
+                "o-" if mode == "compensated" else "s--",
+                label=f"{mode}, {load:g} N, {'ideal' if ideal else 'realistic'}")
+    ax.set_xlabel("pumping frequency f [Hz]")
+    ax.set_ylabel("mean cylinder flow [cm^3/s]")
+    ax.set_title("Sweep: flow against frequency")
+    ax.grid(alpha=0.3)
+    if groups:
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)
