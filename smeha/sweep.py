@@ -332,6 +332,18 @@ def _progress(total: int, quiet: bool):
     return tqdm(total=total, desc="sweep points", unit="point", disable=quiet, file=sys.stderr)
 
 
+def _collect(future, point, on_result=None) -> dict:
+    """A finished future's row; a task that raised (a worker process died, a Dask worker
+    was lost) becomes a failed row. Hands the row to ``on_result``."""
+    try:
+        row = future.result()
+    except Exception as exc:  # noqa: BLE001 -- recorded, the sweep goes on
+        row = _result_row(point, None, f"{type(exc).__name__}: {exc}")
+    if on_result is not None:
+        on_result(point, row)
+    return row
+
+
 def _run_local(points, fmu_path, workers: int, quiet: bool, on_result=None) -> list[dict]:
     import concurrent.futures as cf
     import multiprocessing
@@ -351,12 +363,7 @@ def _run_local(points, fmu_path, workers: int, quiet: bool, on_result=None) -> l
             futures = {pool.submit(run_point, p, fmu_path): i for i, p in enumerate(points)}
             for fut in cf.as_completed(futures):
                 i = futures[fut]
-                try:
-                    results[i] = fut.result()
-                except Exception as exc:  # noqa: BLE001 -- e.g. a worker process died
-                    results[i] = _result_row(points[i], None, f"{type(exc).__name__}: {exc}")
-                if on_result is not None:
-                    on_result(points[i], results[i])
+                results[i] = _collect(fut, points[i], on_result)
                 bar.update(1)
     return results
 
@@ -383,12 +390,7 @@ def _run_dask(points, fmu_path, scheduler: str, quiet: bool, on_result=None) -> 
         with _progress(len(points), quiet) as bar:
             for fut in as_completed(list(futures)):
                 i = futures[fut]
-                try:
-                    results[i] = fut.result()
-                except Exception as exc:  # noqa: BLE001 -- e.g. the worker was lost
-                    results[i] = _result_row(points[i], None, f"{type(exc).__name__}: {exc}")
-                if on_result is not None:
-                    on_result(points[i], results[i])
+                results[i] = _collect(fut, points[i], on_result)
                 bar.update(1)
     finally:
         client.close()
