@@ -22,9 +22,6 @@ Life cycle
 """
 from __future__ import annotations
 
-import json
-from pathlib import Path
-
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real, String
 from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Status
@@ -34,14 +31,7 @@ try:  # inside the FMU: resources/smeha_fmu_interface.py
 except ImportError:  # pragma: no cover - source tree
     from smeha import fmu_interface as iface
 
-try:  # gmt needs numpy, scipy and control from the host's Python environment
-    gmt = iface.physics()  # resources/smeha_fmu_gmt: the FMU's own copy
-    _IMPORT_PROBLEM = None
-except Exception as exc:  # reported by every instance instead of crashing the host
-    gmt = None
-    _IMPORT_PROBLEM = (f"cannot import gmt ({type(exc).__name__}: {exc}); the FMU needs "
-                       "numpy, scipy and control importable by the host's Python "
-                       "(e.g. PYTHONPATH=<site-packages of an environment with them>)")
+gmt, _IMPORT_PROBLEM = iface.load_physics()  # resources/smeha_fmu_gmt: the FMU's own copy
 
 _TYPES = {"Real": Real, "Integer": Integer, "Boolean": Boolean, "String": String}
 _CAUSALITY = {"input": Fmi2Causality.input, "parameter": Fmi2Causality.parameter,
@@ -50,22 +40,25 @@ _VARIABILITY = {"fixed": Fmi2Variability.fixed, "continuous": Fmi2Variability.co
                 "discrete": Fmi2Variability.discrete}
 
 
-class SmehaGmt(Fmi2Slave):
-    """Giant magnetostrictive transducer with its amplifier and inverse compensator."""
+class SmehaGmt(iface.TransducerSlave, Fmi2Slave):
+    """Giant magnetostrictive transducer with its amplifier and inverse compensator.
+
+    Every callback is :class:`smeha.fmu_interface.TransducerSlave`'s; this class
+    names the FMI 2.0 flavour and registers the variables.
+    """
 
     author = iface.AUTHOR
     license = iface.LICENSE
     description = iface.DESCRIPTION
     version = getattr(gmt, "__version__", None)
     default_experiment = DefaultExperiment(**iface.DEFAULT_EXPERIMENT)
+    STATUS_ERROR, STATUS_WARNING, STATUS_DISCARD = (Fmi2Status.error, Fmi2Status.warning,
+                                                    Fmi2Status.discard)
+    PHYSICS, IMPORT_PROBLEM = gmt, _IMPORT_PROBLEM
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        self._transducer = None  # gmt.Transducer, built on leaving initialisation
-        self._built_from = None  # parameter values it was built from
-        self._problem = _IMPORT_PROBLEM or "not initialised (call fmi2ExitInitializationMode)"
-        if _IMPORT_PROBLEM:
-            self._report(_IMPORT_PROBLEM)
+        self._init_transducer()
         for var in iface.VARIABLES:
             setattr(self, var.name, var.initial_value)
             options = {}
@@ -75,125 +68,3 @@ class SmehaGmt(Fmi2Slave):
                 var.name, causality=_CAUSALITY[var.causality],
                 variability=_VARIABILITY[var.variability],
                 description=var.description, **options))
-
-    # -- helpers ------------------------------------------------------------------
-    def _report(self, message: str, status=Fmi2Status.error):
-        self.log(message, status)
-
-    def _parameter_setter(self, name):
-        def setter(value):
-            try:
-                if self._transducer is not None:
-                    self._report(f"{name}: a fixed parameter cannot change after "
-                                 f"initialisation; {value!r} ignored (reset first)")
-                    return
-                setattr(self, name, iface.coerce(name, value))
-            except Exception as exc:  # never raise into pythonfmu
-                self._report(f"{name} = {value!r} rejected: {exc}")
-        return setter
-
-    def _build(self, values: dict) -> bool:
-        """Build the gmt objects from parameter values; log and return False on error."""
-        try:
-            self._transducer = iface.make_transducer(values)
-        except Exception as exc:
-            self._transducer, self._built_from = None, None
-            self._problem = f"initialisation failed: {type(exc).__name__}: {exc}"
-            self._report(self._problem)
-            return False
-        self._built_from = dict(values)
-        self._problem = None
-        return True
-
-    def _rest_outputs(self):
-        for name in iface.OUTPUTS:
-            setattr(self, name, iface.BY_NAME[name].initial_value)
-        forward = self._transducer.forward
-        self.displacement, self.velocity = float(forward.displacement), float(forward.velocity)
-
-    # -- FMI callbacks ----------------------------------------------------------------
-    def exit_initialization_mode(self):
-        try:
-            if self._build(iface.parameter_values(self)):
-                self._rest_outputs()
-                bundled = Path(self.resources or ".").resolve()
-                used = Path(gmt.__file__).resolve()
-                if bundled not in used.parents:
-                    self._report(f"gmt is imported from {used.parent}, not from the FMU's "
-                                 f"resources: another FMU loaded smeha_fmu_gmt first",
-                                 Fmi2Status.warning)
-        except Exception as exc:
-            self._transducer = None
-            self._problem = f"initialisation failed: {type(exc).__name__}: {exc}"
-            self._report(self._problem)
-
-    def do_step(self, current_time, step_size):
-        transducer = self._transducer
-        if transducer is None:
-            self._report(f"doStep at t = {current_time!r} s refused: {self._problem}",
-                         Fmi2Status.discard)
-            return False
-        saved = transducer.get_state()
-        try:
-            out = transducer.step(self.u, step_size, self.external_force)
-            reals, self.saturated, self.saturation_count = iface.output_values(out)
-        except Exception as exc:
-            try:
-                transducer.set_state(saved)
-            except Exception:  # pragma: no cover - defensive
-                self._transducer, self._problem = None, "state lost after a failed step"
-            self._report(f"doStep at t = {current_time!r} s, step {step_size!r} s discarded: "
-                         f"{type(exc).__name__}: {exc}", Fmi2Status.discard)
-            return False
-        (self.current, self.displacement, self.velocity, self.field, self.flux_density,
-         self.magnetization, self.strain, self.force) = reals
-        return True
-
-    # -- FMU state ----------------------------------------------------------------------
-    def _get_fmu_state(self):
-        try:
-            transducer = self._transducer
-            return {
-                "variables": {v.name: getattr(self, v.name) for v in iface.VARIABLES},
-                "built_from": self._built_from,
-                "transducer": list(transducer.get_state()) if transducer is not None else None,
-                "problem": self._problem,
-            }
-        except Exception as exc:
-            self._report(f"fmi2GetFMUstate failed: {type(exc).__name__}: {exc}")
-            return {"invalid": str(exc)}
-
-    def _set_fmu_state(self, state):
-        try:
-            if "invalid" in state:
-                raise ValueError(f"the state is invalid: {state['invalid']}")
-            built_from = state["built_from"]
-            if built_from is None:
-                self._transducer, self._built_from = None, None
-            elif self._transducer is None or built_from != self._built_from:
-                if not self._build(built_from):
-                    return
-            if self._transducer is not None:
-                self._transducer.set_state(state["transducer"])
-            for name, value in state["variables"].items():
-                setattr(self, name, iface.coerce(name, value))
-            self._problem = state["problem"]
-        except Exception as exc:
-            self._report(f"fmi2SetFMUstate failed: {type(exc).__name__}: {exc}")
-
-    @staticmethod
-    def _fmu_state_to_bytes(state):
-        try:
-            return json.dumps(state).encode("utf-8")
-        except Exception as exc:
-            return json.dumps({"invalid": f"not serialisable: {exc}"}).encode("utf-8")
-
-    @staticmethod
-    def _fmu_state_from_bytes(state):
-        try:
-            out = json.loads(bytes(state).decode("utf-8"))
-            if not isinstance(out, dict):
-                raise ValueError("not a JSON object")
-            return out
-        except Exception as exc:
-            return {"invalid": f"not a serialised SmehaGmt state: {exc}"}

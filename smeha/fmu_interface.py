@@ -1,9 +1,10 @@
-"""The FMU's variable table, defined once for both slaves and the build.
+"""The FMU's variable table and slave logic, defined once for both slaves and the build.
 
 Both slaves (``fmu_src/smeha_gmt_fmu.py``, FMI 2.0, and
 ``fmu_src/smeha_gmt_fmu3.py``, FMI 3.0) register their variables from
-:data:`VARIABLES`; :mod:`smeha.fmu_build` writes the units of the FMI 2.0
-model description from the same table, and ``docs/FMU.md`` documents it.
+:data:`VARIABLES` and take every callback from :class:`TransducerSlave`;
+:mod:`smeha.fmu_build` writes the units of the FMI 2.0 model description from
+the same table, and ``docs/FMU.md`` documents it.
 
 Inside an FMU this file is bundled as ``resources/smeha_fmu_interface.py`` (a
 module name unique to this project, so that it cannot collide with another
@@ -328,3 +329,182 @@ def check_against_gmt() -> None:
             problems.append(f"{v.name}: unit {v.unit!r} is not in UNITS")
     if problems:
         raise AssertionError("FMU interface out of date with gmt:\n  " + "\n  ".join(problems))
+
+
+def load_physics():
+    """(gmt module, None), or (None, the problem) when it cannot be imported.
+
+    gmt needs numpy, scipy and control from the host's Python; a slave reports
+    the problem from every instance instead of crashing the host.
+    """
+    try:
+        return physics(), None
+    except Exception as exc:
+        return None, (f"cannot import gmt ({type(exc).__name__}: {exc}); the FMU needs "
+                      "numpy, scipy and control importable by the host's Python "
+                      "(e.g. PYTHONPATH=<site-packages of an environment with them>)")
+
+
+class TransducerSlave:
+    """The callbacks both slaves share: a mixin placed before the pythonfmu(3) base.
+
+    The slave class sets the FMI flavour (status values, function names for
+    messages, its physics module) and registers its variables; this class
+    builds :class:`gmt.Transducer` on leaving initialisation, steps it, and
+    saves and restores the FMU state. Errors never reach pythonfmu (an
+    exception there is Fatal, and a second one crashes the host): each
+    callback catches them, logs through the FMU logger, and a failed step
+    returns Discard with the state rolled back. A slave with more state than
+    the variables (FMI 3.0's ``time``) extends :meth:`_after_step`,
+    :meth:`_extra_state` and :meth:`_restore_extra`.
+    """
+
+    STATUS_ERROR = STATUS_WARNING = STATUS_DISCARD = None
+    EXIT_INITIALIZATION = "fmi2ExitInitializationMode"
+    GET_STATE = "fmi2GetFMUstate"
+    SET_STATE = "fmi2SetFMUstate"
+    PHYSICS = None  # the gmt module the slave imported
+    IMPORT_PROBLEM = None
+
+    def _init_transducer(self):
+        self._transducer = None  # gmt.Transducer, built on leaving initialisation
+        self._built_from = None  # parameter values it was built from
+        self._problem = self.IMPORT_PROBLEM or f"not initialised (call {self.EXIT_INITIALIZATION})"
+        if self.IMPORT_PROBLEM:
+            self._report(self.IMPORT_PROBLEM)
+
+    def _report(self, message: str, status=None):
+        self.log(message, self.STATUS_ERROR if status is None else status)
+
+    def _parameter_setter(self, name):
+        def setter(value):
+            try:
+                if self._transducer is not None:
+                    self._report(f"{name}: a fixed parameter cannot change after "
+                                 f"initialisation; {value!r} ignored (reset first)")
+                    return
+                setattr(self, name, coerce(name, value))
+            except Exception as exc:  # never raise into pythonfmu
+                self._report(f"{name} = {value!r} rejected: {exc}")
+        return setter
+
+    def _build(self, values: dict) -> bool:
+        """Build the gmt objects from parameter values; log and return False on error."""
+        try:
+            self._transducer = make_transducer(values)
+        except Exception as exc:
+            self._transducer, self._built_from = None, None
+            self._problem = f"initialisation failed: {type(exc).__name__}: {exc}"
+            self._report(self._problem)
+            return False
+        self._built_from = dict(values)
+        self._problem = None
+        return True
+
+    def _rest_outputs(self):
+        for name in OUTPUTS:
+            setattr(self, name, BY_NAME[name].initial_value)
+        forward = self._transducer.forward
+        self.displacement, self.velocity = float(forward.displacement), float(forward.velocity)
+
+    def exit_initialization_mode(self):
+        from pathlib import Path
+        try:
+            if self._build(parameter_values(self)):
+                self._rest_outputs()
+                bundled = Path(self.resources or ".").resolve()
+                used = Path(self.PHYSICS.__file__).resolve()
+                if bundled not in used.parents:
+                    self._report(f"gmt is imported from {used.parent}, not from the FMU's "
+                                 f"resources: another FMU loaded smeha_fmu_gmt first",
+                                 self.STATUS_WARNING)
+        except Exception as exc:
+            self._transducer = None
+            self._problem = f"initialisation failed: {type(exc).__name__}: {exc}"
+            self._report(self._problem)
+
+    def do_step(self, current_time, step_size):
+        transducer = self._transducer
+        if transducer is None:
+            self._report(f"doStep at t = {current_time!r} s refused: {self._problem}",
+                         self.STATUS_DISCARD)
+            return False
+        saved = transducer.get_state()
+        try:
+            out = transducer.step(self.u, step_size, self.external_force)
+            reals, self.saturated, self.saturation_count = output_values(out)
+        except Exception as exc:
+            try:
+                transducer.set_state(saved)
+            except Exception:  # pragma: no cover - defensive
+                self._transducer, self._problem = None, "state lost after a failed step"
+            self._report(f"doStep at t = {current_time!r} s, step {step_size!r} s discarded: "
+                         f"{type(exc).__name__}: {exc}", self.STATUS_DISCARD)
+            return False
+        (self.current, self.displacement, self.velocity, self.field, self.flux_density,
+         self.magnetization, self.strain, self.force) = reals
+        self._after_step(current_time, step_size)
+        return True
+
+    def _after_step(self, current_time, step_size):
+        """Hook after a successful step (FMI 3.0 advances its ``time``)."""
+
+    def _extra_state(self) -> dict:
+        """State beyond the variables, the parameters and the transducer (FMI 3.0: time)."""
+        return {}
+
+    def _restore_extra(self, state: dict) -> None:
+        """Restore what :meth:`_extra_state` saved."""
+
+    def _get_fmu_state(self):
+        try:
+            transducer = self._transducer
+            state = {
+                "variables": {v.name: getattr(self, v.name) for v in VARIABLES},
+                "built_from": self._built_from,
+                "transducer": list(transducer.get_state()) if transducer is not None else None,
+                "problem": self._problem,
+            }
+            state.update(self._extra_state())
+            return state
+        except Exception as exc:
+            self._report(f"{self.GET_STATE} failed: {type(exc).__name__}: {exc}")
+            return {"invalid": str(exc)}
+
+    def _set_fmu_state(self, state):
+        try:
+            if "invalid" in state:
+                raise ValueError(f"the state is invalid: {state['invalid']}")
+            built_from = state["built_from"]
+            if built_from is None:
+                self._transducer, self._built_from = None, None
+            elif self._transducer is None or built_from != self._built_from:
+                if not self._build(built_from):
+                    return
+            if self._transducer is not None:
+                self._transducer.set_state(state["transducer"])
+            for name, value in state["variables"].items():
+                setattr(self, name, coerce(name, value))
+            self._restore_extra(state)
+            self._problem = state["problem"]
+        except Exception as exc:
+            self._report(f"{self.SET_STATE} failed: {type(exc).__name__}: {exc}")
+
+    @staticmethod
+    def _fmu_state_to_bytes(state):
+        import json
+        try:
+            return json.dumps(state).encode("utf-8")
+        except Exception as exc:
+            return json.dumps({"invalid": f"not serialisable: {exc}"}).encode("utf-8")
+
+    @classmethod
+    def _fmu_state_from_bytes(cls, state):
+        import json
+        try:
+            out = json.loads(bytes(state).decode("utf-8"))
+            if not isinstance(out, dict):
+                raise ValueError("not a JSON object")
+            return out
+        except Exception as exc:
+            return {"invalid": f"not a serialised {cls.__name__} state: {exc}"}
