@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -116,8 +117,12 @@ def ensure_fmu(path: Path | None = None, quiet: bool = False) -> Path:
     return fmu_build.build("2", out=path.parent)
 
 
+@lru_cache(maxsize=64)
 def free_dy(frequency: float, mode: str, branch_rule: str = "control") -> float:
     """dy of the transducer alone (no oil, no force) between the same instants, [m].
+
+    Cached: a load line or a sweep asks for it once per case at the same
+    frequency and mode.
 
     Uncompensated: y(i = I_m) - y(i = -I_m) in steady state (eq 40);
     compensated: y(u = 2a) - y(u = 0) of the compensated drive (eq 41).

@@ -218,10 +218,14 @@ def tr_bdf2(x0, h, inputs_at, params: CircuitParameters, substeps: int = 1,
                       max_halvings)
 
 
-def _quadrature_terms(x, inputs, params):
-    """(p_P, Q_V1 - Q_V2, net inflow of the three compressible volumes) at x."""
+def _quadrature_terms(x, inputs, params, dx=None):
+    """(p_P, Q_V1 - Q_V2, net inflow of the three compressible volumes) at x.
+
+    ``dx`` is rhs(x) when the caller already has it.
+    """
     q = valve_flows(x, params)
-    dx = rhs(0.0, x, inputs, params)
+    if dx is None:
+        dx = rhs(0.0, x, inputs, params)
     fl = params.fluid
     vb, vs = cavity_volumes(params.cylinder, x[4])
     vp = chamber_volume(params.chamber, inputs.rod_displacement)
@@ -241,12 +245,13 @@ def _trbdf2_substep(x, s0, s1, inputs_at, params, max_newton):
     v_bdf = (y1 - _A * yg + _B * y0) / (TRBDF2_D * dt)
     in0, ing, in1 = inputs_at(s0, v_tr), inputs_at(sg, v_tr), inputs_at(s1, v_bdf)
     c = TRBDF2_D * dt
-    xg = _newton(x, c, ing, params, max_newton, rhs_vector=x + c * rhs(0.0, x, in0, params))
+    f0 = rhs(0.0, x, in0, params)
+    xg = _newton(x, c, ing, params, max_newton, rhs_vector=x + c * f0)
     if xg is None:
         return None
     xn = _newton(x, c, in1, params, max_newton, rhs_vector=_A * xg - _B * x, guess=xg)
     if xn is None:
         return None
-    stage1 = c * (_quadrature_terms(x, in0, params) + _quadrature_terms(xg, ing, params))
+    stage1 = c * (_quadrature_terms(x, in0, params, f0) + _quadrature_terms(xg, ing, params))
     # BDF2 combination of the trapezoidal stage (the quadrature starts at 0)
     return xn, _A * stage1 + c * _quadrature_terms(xn, in1, params)

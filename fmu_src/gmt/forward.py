@@ -459,13 +459,13 @@ def loop_metrics(params: TransducerParameters, point: OperatingPoint,
     """Peak-to-peak displacement and dy = y(i = I_m) - y(i = -I_m) in steady state.
 
     dy is the stroke between the two instants an uncompensated valve drive
-    switches (eq 40), [m]; ``peak_to_peak`` is max - min of y, [m].
+    switches (eq 40), [m]; ``peak_to_peak`` is max - min of y, [m]. ``samples``
+    must be even: i = +I_m and i = -I_m are then samples 0 and samples/2.
     """
+    if samples < 2 or samples % 2:
+        raise ParameterError(f"samples = {samples} must be an even number >= 2")
     period = 1.0 / point.frequency
     t = np.linspace(0.0, period, samples, endpoint=False)
-    r = periodic_response(params, point, t)
-    y = r["displacement"]
-    y_top = periodic_response(params, point, np.array([0.0]))["displacement"][0]
-    y_bot = periodic_response(params, point, np.array([period / 2]))["displacement"][0]
-    return {"peak_to_peak": float(y.max() - y.min()), "dy": float(y_top - y_bot),
+    y = periodic_response(params, point, t)["displacement"]
+    return {"peak_to_peak": float(y.max() - y.min()), "dy": float(y[0] - y[samples // 2]),
             "y_max": float(y.max()), "y_min": float(y.min())}
