@@ -5,6 +5,8 @@ from dataclasses import dataclass
 
 from gmt.errors import check_range
 
+from ._jit import jitable
+
 
 @dataclass(frozen=True)
 class AccumulatorParameters:
@@ -43,9 +45,17 @@ def accumulator_pressure(acc: AccumulatorParameters, oil_volume):
     p = p_0 (V_0 / (V_0 - V_oil))^n while oil is stored; below empty the port's
     oil alone (stiff) carries the pressure down.
     """
+    return gas_spring_pressure(oil_volume, acc.precharge_pressure, acc.gas_volume,
+                               acc.polytropic_index, acc.port_stiffness)
+
+
+@jitable
+def gas_spring_pressure(oil_volume, precharge_pressure, gas_volume, polytropic_index,
+                        port_stiffness):
+    """:func:`accumulator_pressure` on plain numbers (for the compiled kernel), [Pa]."""
     if oil_volume >= 0.0:
-        return acc.precharge_pressure * (acc.gas_volume / (acc.gas_volume - oil_volume)) ** acc.polytropic_index
-    return acc.precharge_pressure + acc.port_stiffness * oil_volume
+        return precharge_pressure * (gas_volume / (gas_volume - oil_volume)) ** polytropic_index
+    return precharge_pressure + port_stiffness * oil_volume
 
 
 def oil_volume_at(acc: AccumulatorParameters, pressure):

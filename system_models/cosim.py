@@ -54,7 +54,7 @@ import numpy as np
 import gmt
 
 from .circuit import CircuitInputs, CircuitParameters, initial_state, valve_flows
-from .controller import pump_phase, valve_commands
+from .controller import SampledValveController, pump_phase, valve_commands
 from .implicit import IntegrationError, backward_euler, tr_bdf2
 
 #: Fields of the structured array :func:`cosimulate` returns (SI).
@@ -223,6 +223,23 @@ class CosimSettings:
     method : {"tr_bdf2", "backward_euler"}
         Hydraulic integrator: TR-BDF2 (second order, L-stable; default) or
         backward Euler (first order).
+    kernel : {"compiled", "python"}
+        TR-BDF2 from :mod:`system_models.kernel` (numba; default, ~35x
+        faster) or the readable reference in :mod:`system_models.implicit`
+        (analytic Jacobian). Both take the same steps; their results differ
+        by the Newton tolerance. Backward Euler is Python only.
+    controller_period : float or None
+        Sample period of the valve controller, [s]. None: the controller
+        samples at the communication points (valves switch on the step grid
+        and dead times round to it). Given: a
+        :class:`~system_models.controller.SampledValveController` switches at
+        its own samples, the valves act after their exact dead times, and a
+        step is split where they do -- the valve timing then no longer
+        depends on the communication step, which can grow past the dead time.
+    hydraulic_step : float or None
+        Longest substep of the hydraulic integrator, [s]: each communication
+        step takes at least ceil(h / hydraulic_step) substeps (and at least
+        ``substeps``). None: ``substeps`` alone.
     """
 
     duration: float = 0.1
@@ -233,6 +250,9 @@ class CosimSettings:
     max_iterations: int = 25
     substeps: int = 1
     method: str = "tr_bdf2"
+    kernel: str = "compiled"
+    controller_period: float | None = None
+    hydraulic_step: float | None = None
 
     def __post_init__(self):
         gmt.errors.check_range("duration", self.duration, 0.0, 1e4, unit="s")
@@ -241,6 +261,14 @@ class CosimSettings:
         if self.method not in ("tr_bdf2", "backward_euler"):
             raise gmt.ParameterError(
                 f"method = {self.method!r} is not one of ('tr_bdf2', 'backward_euler')")
+        if self.controller_period is not None:
+            gmt.errors.check_range("controller_period", self.controller_period, 0.0, 1.0,
+                                   unit="s")
+        if self.hydraulic_step is not None:
+            gmt.errors.check_range("hydraulic_step", self.hydraulic_step, 0.0, 1.0, unit="s")
+        if self.kernel not in ("compiled", "python"):
+            raise gmt.ParameterError(
+                f"kernel = {self.kernel!r} is not one of ('compiled', 'python')")
         if self.direction not in ("down", "up"):
             raise gmt.ParameterError(f"direction = {self.direction!r} is not one of ('down', 'up')")
 
@@ -269,30 +297,52 @@ def _hermite(y0, v0, y1, v1, h):
     return pos
 
 
-def _integrate_step(x, rod0, rod1, commands, load, params, h, substeps, held_valves,
-                    method="tr_bdf2"):
-    """Integrate the circuit over one step.
+def _integrate_step(x, rod0, rod1, segments, load, params, h, substeps, held_valves,
+                    method="tr_bdf2", compiled=False, packed=None):
+    """Integrate the circuit over one step, split where the valve commands change.
+
+    ``segments`` is [(s, commands), ...]: the commands in force from s (time
+    into the step) to the next entry; the first s is 0. Each segment gets
+    ``substeps`` in proportion to its length (at least one).
+
+    ``packed`` is :func:`kernel.pack` of ``params`` when the caller has it.
 
     Returns (x_end, p_P at the end, volume into B, compression volume, halvings).
     """
     pos = _hermite(rod0[0], rod0[1], rod1[0], rod1[1], h)
-
     x = np.array(x, dtype=float)
-    x[6:10] = np.where(held_valves, commands, x[6:10])
-    if method == "tr_bdf2":
-        def inputs_at(s, velocity):
-            return CircuitInputs(pos(s), velocity, commands, load)
+    volume_big = compressed = 0.0
+    deepest = 0
+    bounds = [s for s, _ in segments[1:]] + [h]
+    for (s0, commands), s1 in zip(segments, bounds):
+        x[6:10] = np.where(held_valves, commands, x[6:10])
+        n_sub = max(1, math.ceil(substeps * (s1 - s0) / h - 1e-9))
+        if method == "tr_bdf2" and compiled:
+            from . import kernel
+            status, x, _, dvol, dcomp, halvings = kernel.circuit_step(
+                x, rod0, rod1, h, commands, load, params if packed is None else packed, n_sub,
+                segment=(s0, s1))
+            if status == kernel.CHAMBER_EMPTIED:
+                raise gmt.ParameterError(
+                    f"rod displacement {max(rod0[0], rod1[0]):g} m empties the pump chamber")
+            if status == kernel.NEWTON_FAILED:
+                raise IntegrationError(f"Newton did not converge within a {h:g} s step")
+        elif method == "tr_bdf2":
+            def inputs_at(s, velocity, s0=s0, commands=commands):
+                return CircuitInputs(pos(s0 + s), velocity, commands, load)
 
-        x_end, _, volume_big, compressed, halvings = tr_bdf2(
-            x, h, inputs_at, params, substeps)
-    else:
-        def inputs_over(s0, s1):
-            # secant velocity: the chamber receives exactly A_d (y(s1) - y(s0))
-            return CircuitInputs(pos(s1), (pos(s1) - pos(s0)) / (s1 - s0), commands, load)
+            x, _, dvol, dcomp, halvings = tr_bdf2(x, s1 - s0, inputs_at, params, n_sub)
+        else:
+            def inputs_over(a, b, s0=s0, commands=commands):
+                # secant velocity: the chamber receives exactly A_d (y(b) - y(a))
+                return CircuitInputs(pos(s0 + b), (pos(s0 + b) - pos(s0 + a)) / (b - a),
+                                     commands, load)
 
-        x_end, _, volume_big, compressed, halvings = backward_euler(
-            x, h, inputs_over, params, substeps)
-    return x_end, x_end[0], volume_big, compressed, halvings
+            x, _, dvol, dcomp, halvings = backward_euler(x, s1 - s0, inputs_over, params, n_sub)
+        volume_big += dvol
+        compressed += dcomp
+        deepest = max(deepest, halvings)
+    return x, x[0], volume_big, compressed, deepest
 
 
 def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
@@ -338,48 +388,77 @@ def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
     volume_big = 0.0
     compressed = 0.0
     compressing = True
-    u_next = control(0.0)
-    for k in range(n_steps + 1):
-        t = k * h
-        u, u_next = u_next, control(t + h)
+    compiled = settings.kernel == "compiled"
+    packed = None
+    if compiled:
+        from . import kernel
+        packed = kernel.pack(circuit)
+    controller = (None if settings.controller_period is None else SampledValveController(
+        settings.direction, control, settings.controller_period, delays))
+    t_end = n_steps * h
+    t, h_k, k = 0.0, h, 0
+    while True:
+        if controller is None:
+            t = k * h
+        else:
+            # communication points at every valve action: a step never spans one
+            h_k = min(h, t_end - t)
+            event = controller.next_event(t, t + h_k)
+            if event is not None:
+                h_k = event - t
+        last = t >= t_end - 1e-9 * h
+        if k == len(out):
+            out = np.concatenate((out, np.zeros(len(out) // 4 + 8, dtype=out.dtype)))
+        u, u_next = control(t), control(t + h_k)
         # the controller generates u, so it knows where u goes over the coming
         # step: the phase of [t, t + h) follows u(t + h) - u(t), and the valves
         # switch at the control signal's extremes, not a step after them
-        compressing = pump_phase(u_next, u, compressing)
+        if controller is None:
+            compressing = pump_phase(u_next, u, compressing)
+        else:
+            compressing = controller.phase_at(t)
         rec = out[k]
         rec["time"], rec["control"], rec["compressing"] = t, u, float(compressing)
         rec["rod_displacement"], rec["rod_velocity"] = rod
         rec["volume_into_big"] = volume_big
         rec["compression_volume"] = compressed
-        _record_circuit(rec, x, circuit)
-        if k == n_steps:
+        _record_circuit(rec, x, circuit, packed)
+        if last:
             rec["force"] = force
             rec["valves_compressing"] = out[k - 1]["valves_compressing"] if k else compressing
             break
-        cmd_now = tuple(1.0 if c else 0.0 for c in valve_commands(settings.direction, compressing))
-        history.append((t, cmd_now))
-        while len(history) > 1 and history[1][0] <= t - max_delay:
-            history.popleft()
-        commands = tuple(_command_at(history, t - delays[j], j) for j in range(4))
+        if controller is None:
+            cmd_now = tuple(1.0 if c else 0.0
+                            for c in valve_commands(settings.direction, compressing))
+            history.append((t, cmd_now))
+            while len(history) > 1 and history[1][0] <= t - max_delay:
+                history.popleft()
+            commands = tuple(_command_at(history, t - delays[j], j) for j in range(4))
+            segments = [(0.0, commands)]
+        else:
+            segments = [(ts - t, c) for ts, c in controller.segments(t, t + h_k)]
+            commands = segments[0][1]
         # phase the valves actually act on (after their dead times): V1 is open
         # while compressing going down, V3 while compressing going up
         rec["valves_compressing"] = commands[0 if settings.direction == "down" else 2]
         # the value held over [t, t + h): u at the step's midpoint. A hold of
         # u(t) would lag the signal by h/2 -- a first-order error in where the
         # rod is when the valves switch; the midpoint value removes it
-        u_held = control(t + 0.5 * h)
+        u_held = control(t + 0.5 * h_k)
         rec["control"] = u_held
         saved = backend.save()
         f_k, r_prev, f_prev = force, None, None
-        substeps = settings.substeps
+        substeps = max(1, math.ceil(settings.substeps * h_k / h - 1e-9))
+        if settings.hydraulic_step is not None:
+            substeps = max(substeps, math.ceil(h_k / settings.hydraulic_step - 1e-9))
         for it in range(1, settings.max_iterations + 1):
             if it > 1:
                 backend.restore(saved)
-            y1, v1, current = backend.step(t, h, u_held, f_k)
+            y1, v1, current = backend.step(t, h_k, u_held, f_k)
             try:
                 x1, p_end, dvol, dcomp, halvings = _integrate_step(
-                    x, rod, (y1, v1), commands, settings.load_force, circuit, h, substeps,
-                    held_valves, settings.method)
+                    x, rod, (y1, v1), segments, settings.load_force, circuit, h_k, substeps,
+                    held_valves, settings.method, compiled, packed)
             except (gmt.ParameterError, IntegrationError):
                 if f_prev is None:
                     raise
@@ -419,8 +498,10 @@ def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
         compressed += dcomp
         x, rod, force = x1, (y1, v1), f_k
         if progress is not None:
-            progress(k + 1, n_steps)
-    return out
+            progress(min(int(round((t + h_k) / h)), n_steps), n_steps)
+        t += h_k
+        k += 1
+    return out[:k + 1]
 
 
 def _command_at(history, time, valve):
@@ -434,12 +515,16 @@ def _command_at(history, time, valve):
     return cmd
 
 
-def _record_circuit(rec, x, circuit: CircuitParameters):
+def _record_circuit(rec, x, circuit: CircuitParameters, packed=None):
     from .accumulator import accumulator_pressure
     rec["p_pump"], rec["p_big"], rec["p_small"] = x[0], x[1], x[2]
     rec["p_accumulator"] = accumulator_pressure(circuit.accumulator, x[3])
     rec["piston_position"], rec["piston_velocity"] = x[4], x[5]
-    q = valve_flows(x, circuit)
+    if packed is None:
+        q = valve_flows(x, circuit)
+    else:
+        from . import kernel
+        q = kernel.flows(x, packed)
     rec["q_v1"], rec["q_v2"], rec["q_v3"], rec["q_v4"] = q
 
 

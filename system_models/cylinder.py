@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 from gmt.errors import check_range
 
+from ._jit import jitable
+
 
 @dataclass(frozen=True)
 class CylinderParameters:
@@ -77,10 +79,16 @@ def end_stop_force(cyl: CylinderParameters, position, velocity):
     A one-sided spring-damper engaged beyond either end of travel; the damper
     only pushes (no sticking to the stop).
     """
+    return stop_force(position, velocity, cyl.stroke, cyl.stop_stiffness, cyl.stop_damping)
+
+
+@jitable
+def stop_force(position, velocity, stroke, stiffness, damping):
+    """:func:`end_stop_force` on plain numbers (for the compiled kernel), [N]."""
     if position < 0.0:
-        return max(-cyl.stop_stiffness * position - cyl.stop_damping * velocity, 0.0)
-    if position > cyl.stroke:
-        return min(-cyl.stop_stiffness * (position - cyl.stroke) - cyl.stop_damping * velocity, 0.0)
+        return max(-stiffness * position - damping * velocity, 0.0)
+    if position > stroke:
+        return min(-stiffness * (position - stroke) - damping * velocity, 0.0)
     return 0.0
 
 
@@ -91,6 +99,16 @@ def piston_acceleration(cyl: CylinderParameters, pressure_big, pressure_small, p
     m a = p_B A_B - p_S A_S - b v - F_load + F_stop; ``load_force`` opposes
     motion towards larger x (down) when positive, [N].
     """
-    force = (pressure_big * cyl.big_area - pressure_small * cyl.small_area
-             - cyl.friction * velocity - load_force + end_stop_force(cyl, position, velocity))
-    return force / cyl.mass
+    return piston_acceleration_of(pressure_big, pressure_small, position, velocity, load_force,
+                                  cyl.big_area, cyl.small_area, cyl.friction, cyl.mass,
+                                  cyl.stroke, cyl.stop_stiffness, cyl.stop_damping)
+
+
+@jitable
+def piston_acceleration_of(pressure_big, pressure_small, position, velocity, load_force,
+                           big_area, small_area, friction, mass, stroke, stop_stiffness,
+                           stop_damping):
+    """:func:`piston_acceleration` on plain numbers (for the compiled kernel), [m/s^2]."""
+    force = (pressure_big * big_area - pressure_small * small_area - friction * velocity
+             - load_force + stop_force(position, velocity, stroke, stop_stiffness, stop_damping))
+    return force / mass

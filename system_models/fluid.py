@@ -12,6 +12,8 @@ import numpy as np
 
 from gmt.errors import check_range
 
+from ._jit import jitable
+
 
 @dataclass(frozen=True)
 class FluidParameters:
@@ -82,6 +84,19 @@ def effective_bulk_modulus(fluid: FluidParameters, pressure):
     >>> round(float(effective_bulk_modulus(f, 2e6)) / 1e9, 2)
     1.2
     """
-    a = air_fraction_at(fluid, pressure)
+    return mixture_bulk_modulus(pressure, fluid.bulk_modulus, fluid.air_fraction,
+                                fluid.reference_pressure, fluid.air_polytropic_index)
+
+
+@jitable
+def mixture_bulk_modulus(pressure, oil_bulk_modulus, air_fraction, reference_pressure,
+                         polytropic_index):
+    """:func:`effective_bulk_modulus` on plain numbers, [Pa].
+
+    The form the compiled co-simulation kernel (:mod:`system_models.kernel`)
+    calls; arguments as the fields of :class:`FluidParameters` (SI).
+    """
     p = np.maximum(pressure, MINIMUM_PRESSURE)
-    return 1.0 / ((1.0 - a) / fluid.bulk_modulus + a / (fluid.air_polytropic_index * p))
+    air = air_fraction * (reference_pressure / p) ** (1.0 / polytropic_index)
+    a = air / (1.0 - air_fraction + air)
+    return 1.0 / ((1.0 - a) / oil_bulk_modulus + a / (polytropic_index * p))

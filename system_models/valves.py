@@ -12,6 +12,8 @@ import numpy as np
 
 from gmt.errors import ParameterError, check_range
 
+from ._jit import jitable
+
 #: Valve names in bridge order, with the (upstream, downstream) ports each joins;
 #: a positive flow goes from the first port to the second.
 BRIDGE = (("V1", "P", "B"), ("V2", "B", "A"), ("V3", "P", "S"), ("V4", "S", "A"))
@@ -65,6 +67,7 @@ class ValveParameters:
                 f"{self.response!r} valve response")
 
 
+@jitable
 def orifice_flow(area, pressure_difference, density, discharge_coefficient,
                  transition_pressure):
     """Volume flow through an orifice, [m^3/s], positive from high to low pressure.
@@ -93,8 +96,14 @@ def orifice_flow(area, pressure_difference, density, discharge_coefficient,
 
 def open_area(valve: ValveParameters, opening):
     """Flow area at an opening fraction in [0, 1], leakage included, [m^2]."""
-    x = np.clip(opening, 0.0, 1.0)
-    return valve.area * (valve.leakage_fraction + (1.0 - valve.leakage_fraction) * x)
+    return opening_area(opening, valve.area, valve.leakage_fraction)
+
+
+@jitable
+def opening_area(opening, area, leakage_fraction):
+    """:func:`open_area` on plain numbers (for the compiled kernel), [m^2]."""
+    x = np.minimum(np.maximum(opening, 0.0), 1.0)
+    return area * (leakage_fraction + (1.0 - leakage_fraction) * x)
 
 
 def opening_rate(valve: ValveParameters, opening, command):
