@@ -347,7 +347,9 @@ def _integrate_step(x, rod0, rod1, segments, load, params, h, substeps, held_val
 
 def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
                circuit: CircuitParameters, settings: CosimSettings,
-               progress: Callable[[int, int], None] | None = None) -> np.ndarray:
+               progress: Callable[[int, int], None] | None = None,
+               observer: Callable[[np.void], None] | None = None,
+               keep_record: bool = True) -> np.ndarray:
     """Run one co-simulation.
 
     Parameters
@@ -360,6 +362,13 @@ def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
     settings : CosimSettings
     progress : callable, optional
         Called as progress(steps_done, n_steps).
+    observer : callable, optional
+        Called with each finished record (a row of the array below), in
+        time order; e.g. :class:`system_models.flowcheck.RunningFlow`.
+    keep_record : bool
+        False keeps only the last two records: memory stays flat however
+        long the run (the observer sees every record); the result is then
+        the final record alone.
 
     Returns
     -------
@@ -382,7 +391,8 @@ def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
     x = initial_state(circuit)
     rod = backend.rod_state()
     force = x[0] * area
-    out = np.zeros(n_steps + 1, dtype=[(name, float) for name in RESULT_FIELDS])
+    dtype = [(name, float) for name in RESULT_FIELDS]
+    out = np.zeros(n_steps + 1 if keep_record else 2, dtype=dtype)
     history = deque()  # (time, commands) kept for max_delay, for delayed valves
     slope = None
     volume_big = 0.0
@@ -407,7 +417,7 @@ def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
             if event is not None:
                 h_k = event - t
         last = t >= t_end - 1e-9 * h
-        if k == len(out):
+        if keep_record and k == len(out):
             out = np.concatenate((out, np.zeros(len(out) // 4 + 8, dtype=out.dtype)))
         u, u_next = control(t), control(t + h_k)
         # the controller generates u, so it knows where u goes over the coming
@@ -417,7 +427,11 @@ def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
             compressing = pump_phase(u_next, u, compressing)
         else:
             compressing = controller.phase_at(t)
-        rec = out[k]
+        if keep_record:
+            rec = out[k]
+        else:
+            out[k % 2] = 0  # a reused slot: clear what the last record in it left
+            rec = out[k % 2]
         rec["time"], rec["control"], rec["compressing"] = t, u, float(compressing)
         rec["rod_displacement"], rec["rod_velocity"] = rod
         rec["volume_into_big"] = volume_big
@@ -425,7 +439,10 @@ def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
         _record_circuit(rec, x, circuit, packed)
         if last:
             rec["force"] = force
-            rec["valves_compressing"] = out[k - 1]["valves_compressing"] if k else compressing
+            previous = out[k - 1 if keep_record else (k - 1) % 2]
+            rec["valves_compressing"] = previous["valves_compressing"] if k else compressing
+            if observer is not None:
+                observer(rec)
             break
         if controller is None:
             cmd_now = tuple(1.0 if c else 0.0
@@ -494,6 +511,8 @@ def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
                 f"interface force did not converge in {settings.max_iterations} iterations "
                 f"at t = {t:g} s (residual {r:g} N); reduce the step")
         rec["current"], rec["force"], rec["iterations"] = current, f_k, it
+        if observer is not None:
+            observer(rec)
         volume_big += dvol
         compressed += dcomp
         x, rod, force = x1, (y1, v1), f_k
@@ -501,7 +520,7 @@ def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
             progress(min(int(round((t + h_k) / h)), n_steps), n_steps)
         t += h_k
         k += 1
-    return out[:k + 1]
+    return out[:k + 1] if keep_record else out[[k % 2]]
 
 
 def _command_at(history, time, valve):

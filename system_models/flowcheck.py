@@ -99,3 +99,40 @@ def flow_check(record, frequency: float, piston_area: float, skip_cycles: int = 
     dy = float(np.mean(dys))
     return FlowCheck(float(flow), frequency * piston_area * dy, dy, int(starts.size - 1),
                      (float(t[k0]), float(t[k1])))
+
+
+class RunningFlow:
+    """The flow of :func:`flow_check`, accumulated record by record (flat memory).
+
+    Give it as the ``observer`` of :func:`system_models.cosim.cosimulate`; it
+    keeps, per compression start (the valves' phase turning to compressing),
+    the time and the volume that has entered the big cavity, so a run of any
+    length can be checked without its record.
+
+    Parameters
+    ----------
+    skip_cycles : int
+        Compression starts discarded at the beginning (transient).
+    direction : {"down", "up"}
+    """
+
+    def __init__(self, skip_cycles: int = SKIP_CYCLES, direction: str = "down"):
+        self.skip_cycles = skip_cycles
+        self.sign = 1.0 if direction == "down" else -1.0
+        self.starts = []  # (time, volume_into_big) at each compression start
+        self._previous = None
+
+    def __call__(self, rec) -> None:
+        phase = rec["valves_compressing"] > 0.5
+        if self._previous is not None and phase and not self._previous:
+            self.starts.append((float(rec["time"]), float(rec["volume_into_big"])))
+        self._previous = phase
+
+    @property
+    def flow(self) -> float:
+        """Mean flow into the big cavity over whole cycles after the skipped ones, [m^3/s]."""
+        s = self.starts[self.skip_cycles:]
+        if len(s) < 2:
+            raise ValueError(f"run too short: {len(self.starts)} compression starts, "
+                             f"need at least {self.skip_cycles + 2}")
+        return self.sign * (s[-1][1] - s[0][1]) / (s[-1][0] - s[0][0])
