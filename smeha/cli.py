@@ -8,9 +8,11 @@ Subcommands
 ``smeha simulate --frequency HZ --mode {uncompensated,compensated} [...]``
     One co-simulation of the EHA (transducer FMU + hydraulics) with the flow
     check of eqs 40/41 (:mod:`smeha.flowstudy`).
-``smeha flow [--frequencies 50,70,80,100] [--ideal] [--json] [--plot FILE]``
+``smeha flow [--frequencies 50,70,80,100] [--ideal] [--variant FILE] [--json] [--plot FILE]``
     The flow study: both modes at each frequency, against eqs 40/41 and the
-    paper's Table 3; ``--loads`` adds the load lines.
+    paper's Table 3; ``--loads`` adds the load lines; ``--variant`` runs every
+    case again with the extended model (a diagnosis or a small variant JSON)
+    and prints both flows side by side.
 ``smeha sweep SPEC.toml [--scheduler ADDRESS] [--workers N] [--out FILE] [--json] [--plot FILE]``
     A grid of flow-study cases from a TOML spec on local processes or a
     Dask cluster, resumable, into one CSV table (:mod:`smeha.sweep`).
@@ -181,13 +183,14 @@ def _add_simulate(subparsers):
     p.set_defaults(run=_run_simulate)
 
 
-def _case_from(args, frequency, mode, load=None):
+def _case_from(args, frequency, mode, load=None, variant=None):
     from .flowstudy import Case
     cycles = args.cycles
     if getattr(args, "duration", None):
         cycles = args.duration * frequency
     return Case(frequency=frequency, mode=mode, ideal=args.ideal, load=load, step=args.step,
-                cycles=cycles, backend=args.backend, branch_rule=args.branch_rule)
+                cycles=cycles, backend=args.backend, branch_rule=args.branch_rule,
+                variant=variant)
 
 
 def _fmu_for(args):
@@ -260,35 +263,73 @@ def _add_flow(subparsers):
     p.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1),
                    help="worker processes (default 2)")
     _add_cosim_options(p)
-    p.add_argument("--json", action="store_true", help="print only a JSON object {rows: [...]}")
-    p.add_argument("--plot", metavar="FILE", help="write flow against frequency (PNG)")
+    p.add_argument("--variant", metavar="FILE",
+                   help="also run every case with the extended transducer model: FILE is the "
+                        "output of 'smeha diagnose --json' (its winning extension) or "
+                        "{\"cause\": ..., \"parameters\": {...}} (e.g. data/paper_variant.json); "
+                        "prints the flow of both models side by side")
+    p.add_argument("--json", action="store_true",
+                   help="print only a JSON object {rows: [...]} (with --variant also "
+                        "{variant, comparison})")
+    p.add_argument("--plot", metavar="FILE", help="write flow against frequency (PNG; the "
+                                                   "paper's model)")
     p.set_defaults(run=_run_flow)
+
+
+def _read_variant(path):
+    """The gmt.ModelVariant of a diagnosis or variant JSON file (--variant FILE)."""
+    try:
+        text = Path(path).read_text()
+    except FileNotFoundError:
+        raise FileNotFoundError(f"--variant {path}: no such file") from None
+    except OSError as exc:
+        raise FileNotFoundError(f"--variant {path}: cannot read it ({exc.strerror or exc})"
+                                ) from None
+    try:
+        return gmt.ModelVariant.from_json(text)
+    except gmt.ParameterError as exc:
+        raise UsageError(f"--variant {path}: {exc}") from None
 
 
 def _run_flow(args) -> int:
     from . import flowstudy
+    variant = _read_variant(args.variant) if args.variant else None
+    if variant is not None and variant.is_paper:
+        print(f"smeha flow: --variant {args.variant} is the paper's model (the diagnosis named "
+              "no extension): running the paper's model only", file=sys.stderr)
+        variant = None
     fmu = _fmu_for(args)
-    cases = [_case_from(args, f, m, args.load) for f in args.frequencies
+    models = [None] if variant is None else [None, variant]
+    cases = [_case_from(args, f, m, args.load, v) for v in models for f in args.frequencies
              for m in flowstudy.MODES]
     if args.loads:
         try:
             loads = [float(v) for v in args.loads.split(",") if v.strip()]
         except ValueError:
             raise UsageError(f"--loads {args.loads!r} is not a comma-separated list") from None
-        cases += [_case_from(args, f, m, load) for f in args.frequencies
+        cases += [_case_from(args, f, m, load, v) for v in models for f in args.frequencies
                   for m in flowstudy.MODES for load in loads]
     rows = flowstudy.run_cases(cases, fmu, workers=max(1, args.workers), quiet=args.json)
-    table = [r for r in rows if r["load_N"] == cases[0].load_force]
+    paper_rows = [r for r in rows if r["model"] == "paper"]
+    table = [r for r in paper_rows if r["load_N"] == cases[0].load_force]
+    pairs = flowstudy.compare_variant(rows) if variant is not None else None
     if args.plot:
         from .flowplots import plot_flow
-        plot_flow(rows, args.plot)
+        plot_flow(paper_rows, args.plot)
     if args.json:
-        print(json.dumps({"rows": rows}))
+        out = {"rows": rows}
+        if variant is not None:
+            out["variant"] = {**variant.as_dict(), "source": str(args.variant)}
+            out["comparison"] = pairs
+        print(json.dumps(out))
         return 0
     print(flowstudy.format_table(table))
     if args.loads:
         print()
-        print(flowstudy.format_load_lines(rows))
+        print(flowstudy.format_load_lines(paper_rows))
+    if variant is not None:
+        print()
+        print(flowstudy.format_comparison(pairs, variant, str(args.variant)))
     return 0
 
 

@@ -10,9 +10,18 @@ compensated, u = a + a cos(2 pi f t), the valves switch at u = 0 and u = 2a
 (eq 41), with a the paper's control amplitudes (2.2, 1.9, 1.7, 1.5 V at 50,
 70, 80, 100 Hz; interpolated linearly between) or, outside 50-100 Hz, 95 % of
 the half-stroke the transducer reaches at that frequency.
+
+Model variants: a case with ``variant`` (a :class:`gmt.ModelVariant`, e.g. the
+extension ``smeha diagnose`` names) runs the transducer with that extension
+added -- through the FMU's ``model_variant`` and ``variant_parameters``, or
+``gmt.Transducer(variant=...)`` in-process -- so the flow with the paper's
+model and with the extended model can be compared (:func:`format_comparison`,
+``smeha flow --variant FILE``). The compensator stays the paper's inverse
+model in both.
 """
 from __future__ import annotations
 
+import json
 import math
 import time
 from dataclasses import dataclass
@@ -80,9 +89,16 @@ class Case:
     cycles: float = 8.0  # simulated time in pumping cycles
     backend: str = "fmu"  # "fmu" or "direct"
     branch_rule: str = "control"
+    variant: gmt.ModelVariant | None = None  # None: the paper's model
 
     def __post_init__(self):
         from system_models.flowcheck import MINIMUM_CYCLES
+        if self.variant is not None:
+            if not isinstance(self.variant, gmt.ModelVariant):
+                raise gmt.ParameterError(
+                    f"variant = {self.variant!r} must be a gmt.ModelVariant or None")
+            if self.variant.is_paper:  # one spelling of the paper's model
+                object.__setattr__(self, "variant", None)
         if not self.cycles >= MINIMUM_CYCLES:
             raise gmt.ParameterError(
                 f"cycles = {self.cycles:g} is outside the allowed range [{MINIMUM_CYCLES}, inf): "
@@ -95,6 +111,26 @@ class Case:
         if self.load is not None:
             return float(self.load)
         return 0.0 if self.ideal else presets.REALISTIC_LOAD
+
+    @property
+    def model(self) -> str:
+        """"paper", or the variant's name (its cause, gmt.VARIANTS)."""
+        return "paper" if self.variant is None else self.variant.name
+
+
+def variant_start_values(variant: gmt.ModelVariant | None) -> dict:
+    """The FMU's ``model_variant`` and ``variant_parameters`` for a variant ({} for the paper)."""
+    if variant is None or variant.is_paper:
+        return {}
+    return {"model_variant": variant.name,
+            "variant_parameters": json.dumps(variant.as_dict()["parameters"])}
+
+
+class VariantDirectTransducer(DirectTransducer):
+    """:class:`system_models.cosim.DirectTransducer` with a model variant."""
+
+    def __init__(self, params=None, excitation=None, drive=None, variant=None):
+        self.model = gmt.Transducer(params, excitation, drive, variant=variant)
 
 
 def default_fmu_path() -> Path:
@@ -117,8 +153,13 @@ def ensure_fmu(path: Path | None = None, quiet: bool = False) -> Path:
     return fmu_build.build("2", out=path.parent)
 
 
+#: Free run of a model variant: samples a cycle and cycles (the dy is the last cycle's).
+FREE_SAMPLES_PER_CYCLE, FREE_CYCLES = 1000, 6
+
+
 @lru_cache(maxsize=64)
-def free_dy(frequency: float, mode: str, branch_rule: str = "control") -> float:
+def free_dy(frequency: float, mode: str, branch_rule: str = "control",
+            variant: gmt.ModelVariant | None = None) -> float:
     """dy of the transducer alone (no oil, no force) between the same instants, [m].
 
     Cached: a load line or a sweep asks for it once per case at the same
@@ -126,8 +167,14 @@ def free_dy(frequency: float, mode: str, branch_rule: str = "control") -> float:
 
     Uncompensated: y(i = I_m) - y(i = -I_m) in steady state (eq 40);
     compensated: y(u = 2a) - y(u = 0) of the compensated drive (eq 41).
+    With a model variant the transducer is time-stepped alone
+    (:data:`FREE_SAMPLES_PER_CYCLE` samples a cycle) and dy is read off the
+    last of :data:`FREE_CYCLES` cycles (a drifting variant has no steady
+    state: this is its dy after that many cycles).
     """
     params = gmt.TransducerParameters()
+    if variant is not None and not variant.is_paper:
+        return _stepped_free_dy(params, frequency, mode, branch_rule, variant)
     if mode == "uncompensated":
         point = gmt.operating_point(params, gmt.Excitation(frequency, CURRENT_AMPLITUDE))
         return gmt.loop_metrics(params, point)["dy"]
@@ -135,6 +182,22 @@ def free_dy(frequency: float, mode: str, branch_rule: str = "control") -> float:
     run = compensated_run(params, frequency, control_amplitude(frequency), branch_rule)
     half = run.displacement.size // 2  # u = 2a at the cycle's start, u = 0 half way
     return float(run.displacement[0] - run.displacement[half])
+
+
+def _stepped_free_dy(params, frequency, mode, branch_rule, variant):
+    drive = gmt.DriveParameters(compensated=mode == "compensated", branch_rule=branch_rule)
+    unit = gmt.Transducer(params, gmt.Excitation(frequency, CURRENT_AMPLITUDE), drive,
+                          variant=variant)
+    control, _ = control_signal(mode, frequency)
+    n_cycle = FREE_SAMPLES_PER_CYCLE
+    h = 1.0 / (frequency * n_cycle)
+    n = n_cycle * FREE_CYCLES
+    y = np.empty(n + 1)
+    y[0] = unit.forward.displacement
+    for k in range(n):
+        y[k + 1] = unit.step(control(k * h), h).displacement
+    start = n - n_cycle  # u at its maximum: i = +I_m, or u = 2a; half a cycle on: minimum
+    return float(y[start] - y[start + n_cycle // 2])
 
 
 def run_case(case: Case, fmu_path: Path | None = None, progress=None):
@@ -147,12 +210,14 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
     settings = CosimSettings(duration=case.cycles / case.frequency, step=case.step,
                              load_force=case.load_force)
     start = {"frequency": case.frequency, "current_amplitude": CURRENT_AMPLITUDE,
-             "compensated": drive.compensated, "branch_rule": drive.branch_rule}
+             "compensated": drive.compensated, "branch_rule": drive.branch_rule,
+             **variant_start_values(case.variant)}
     if case.backend == "fmu":
         backend = FmuTransducer(fmu_path or default_fmu_path(), start)
     elif case.backend == "direct":
-        backend = DirectTransducer(params, gmt.Excitation(case.frequency, CURRENT_AMPLITUDE),
-                                   drive)
+        excitation = gmt.Excitation(case.frequency, CURRENT_AMPLITUDE)
+        backend = (DirectTransducer(params, excitation, drive) if case.variant is None
+                   else VariantDirectTransducer(params, excitation, drive, case.variant))
     else:
         raise gmt.ParameterError(f"backend = {case.backend!r} is not one of ('fmu', 'direct')")
     wall = time.perf_counter()
@@ -166,9 +231,9 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
     half = len(record) // 2
     paper = PAPER_DY_UM.get(float(case.frequency))
     paper_dy = None if paper is None else paper[MODES.index(case.mode)]
-    dy_free = free_dy(case.frequency, case.mode, case.branch_rule)
+    dy_free = free_dy(case.frequency, case.mode, case.branch_rule, case.variant)
     row = {
-        "frequency_Hz": case.frequency, "mode": case.mode,
+        "frequency_Hz": case.frequency, "mode": case.mode, "model": case.model,
         "circuit": "ideal" if case.ideal else "realistic", "load_N": case.load_force,
         "flow_sim_m3_s": check.flow_sim, "flow_eq_m3_s": check.flow_eq,
         "flow_ratio": check.ratio, "dy_um": check.dy * 1e6,
@@ -259,4 +324,57 @@ def format_load_lines(rows) -> str:
         lines.append(f"{r['frequency_Hz']:>6g}  {r['mode']:<13}  {r['load_N']:>8g}  "
                      f"{r['load_pressure_Pa'] / 1e6:>15.3f}  {r['flow_sim_m3_s']:>12.4e}  "
                      f"{r['flow_sim_L_min']:>9.4f}")
+    return "\n".join(lines)
+
+
+def compare_variant(rows) -> list[dict]:
+    """Pair each variant row with the paper row of the same case (frequency, mode, circuit, load).
+
+    Returns
+    -------
+    list of dict
+        ``frequency_Hz``, ``mode``, ``circuit``, ``load_N``, ``model`` (the
+        variant's cause), ``flow_paper_model_m3_s``, ``flow_variant_m3_s``,
+        ``flow_ratio_variant_to_paper``, ``dy_paper_model_um``, ``dy_variant_um``,
+        ``dy_free_paper_model_um``, ``dy_free_variant_um``, in the order of the
+        variant rows.
+    """
+    def key(r):
+        return (r["frequency_Hz"], r["mode"], r["circuit"], r["load_N"])
+
+    paper = {key(r): r for r in rows if r.get("model", "paper") == "paper"}
+    out = []
+    for r in rows:
+        if r.get("model", "paper") == "paper" or key(r) not in paper:
+            continue
+        p = paper[key(r)]
+        out.append({"frequency_Hz": r["frequency_Hz"], "mode": r["mode"],
+                    "circuit": r["circuit"], "load_N": r["load_N"], "model": r["model"],
+                    "flow_paper_model_m3_s": p["flow_sim_m3_s"],
+                    "flow_variant_m3_s": r["flow_sim_m3_s"],
+                    "flow_ratio_variant_to_paper": (r["flow_sim_m3_s"] / p["flow_sim_m3_s"]
+                                                    if p["flow_sim_m3_s"] else None),
+                    "dy_paper_model_um": p["dy_um"], "dy_variant_um": r["dy_um"],
+                    "dy_free_paper_model_um": p["dy_free_um"],
+                    "dy_free_variant_um": r["dy_free_um"]})
+    return out
+
+
+def format_comparison(pairs, variant: gmt.ModelVariant, source: str = "") -> str:
+    """The flow with the paper's model and with the variant, side by side."""
+    where = f" (from {source})" if source else ""
+    lines = [f"Cylinder flow: the paper's model against the variant {variant.describe()}"
+             f"{where}",
+             "(co-simulation, same circuit and drive; the compensator is the paper's inverse "
+             "model in both; dy: the rod between the valve switching instants)",
+             f"{'f [Hz]':>6}  {'mode':<13}  {'circuit':<9}  {'load [N]':>8}  "
+             f"{'q paper [m3/s]':>14}  {'q variant [m3/s]':>16}  {'variant/paper':>13}  "
+             f"{'dy paper [um]':>13}  {'dy variant [um]':>15}"]
+    for c in pairs:
+        ratio = "-" if c["flow_ratio_variant_to_paper"] is None else \
+            f"{c['flow_ratio_variant_to_paper']:.4f}"
+        lines.append(f"{c['frequency_Hz']:>6g}  {c['mode']:<13}  {c['circuit']:<9}  "
+                     f"{c['load_N']:>8g}  {c['flow_paper_model_m3_s']:>14.4e}  "
+                     f"{c['flow_variant_m3_s']:>16.4e}  {ratio:>13}  "
+                     f"{c['dy_paper_model_um']:>13.2f}  {c['dy_variant_um']:>15.2f}")
     return "\n".join(lines)

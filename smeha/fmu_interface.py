@@ -58,8 +58,11 @@ DESCRIPTION = ("Giant magnetostrictive transducer (GMT) of a smart-material "
                "electrohydrostatic actuator: amplifier, inverse compensator and the "
                "complex-permeability model of eq 30 (smeha, gmt package)")
 
-#: Accepted values of the String parameter ``model_variant``.
-MODEL_VARIANTS = ("paper",)
+#: Accepted values of the String parameter ``model_variant`` (gmt.VARIANTS): the
+#: paper's model, or the paper's plus the extension for one cause ``smeha diagnose`` names.
+MODEL_VARIANTS = ("paper", "rate_independent_hysteresis", "magnetization_saturation",
+                  "eddy_current_diffusion", "transport_delay", "mechanical_resonance",
+                  "thermal_drift")
 #: Accepted values of the String parameter ``branch_rule`` (gmt.parameters.BRANCH_RULES).
 BRANCH_RULES = ("control", "demand")
 
@@ -209,13 +212,23 @@ VARIABLES: tuple[Variable, ...] = (
          "of u(n)-u(n-1), \"control\" (Figure 9), or of the demanded magnetisation, "
          "\"demand\"", "control", kind="String"),
     # -- model selection ----------------------------------------------------------
-    _par(_M, "model_variant", None, "Transducer model; only \"paper\" (eqs 1-37 of the "
-         "source paper) exists, anything else is an error", "paper", kind="String"),
+    _par(_M, "model_variant", None, "Transducer model: \"paper\" (eqs 1-37 of the source "
+         "paper), or the paper's plus the extension for the cause smeha diagnose names: "
+         "\"rate_independent_hysteresis\", \"magnetization_saturation\", "
+         "\"eddy_current_diffusion\", \"transport_delay\" (sensed_displacement only), "
+         "\"mechanical_resonance\", \"thermal_drift\"; anything else is an error",
+         "paper", kind="String"),
+    _par(_M, "variant_parameters", None, "JSON object of the extension's SI parameters, "
+         "keyed as the candidate's \"parameters\" in smeha diagnose --json, e.g. "
+         "{\"delay_s\": 0.0005}; {} for \"paper\"", "{}", kind="String"),
     # -- outputs ------------------------------------------------------------------
     _out("current", "A", "Coil current i delivered over the last step"),
     _out("displacement", "m", "Rod displacement y at the end of the last step, including "
          "the bias displacement (eq 30)"),
     _out("velocity", "m/s", "Rod velocity dy/dt at the end of the last step"),
+    _out("sensed_displacement", "m", "Displacement a sensor on the output rod reads at the "
+         "end of the last step: equal to displacement, except with model_variant "
+         "\"transport_delay\", y(t - delay_s)"),
     _out("field", "A/m", "Applied magnetic field H over the last step (eq 1)"),
     _out("flux_density", "T", "Flux density B over the last step (eq 4)"),
     _out("magnetization", "A/m", "Magnetisation M of the coil field over the last step "
@@ -273,14 +286,41 @@ def make_transducer(values: dict):
     """
     gmt = physics()  # inside an FMU: the bundled copy (resources/smeha_fmu_gmt)
 
-    variant = values["model_variant"]
-    if variant not in MODEL_VARIANTS:
-        raise gmt.ParameterError(
-            f"model_variant = {variant!r} is not one of {MODEL_VARIANTS}")
+    variant = model_variant(gmt, values["model_variant"], values["variant_parameters"])
     params = gmt.TransducerParameters(**{n: values[n] for n in TRANSDUCER_PARAMETERS})
     excitation = gmt.Excitation(**{n: values[n] for n in EXCITATION_PARAMETERS})
     drive = gmt.DriveParameters(**{n: values[n] for n in DRIVE_PARAMETERS})
-    return gmt.Transducer(params, excitation, drive)
+    return gmt.Transducer(params, excitation, drive, variant=variant)
+
+
+def model_variant(gmt, name: str, parameters: str):
+    """The ``gmt.ModelVariant`` of the ``model_variant`` and ``variant_parameters`` strings.
+
+    Raises
+    ------
+    gmt.ParameterError
+        An unknown variant, parameters that are not a JSON object, or a
+        missing, unknown or out-of-range parameter; the message names
+        ``model_variant`` or ``variant_parameters`` and the offending key.
+    """
+    import json
+
+    if name not in MODEL_VARIANTS:
+        raise gmt.ParameterError(f"model_variant = {name!r} is not one of {MODEL_VARIANTS}")
+    text = parameters.strip() or "{}"
+    try:
+        values = json.loads(text)
+    except ValueError as exc:
+        raise gmt.ParameterError(f"variant_parameters = {text!r} is not valid JSON "
+                                 f"({exc}); give a JSON object such as "
+                                 '{"delay_s": 0.0005}') from None
+    if not isinstance(values, dict):
+        raise gmt.ParameterError(f"variant_parameters = {text!r} is not a JSON object")
+    try:
+        return gmt.ModelVariant.from_name(name, values)
+    except gmt.ParameterError as exc:
+        raise gmt.ParameterError(f"variant_parameters = {text!r} for model_variant "
+                                 f"{name!r}: {exc}") from None
 
 
 def output_values(out) -> tuple:
@@ -291,8 +331,8 @@ def output_values(out) -> tuple:
     out : gmt.TransducerOutput
     """
     m = out.magnetics
-    reals = (out.current, out.displacement, out.velocity, m.field, m.flux_density,
-             m.magnetization, m.strain, m.force)
+    reals = (out.current, out.displacement, out.velocity, out.sensed_displacement, m.field,
+             m.flux_density, m.magnetization, m.strain, m.force)
     return tuple(float(x) for x in reals), bool(out.saturated), int(out.saturation_count)
 
 
@@ -324,6 +364,11 @@ def check_against_gmt() -> None:
                 problems.append(f"{name}: FMU start {start!r} != gmt default {default!r}")
     if tuple(BRANCH_RULES) != tuple(gmt.parameters.BRANCH_RULES):
         problems.append(f"branch rules {BRANCH_RULES} != gmt {gmt.parameters.BRANCH_RULES}")
+    if tuple(MODEL_VARIANTS) != tuple(gmt.VARIANTS):
+        problems.append(f"model variants {MODEL_VARIANTS} != gmt {gmt.VARIANTS}")
+    if REAL_OUTPUTS != ("current", "displacement", "velocity", "sensed_displacement", "field",
+                        "flux_density", "magnetization", "strain", "force"):
+        problems.append(f"Real outputs {REAL_OUTPUTS} are not in output_values' order")
     for v in VARIABLES:
         if v.kind == "Real" and v.unit not in UNITS:
             problems.append(f"{v.name}: unit {v.unit!r} is not in UNITS")
@@ -406,6 +451,7 @@ class TransducerSlave:
             setattr(self, name, BY_NAME[name].initial_value)
         forward = self._transducer.forward
         self.displacement, self.velocity = float(forward.displacement), float(forward.velocity)
+        self.sensed_displacement = float(self._transducer.sensed_displacement)
 
     def exit_initialization_mode(self):
         from pathlib import Path
@@ -441,8 +487,8 @@ class TransducerSlave:
             self._report(f"doStep at t = {current_time!r} s, step {step_size!r} s discarded: "
                          f"{type(exc).__name__}: {exc}", self.STATUS_DISCARD)
             return False
-        (self.current, self.displacement, self.velocity, self.field, self.flux_density,
-         self.magnetization, self.strain, self.force) = reals
+        for name, value in zip(REAL_OUTPUTS, reals):
+            setattr(self, name, value)
         self._after_step(current_time, step_size)
         return True
 

@@ -5,6 +5,7 @@
 Commands
 --------
 ``reference OUT``          step gmt.Transducer (the repository's gmt) through every case
+                           (and, as ``paper:<case>``, each variant case with the paper's model)
 ``behaviour OUT FMU``      FMU trajectories, two instances, reset, FMU state (fmpy)
 ``bad_input OUT FMU``      one fresh instance per bad input; FMI statuses and log messages
 ``memory OUT FMU N``       RSS while stepping N times
@@ -27,10 +28,31 @@ import math
 import os
 import sys
 
-#: Output columns, as in smeha.fmu_interface.OUTPUTS.
+#: Output columns of every row (smeha.fmu_interface.OUTPUTS, sensed_displacement last so
+#: the earlier columns keep their index).
 OUTPUTS = ("current", "displacement", "velocity", "field", "flux_density", "magnetization",
-           "strain", "force", "saturated", "saturation_count")
+           "strain", "force", "saturated", "saturation_count", "sensed_displacement")
 REALS = OUTPUTS[:8]
+
+#: Model variants exercised (gmt.variants; parameters in SI as smeha diagnose reports them).
+#: H_m = 14773 A/m at 1 A with Table 2: play thresholds at 0.2 ... 0.8 of it.
+VARIANTS = {
+    "v_hysteresis": ("rate_independent_hysteresis",
+                     {"thresholds_A_per_m": [2954.5, 5909.1, 8863.6, 11818.2],
+                      "weights": [0.3, 0.2, 0.1, 0.05]}),
+    "v_saturation": ("magnetization_saturation", {"saturation_magnetization_A_per_m": 4e5}),
+    "v_eddy": ("eddy_current_diffusion", {"time_constant_s": 1e-3, "order": 0.5}),
+    "v_delay": ("transport_delay", {"delay_s": 2.37e-4}),
+    "v_mechanics": ("mechanical_resonance", {"mass_kg": 4e-4, "damping_N_s_per_m": 58.9,
+                                             "stiffness_N_per_m": 1.905e7}),
+    "v_drift": ("thermal_drift", {"offset_rate_m_per_A2s": 1e-4, "gain_rate_per_A2s": 0.5,
+                                  "thermal_time_constant_s": 0.05}),
+}
+
+
+def variant_parameters(cause, values) -> dict:
+    """FMU start values selecting a variant (the String parameters)."""
+    return {"model_variant": cause, "variant_parameters": json.dumps(values)}
 
 
 # -- test cases (identical in every process: seeded) ----------------------------------
@@ -63,6 +85,18 @@ def make_case(name: str):
         rng = np.random.default_rng(7)
         h = rng.uniform(2e-6, 4e-5, n)
         force = rng.uniform(-20.0, 20.0, n)
+    elif name in VARIANTS:  # a model variant: 100 Hz, variable steps, random forces
+        params = variant_parameters(*VARIANTS[name])
+        n, f, a, off = 1200, 100.0, 1.0, 0.0
+        rng = np.random.default_rng(sorted(VARIANTS).index(name) + 11)
+        # steps drawn from a few values: each new step costs a ZOH discretisation
+        h = rng.choice([3e-6, 1e-5, 2.2e-5, 3.9e-5], n)
+        force = rng.uniform(-20.0, 20.0, n)
+        if name == "v_saturation":  # through the compensator, fixed step
+            params["compensated"] = True
+            n, f, a, off = 1500, 50.0, 2.2, 2.2
+            h = np.full(n, 1e-5)
+            force = np.zeros(n)
     else:
         raise KeyError(name)
     t = np.concatenate(([0.0], np.cumsum(h)[:-1]))
@@ -70,7 +104,7 @@ def make_case(name: str):
     return params, h.tolist(), u.tolist(), force.tolist()
 
 
-CASES = ("fixed50", "random100", "comp_control", "comp_demand")
+CASES = ("fixed50", "random100", "comp_control", "comp_demand") + tuple(VARIANTS)
 
 
 # -- reference: the repository's gmt ------------------------------------------------------
@@ -80,22 +114,28 @@ def reference(out_path):
     import gmt
 
     results = {"gmt_file": gmt.__file__}
-    for name in CASES:
-        params, h, u, force = make_case(name)
+    for name in CASES + tuple(f"paper:{v}" for v in VARIANTS):
+        params, h, u, force = make_case(name.removeprefix("paper:"))
+        if name.startswith("paper:"):  # the same inputs through the paper's model
+            params = {k: v for k, v in params.items()
+                      if k not in ("model_variant", "variant_parameters")}
 
         def pick(cls):
             return {f.name: params[f.name] for f in dataclasses.fields(cls) if f.name in params}
 
+        variant = gmt.ModelVariant(params.get("model_variant", "paper"),
+                                   json.loads(params.get("variant_parameters", "{}")))
         tr = gmt.Transducer(gmt.TransducerParameters(**pick(gmt.TransducerParameters)),
                             gmt.Excitation(**pick(gmt.Excitation)),
-                            gmt.DriveParameters(**pick(gmt.DriveParameters)))
+                            gmt.DriveParameters(**pick(gmt.DriveParameters)),
+                            variant=variant)
         rows = []
         for hk, uk, fk in zip(h, u, force):
             o = tr.step(uk, hk, fk)
             m = o.magnetics
             rows.append([o.current, o.displacement, o.velocity, m.field, m.flux_density,
                          m.magnetization, m.strain, m.force, float(o.saturated),
-                         float(o.saturation_count)])
+                         float(o.saturation_count), o.sensed_displacement])
         results[name] = rows
     _write(out_path, results)
 
@@ -116,7 +156,7 @@ class Fmu:
         self.vars = {v.name: v for v in md.modelVariables}
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
         self.logs = []
-        self._out_vr = [self.vr[n] for n in REALS]
+        self._out_vr = [self.vr[n] for n in REALS + ("sensed_displacement",)]
         if self.fmi == "2":
             from ctypes import byref
 
@@ -195,7 +235,7 @@ class Fmu:
             reals = s.getFloat64(self._out_vr)
             sat = s.getBoolean([self.vr["saturated"]])[0]
             count = s.getInt32([self.vr["saturation_count"]])[0]
-        return list(reals) + [float(bool(sat)), float(count)]
+        return list(reals[:-1]) + [float(bool(sat)), float(count), reals[-1]]
 
     def get_state(self):
         return self.s.getFMUstate() if self.fmi == "2" else self.s.getFMUState()
@@ -313,6 +353,29 @@ def behaviour(out_path, fmu_path):
     moved = run_case(other, "comp_demand", k1, k2, t1)[0]
     res.update(state_first=first, state_again=again, state_from_bytes=from_bytes,
                state_twice=twice, state_moved=moved, state_k1=k1, state_k2=k2)
+
+    # the same with stateful variants: the delay line (its length varies) and the plays
+    for case in ("v_delay", "v_hysteresis", "v_eddy"):
+        k1, k2 = 500, 1000
+        v = Fmu(fmu_path, f"state_{case}", unzip)
+        v.init(make_case(case)[0])
+        run_case(v, case, 0, k1)
+        t1 = _case_time(case, k1)
+        st = v.get_state()
+        blob = v.serialize(st)
+        first = run_case(v, case, k1, k2, t1)[0]
+        v.set_state(st)
+        again = run_case(v, case, k1, k2, t1)[0]
+        v.set_state(v.deserialize(blob))
+        from_bytes = run_case(v, case, k1, k2, t1)[0]
+        moved_to = Fmu(fmu_path, f"state_{case}_other", unzip)
+        moved_to.init()
+        run_case(moved_to, "fixed50", 0, 50)
+        moved_to.set_state(moved_to.deserialize(blob))
+        moved = run_case(moved_to, case, k1, k2, t1)[0]
+        res[f"vstate_{case}"] = {"first": first, "again": again, "from_bytes": from_bytes,
+                                 "moved": moved, "k1": k1, "k2": k2, "bytes": len(blob),
+                                 "transducer_state": len(json.loads(blob)["transducer"])}
     res["logs"] = {n: f.logs for n, f in {**fmus, "a": a, "b": b, "reset": r, "state": s,
                                             "other": other}.items()}
     _write(out_path, res)
@@ -370,6 +433,11 @@ def bad_input(out_path, fmu_path):
     input_case("step_negative", {}, (1.0, 0.0, -1e-5))
     input_case("step_nan", {"compensated": True}, (1.0, 0.0, nan))
     input_case("step_inf", {}, (1.0, 0.0, inf))
+    # a discarded step must roll a stateful variant back too
+    input_case("u_nan_variant_delay", variant_parameters(*VARIANTS["v_delay"]),
+               (nan, 0.0, 1e-5))
+    input_case("step_zero_variant_hysteresis", variant_parameters(*VARIANTS["v_hysteresis"]),
+               (1.0, 0.0, 0.0))
 
     def parameter_case(name, params):
         fmu, init = fresh(name, params)
@@ -391,6 +459,13 @@ def bad_input(out_path, fmu_path):
     parameter_case("current_limit_zero", {"current_limit": 0.0, "compensated": True})
     parameter_case("branch_rule_unknown", {"branch_rule": "sideways"})
     parameter_case("model_variant_unknown", {"model_variant": "maxwell"})
+    parameter_case("variant_parameters_not_json", {"model_variant": "transport_delay",
+                                                   "variant_parameters": "{delay_s: 1}"})
+    parameter_case("variant_parameters_out_of_range", {
+        "model_variant": "transport_delay", "variant_parameters": '{"delay_s": -0.001}'})
+    parameter_case("variant_parameters_missing", {"model_variant": "rate_independent_hysteresis",
+                                                  "variant_parameters": "{}"})
+    parameter_case("variant_parameters_for_paper", {"variant_parameters": '{"delay_s": 0.001}'})
 
     # a fixed parameter set after initialisation is refused and changes nothing
     fmu, init = fresh("parameter_after_init")
@@ -493,10 +568,10 @@ def cosim(out_path, fmu_path, n="2000"):
         man.slave_real_values(idx, [vr["u"], vr["external_force"]], [u[k], force[k]])
         if not ex.step(1):
             raise RuntimeError(f"libcosim step {k} failed: {ex.status()}")
-        reals = obs.last_real_values(idx, [vr[c] for c in REALS])
+        reals = obs.last_real_values(idx, [vr[c] for c in REALS + ("sensed_displacement",)])
         sat = obs.last_boolean_values(idx, [vr["saturated"]])
         count = obs.last_integer_values(idx, [vr["saturation_count"]])
-        rows.append(list(reals) + [float(bool(sat[0])), float(count[0])])
+        rows.append(list(reals[:-1]) + [float(bool(sat[0])), float(count[0]), reals[-1]])
     status = ex.status()
     # libcosim keeps time in integer nanoseconds and hands the FMU
     # h_k = t_{k+1}/1e9 - t_k/1e9 (not always 1e-5 exactly): give fmpy the same steps

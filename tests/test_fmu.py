@@ -31,6 +31,11 @@ from smeha import fmu_interface as iface
 pytestmark = pytest.mark.integration
 
 CASES = ("fixed50", "random100", "comp_control", "comp_demand")
+#: One case per model variant (tests/fmu_runner.py VARIANTS): 100 Hz with random steps and
+#: forces, the saturation variant through the compensator.
+VARIANT_CASES = ("v_hysteresis", "v_saturation", "v_eddy", "v_delay", "v_mechanics", "v_drift")
+#: Columns of a row (tests/fmu_runner.py OUTPUTS).
+DISPLACEMENT, SATURATION_COUNT, SENSED = 1, 9, 10
 #: Required by the issue: FMU and gmt agree to 1e-12 relative (they run the same
 #: code on the same doubles, so in practice the difference is exactly 0).
 RTOL = 1e-12
@@ -80,7 +85,8 @@ def test_interface_names_causality_and_types(fmu_dist):
         "u": ("input", "Real"), "external_force": ("input", "Real")}
     outputs = {"current": "Real", "displacement": "Real", "velocity": "Real", "field": "Real",
                "flux_density": "Real", "magnetization": "Real", "strain": "Real",
-               "force": "Real", "saturated": "Boolean", "saturation_count": "Integer"}
+               "force": "Real", "saturated": "Boolean", "saturation_count": "Integer",
+               "sensed_displacement": "Real"}
     assert {n: got[n] for n in outputs} == {n: ("output", t) for n, t in outputs.items()}
     params = {n for n, (c, _) in got.items() if c == "parameter"}
     import gmt  # the pytest process may import gmt: it never loads an FMU
@@ -88,10 +94,11 @@ def test_interface_names_causality_and_types(fmu_dist):
     expected = (set(gmt.TransducerParameters.field_names())
                 | {"frequency", "current_amplitude", "flux_density_amplitude",
                    "amplifier_gain", "current_limit", "compensated", "displacement_per_volt",
-                   "control_offset", "branch_rule", "model_variant"})
+                   "control_offset", "branch_rule", "model_variant", "variant_parameters"})
     assert params == expected
     assert got["compensated"][1] == "Boolean"
     assert got["branch_rule"][1] == got["model_variant"][1] == "String"
+    assert got["variant_parameters"][1] == "String"
     by_name = {sv.get("name"): sv for sv in svs}
     assert by_name["saturation_count"].get("variability") == "discrete"
     assert all(by_name[p].get("variability") == "fixed" for p in params)
@@ -171,7 +178,7 @@ def test_fmu_runs_its_bundled_gmt(behaviour):
     assert Path(res["gmt_file"]).parent == Path(res["unzipdir"]) / "resources" / "smeha_fmu_gmt"
 
 
-@pytest.mark.parametrize("case", CASES)
+@pytest.mark.parametrize("case", CASES + VARIANT_CASES)
 def test_outputs_equal_gmt_time_stepping_model(behaviour, reference, case):
     res = behaviour("2")
     assert res[f"status_{case}"] == [0]
@@ -181,7 +188,26 @@ def test_outputs_equal_gmt_time_stepping_model(behaviour, reference, case):
 
 def test_compensated_cases_exercise_saturation(reference):
     # the state tests need a non-trivial counter; comp_demand has a 0.9 A current limit
-    assert reference["comp_demand"][-1][9] > 0
+    assert reference["comp_demand"][-1][SATURATION_COUNT] > 0
+
+
+@pytest.mark.parametrize("case", VARIANT_CASES)
+def test_each_variant_changes_what_its_extension_acts_on(reference, case):
+    # the gmt reference with the variant against the same inputs through the paper's model:
+    # the rod moves differently, except for the sensor delay, which moves only the reading
+    import numpy as np
+
+    variant = np.array(reference[case])
+    paper = np.array(reference[f"paper:{case}"])
+    y, sensed = variant[:, DISPLACEMENT], variant[:, SENSED]
+    change = np.abs(y - paper[:, DISPLACEMENT]).max() / np.ptp(paper[:, DISPLACEMENT])
+    if case == "v_delay":
+        assert change == 0.0
+        assert np.abs(sensed - y).max() > 0.01 * np.ptp(y)
+    else:
+        assert change > 1e-3, change
+        assert np.array_equal(sensed, y)
+    assert np.array_equal(paper[:, SENSED], paper[:, DISPLACEMENT])
 
 
 def test_two_instances_in_one_process_are_independent(behaviour, reference):
@@ -212,9 +238,28 @@ def test_fmu_state_round_trip_is_bit_identical(behaviour, reference):
     assert res["state_json_keys"] == ["built_from", "problem", "transducer", "variables"]
 
 
+@pytest.mark.parametrize("case", ("v_delay", "v_hysteresis", "v_eddy"))
+def test_fmu_state_round_trip_with_a_stateful_variant(behaviour, reference, case):
+    check_variant_state(behaviour("2"), reference, case)
+
+
+def check_variant_state(res, reference, case):
+    # the delay line, the plays and the lag's sections are saved with the FMU state:
+    # restore and replay (also through serialisation and into an instance built with
+    # the paper's model) is bit-identical
+    r = res[f"vstate_{case}"]
+    first = r["first"]
+    assert r["again"] == first and r["from_bytes"] == first and r["moved"] == first
+    assert first == reference[case][r["k1"]:r["k2"]]
+    # the paper's uncompensated state has 7 values; then the elapsed time, the sensed y and
+    # the memory of the extension
+    assert r["transducer_state"] > 9
+
+
 # -- bad input never kills the host ------------------------------------------------------------
 INPUT_CASES = ("u_nan", "u_inf", "u_nan_compensated", "force_nan_compensated",
-               "force_minus_inf", "step_zero", "step_negative", "step_nan", "step_inf")
+               "force_minus_inf", "step_zero", "step_negative", "step_nan", "step_inf",
+               "u_nan_variant_delay", "step_zero_variant_hysteresis")
 PARAMETER_CASES = {
     "frequency_zero": "frequency", "frequency_negative": "frequency",
     "frequency_nan": "frequency", "current_amplitude_zero": "current_amplitude",
@@ -223,7 +268,11 @@ PARAMETER_CASES = {
     "leakage_coefficient_below_one": "leakage_coefficient", "mass_inf": "mass",
     "flux_density_amplitude_too_large": "flux_density_amplitude",
     "current_limit_zero": "current_limit", "branch_rule_unknown": "branch_rule",
-    "model_variant_unknown": "model_variant"}
+    "model_variant_unknown": "model_variant",
+    "variant_parameters_not_json": "variant_parameters",
+    "variant_parameters_out_of_range": "delay_s",
+    "variant_parameters_missing": "thresholds_A_per_m",
+    "variant_parameters_for_paper": "variant_parameters"}
 DISCARD, ERROR = 2, 3
 
 

@@ -21,9 +21,9 @@ except ImportError:  # tests/ imported as a package
                                     max_relative_difference, reference, runner_dir)
 
 try:
-    from test_fmu import CASES, RTOL, check_bad_input
+    from test_fmu import CASES, RTOL, VARIANT_CASES, check_bad_input, check_variant_state
 except ImportError:
-    from tests.test_fmu import CASES, RTOL, check_bad_input
+    from tests.test_fmu import CASES, RTOL, VARIANT_CASES, check_bad_input, check_variant_state
 
 from smeha import fmu_interface as iface
 
@@ -72,7 +72,7 @@ def test_fmi3_runs_its_bundled_gmt(behaviour):
     assert Path(res["gmt_file"]).parent == Path(res["unzipdir"]) / "resources" / "smeha_fmu_gmt"
 
 
-@pytest.mark.parametrize("case", CASES)
+@pytest.mark.parametrize("case", CASES + VARIANT_CASES)
 def test_fmi3_outputs_equal_gmt(behaviour, reference, case):
     res = behaviour("3")
     assert res[f"status_{case}"] == [0]
@@ -89,6 +89,8 @@ def test_fmi3_instances_reset_and_state(behaviour, reference):
     for key in ("state_again", "state_from_bytes", "state_twice", "state_moved"):
         assert res[key] == first, key
     assert res["state_reserialized_equal"]
+    for case in ("v_delay", "v_hysteresis", "v_eddy"):
+        check_variant_state(res, reference, case)
 
 
 def test_fmi3_bad_input_is_logged_and_discarded_never_fatal(bad_input):

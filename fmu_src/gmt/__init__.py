@@ -17,6 +17,9 @@ module                 equations
 ``forward``            composed model, eq 30 (stepper and steady state)
 ``inverse``            inverse model and compensator, eqs 31-37, Fig. 9
 ``transducer``         drive chain: amplifier, compensator, eq 30
+``extensions``         candidate extensions of the model (issue #5)
+``variants``           the model variant: paper, or paper plus one
+                       extension, time-stepped
 =====================  ==============================================
 
 SI units throughout. This package imports no FMI, file or plotting code.
@@ -28,6 +31,7 @@ from .forward import (ForwardStepper, OperatingPoint, bias_displacement, loop_me
 from .inverse import InverseCompensator, current_roots
 from .parameters import DriveParameters, Excitation, TransducerParameters
 from .transducer import Transducer, TransducerOutput
+from .variants import VARIANTS, ModelVariant
 
 __version__ = "0.1.0"
 
@@ -36,5 +40,6 @@ __all__ = [
     "ParameterError", "ForwardStepper", "OperatingPoint", "bias_displacement",
     "loop_metrics", "operating_point", "periodic_response", "simulate",
     "InverseCompensator", "current_roots", "DriveParameters", "Excitation",
-    "TransducerParameters", "Transducer", "TransducerOutput", "__version__",
+    "TransducerParameters", "Transducer", "TransducerOutput", "ModelVariant", "VARIANTS",
+    "__version__",
 ]

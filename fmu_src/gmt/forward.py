@@ -297,6 +297,35 @@ class ForwardStepper:
         (self.displacement, self.velocity, self.previous_current,
          self.previous_step, self.branch) = (float(s) for s in state)
 
+    def _quadrature(self, current: float, step: float, external_force: float) -> float:
+        """Check one step's inputs; the quadrature current of eq 30 at ``current`` [A].
+
+        Updates the branch memory (the sign of the quadrature current).
+        """
+        if not step > 0.0 or not math.isfinite(step):
+            raise ParameterError(f"step = {step!r} s is outside the allowed range (0, inf) s")
+        if not math.isfinite(current):
+            raise ParameterError(f"current = {current!r} A is not finite")
+        if not math.isfinite(external_force):
+            raise ParameterError(f"external_force = {external_force!r} N is not finite")
+        first = not math.isfinite(self.previous_current)
+        prev = current if first else self.previous_current
+        h_prev = step if first else self.previous_step
+        q, branch = quadrature_current(current, prev, self.point.current_amplitude,
+                                       self.point.angular_frequency, h_prev, self.branch)
+        self.branch = float(branch)
+        return float(q)
+
+    def _advance(self, force, current, step, external_force, mass, damping, stiffness):
+        """Eq 27 over one step by its exact ZOH, the net force F - F_ext held [N]."""
+        a11, a12, a21, a22, b1, b2 = mechanics.zoh_matrices(mass, damping, stiffness, step)
+        net = float(force) - external_force
+        y, v = self.displacement, self.velocity
+        self.displacement = a11 * y + a12 * v + b1 * net
+        self.velocity = a21 * y + a22 * v + b2 * net
+        self.previous_current = current
+        self.previous_step = step
+
     def step(self, current: float, step: float, external_force: float = 0.0) -> StepResult:
         """Advance by ``step`` with ``current`` and ``external_force`` held.
 
@@ -309,28 +338,10 @@ class ForwardStepper:
         external_force : float
             Axial force on the output rod opposing elongation, [N].
         """
-        if not step > 0.0 or not math.isfinite(step):
-            raise ParameterError(f"step = {step!r} s is outside the allowed range (0, inf) s")
-        if not math.isfinite(current):
-            raise ParameterError(f"current = {current!r} A is not finite")
-        if not math.isfinite(external_force):
-            raise ParameterError(f"external_force = {external_force!r} N is not finite")
-        p = self.params
-        first = not math.isfinite(self.previous_current)
-        prev = current if first else self.previous_current
-        h_prev = step if first else self.previous_step
-        q, branch = quadrature_current(current, prev, self.point.current_amplitude,
-                                       self.point.angular_frequency, h_prev, self.branch)
-        q = float(q)
-        self.branch = float(branch)
-        mag = magnetics(p, self.point, current, q)
-        a11, a12, a21, a22, b1, b2 = mechanics.zoh_matrices(p.mass, p.damping, p.stiffness, step)
-        net = mag.force - external_force
-        y, v = self.displacement, self.velocity
-        self.displacement = a11 * y + a12 * v + b1 * net
-        self.velocity = a21 * y + a22 * v + b2 * net
-        self.previous_current = current
-        self.previous_step = step
+        q = self._quadrature(current, step, external_force)
+        mag = magnetics(self.params, self.point, current, q)
+        self._advance(mag.force, current, step, external_force, self.params.mass,
+                      self.params.damping, self.params.stiffness)
         return StepResult(mag, self.displacement, self.velocity)
 
 

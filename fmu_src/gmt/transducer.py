@@ -2,8 +2,14 @@
 
 This is the unit the FMU wraps: one object, stepped with the control signal
 u [V] and the external axial force on the output rod [N], holding every piece
-of state (mechanics, compensator memory, counters) so that it can be saved
-and restored exactly.
+of state (mechanics, compensator memory, counters, the model variant's memory)
+so that it can be saved and restored exactly.
+
+The transducer model is the paper's (eq 30) unless a
+:class:`gmt.variants.ModelVariant` adds one extension (the cause
+``smeha diagnose`` names); the compensator always inverts the paper's model,
+as the product's compensator is designed on it, so with a variant it drives a
+transducer it does not model exactly.
 """
 from __future__ import annotations
 
@@ -15,6 +21,7 @@ from .errors import ParameterError
 from .forward import ForwardStepper, Magnetics, operating_point
 from .inverse import InverseCompensator
 from .parameters import DriveParameters, Excitation, TransducerParameters
+from .variants import ModelVariant, make_stepper
 
 
 class TransducerOutput(NamedTuple):
@@ -27,6 +34,9 @@ class TransducerOutput(NamedTuple):
     demand: float  #: compensator's y_d, [m] (NaN when uncompensated)
     saturated: bool  #: current limited, or demand out of reach, this step
     saturation_count: int  #: steps saturated since start or reset
+    #: what a displacement sensor on the rod reads at the end of the step, [m]: the
+    #: displacement, except with a sensor delay (variant ``transport_delay``)
+    sensed_displacement: float
 
 
 class Transducer:
@@ -41,17 +51,24 @@ class Transducer:
         Amplifier gain, current limit, compensator switch.
     calibration : FluxDensityCalibration
         Source of B_m when the excitation carries none.
+    variant : ModelVariant, optional
+        The paper's model (default) or the paper's plus one extension
+        (:mod:`gmt.variants`).
     """
 
     def __init__(self, params: TransducerParameters | None = None,
                  excitation: Excitation | None = None,
                  drive: DriveParameters | None = None,
-                 calibration=DEFAULT_CALIBRATION):
+                 calibration=DEFAULT_CALIBRATION,
+                 variant: ModelVariant | None = None):
         self.params = params or TransducerParameters()
         self.excitation = excitation or Excitation()
         self.drive = drive or DriveParameters()
+        self.variant = variant or ModelVariant()
+        if not isinstance(self.variant, ModelVariant):
+            raise ParameterError(f"variant = {variant!r} must be a gmt.ModelVariant")
         self.point = operating_point(self.params, self.excitation, calibration)
-        self.forward = ForwardStepper(self.params, self.point)
+        self.forward = make_stepper(self.params, self.point, self.variant)
         self.compensator = (InverseCompensator(self.params, self.point, self.drive)
                             if self.drive.compensated else None)
         self.reset()
@@ -65,20 +82,36 @@ class Transducer:
         self.previous_step = math.nan
 
     def get_state(self) -> tuple:
-        """Every piece of state as a flat tuple of floats."""
+        """Every piece of state as a flat tuple of floats.
+
+        The paper stepper's values, the compensator's, the saturation count and
+        the previous step, then the variant's (none for the paper's model; for
+        a sensor delay their number varies with the delay line).
+        """
         comp = self.compensator.get_state() if self.compensator is not None else ()
-        return (self.forward.get_state() + comp
-                + (float(self.saturation_count), self.previous_step))
+        forward = self.forward.get_state()
+        nf = self._paper_state_size()
+        return (forward[:nf] + comp + (float(self.saturation_count), self.previous_step)
+                + forward[nf:])
+
+    def _paper_state_size(self) -> int:
+        # the paper stepper's own values; an ExtendedStepper appends its own after them
+        return len(ForwardStepper.get_state(self.forward))
 
     def set_state(self, state) -> None:
         """Restore a state from :meth:`get_state`."""
         state = tuple(float(s) for s in state)
-        nf = len(self.forward.get_state())
+        nf = self._paper_state_size()
         nc = len(self.compensator.get_state()) if self.compensator is not None else 0
-        if len(state) != nf + nc + 2:
+        fixed = nf + nc + 2
+        if self.variant.is_paper:
+            bad, need = len(state) != fixed, f"{fixed}"
+        else:  # the variant's elapsed time and sensed displacement, then its memory
+            bad, need = len(state) < fixed + 2, f"at least {fixed + 2}"
+        if bad:
             raise ParameterError(
-                f"state has {len(state)} values; this transducer needs {nf + nc + 2}")
-        self.forward.set_state(state[:nf])
+                f"state has {len(state)} values; this transducer needs {need}")
+        self.forward.set_state(state[:nf] + state[fixed:])
         if self.compensator is not None:
             self.compensator.set_state(state[nf:nf + nc])
         self.saturation_count = int(state[nf + nc])
@@ -105,5 +138,11 @@ class Transducer:
         if saturated:
             self.saturation_count += 1
         self.previous_step = step
+        sensed = getattr(res, "sensed_displacement", res.displacement)
         return TransducerOutput(current, res.magnetics, res.displacement, res.velocity,
-                                demand, saturated, self.saturation_count)
+                                demand, saturated, self.saturation_count, sensed)
+
+    @property
+    def sensed_displacement(self) -> float:
+        """What a displacement sensor reads now, [m] (the rod's y unless delayed)."""
+        return getattr(self.forward, "sensed_displacement", self.forward.displacement)
