@@ -8,7 +8,7 @@ Subcommands
 ``smeha simulate --frequency HZ --mode {uncompensated,compensated} [...]``
     One co-simulation of the EHA (transducer FMU + hydraulics) with the flow
     check of eqs 40/41 (:mod:`smeha.flowstudy`).
-``smeha flow [--frequencies 50,70,80,100] [--ideal] [--variant FILE] [--json] [--plot FILE]``
+``smeha flow [--frequencies 50,70,80,100] [--ideal] [--variant FILE] [--fast] [--json] [--plot FILE]``
     The flow study: both modes at each frequency, against eqs 40/41 and the
     paper's Table 3; ``--loads`` adds the load lines; ``--variant`` runs every
     case again with the extended model (a diagnosis or a small variant JSON)
@@ -268,6 +268,10 @@ def _add_flow(subparsers):
                         "output of 'smeha diagnose --json' (its winning extension) or "
                         "{\"cause\": ..., \"parameters\": {...}} (e.g. data/paper_variant.json); "
                         "prints the flow of both models side by side")
+    p.add_argument("--fast", action="store_true",
+                   help="solve each case's periodic steady state directly (smeha.fastpath: "
+                        "the paper's model, gmt in-process; ~0.1 s a case) instead of "
+                        "time-stepping the co-simulation")
     p.add_argument("--json", action="store_true",
                    help="print only a JSON object {rows: [...]} (with --variant also "
                         "{variant, comparison})")
@@ -291,8 +295,38 @@ def _read_variant(path):
         raise UsageError(f"--variant {path}: {exc}") from None
 
 
+def _run_fast_flow(args) -> int:
+    from . import fastpath, flowstudy
+    if args.variant:
+        raise UsageError("--fast solves the paper's model only; drop --fast to run --variant")
+    loads = [args.load]
+    if args.loads:
+        try:
+            loads += [float(v) for v in args.loads.split(",") if v.strip()]
+        except ValueError:
+            raise UsageError(f"--loads {args.loads!r} is not a comma-separated list") from None
+    rows = fastpath.flow_table(args.frequencies, flowstudy.MODES, ideal=args.ideal,
+                               load=loads if len(loads) > 1 else args.load, step=args.step,
+                               branch_rule=args.branch_rule)
+    if args.plot:
+        from .flowplots import plot_flow
+        plot_flow(rows, args.plot)
+    if args.json:
+        print(json.dumps({"rows": rows}))
+        return 0
+    first = rows[0]["load_N"]
+    print(flowstudy.format_table([r for r in rows if r["load_N"] == first]))
+    if args.loads:
+        print()
+        print(flowstudy.format_load_lines(rows))
+    print(f"\n(periodic-steady-state fast path, {sum(r['wall_s'] for r in rows):.2f} s)")
+    return 0
+
+
 def _run_flow(args) -> int:
     from . import flowstudy
+    if args.fast:
+        return _run_fast_flow(args)
     variant = _read_variant(args.variant) if args.variant else None
     if variant is not None and variant.is_paper:
         print(f"smeha flow: --variant {args.variant} is the paper's model (the diagnosis named "

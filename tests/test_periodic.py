@@ -8,6 +8,7 @@ for what the fast path keeps and drops).
 """
 from __future__ import annotations
 
+import json
 import dataclasses
 import math
 
@@ -290,3 +291,19 @@ def test_agrees_with_the_time_stepped_co_simulation(realistic_100):
         swing = np.ptp(last[name])
         assert np.sqrt(np.mean(error ** 2)) < 0.01 * swing, name
         assert np.max(np.abs(error)) < 0.03 * swing, name
+
+
+def test_cli_flow_fast_json(capsys):
+    """`smeha flow --fast --json`: the fast path's rows, in the flow study's keys."""
+    from smeha import cli
+    assert cli.main(["flow", "--fast", "--frequencies", "100", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["rows"]
+    assert [(r["frequency_Hz"], r["mode"]) for r in rows] == [
+        (100.0, "uncompensated"), (100.0, "compensated")]
+    assert all(r["backend"] == "fastpath" and r["flow_sim_m3_s"] > 0 for r in rows)
+
+
+def test_cli_flow_fast_refuses_a_variant(capsys):
+    from smeha import cli
+    assert cli.main(["flow", "--fast", "--variant", "data/paper_variant.json"]) == 2
+    assert "--fast solves the paper's model only" in capsys.readouterr().err
