@@ -1,7 +1,7 @@
 """Cost of one FMU step from an fmpy loop, and memory after a million steps.
 
     python benchmarks/fmu_step_cost.py [--fmu dist/SmehaGmt.fmu] [--runs 5] [--steps 20000]
-                                       [--memory-steps 1e6]
+                                       [--memory-steps 1e6] [--json]
 
 Prints the median (over ``--runs`` runs of ``--steps`` steps) of the time per
 step in microseconds, for doStep alone and for a host's full exchange (set u and
@@ -53,23 +53,32 @@ def main(argv=None):
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--steps", type=int, default=20000)
     parser.add_argument("--memory-steps", type=float, default=1e6)
+    parser.add_argument("--json", action="store_true")
     args = parser.parse_args(argv)
+    say = (lambda *a: None) if args.json else print
+    result = {"steps_per_run": args.steps, "runs": args.runs}
     with tempfile.TemporaryDirectory() as tmp:
         fmu = built_fmu(args.fmu, tmp)
         slave, vr = open_fmu(fmu)
         time_loop(slave, vr, 2000, True)  # warm up (imports, ZOH cache)
-        for label, full in (("doStep only", False),
-                            ("set 2 inputs + doStep + get 10 outputs", True)):
+        for key, label, full in (("doStep_us", "doStep only", False),
+                                 ("exchange_us", "set 2 inputs + doStep + get 10 outputs", True)):
             runs = [time_loop(slave, vr, args.steps, full) for _ in range(args.runs)]
-            print(f"{label:40s} median {statistics.median(runs):7.2f} us/step "
-                  f"(runs: {', '.join(f'{r:.2f}' for r in runs)})")
+            result[key] = statistics.median(runs)
+            result[key + "_runs"] = runs
+            say(f"{label:40s} median {statistics.median(runs):7.2f} us/step "
+                f"(runs: {', '.join(f'{r:.2f}' for r in runs)})")
         if args.memory_steps > 0:
             n = int(args.memory_steps)
-            print(f"memory over {n} steps (set u + doStep + get 8 outputs):")
+            say(f"memory over {n} steps (set u + doStep + get 8 outputs):")
             samples = memory_run(fmu, n)
-            print(f"RSS after {n} steps: {samples[-1][1]:.1f} MB (after {samples[1][0]} steps: "
-                  f"{samples[1][1]:.1f} MB, growth {samples[-1][1] - samples[1][1]:+.1f} MB)")
-
+            result["memory"] = {"steps": n, "rss_after_MB": samples[-1][1],
+                                "rss_early_MB": samples[1][1], "early_steps": samples[1][0]}
+            say(f"RSS after {n} steps: {samples[-1][1]:.1f} MB (after {samples[1][0]} steps: "
+                f"{samples[1][1]:.1f} MB, growth {samples[-1][1] - samples[1][1]:+.1f} MB)")
+    if args.json:
+        import json
+        print(json.dumps(result))
 
 if __name__ == "__main__":
     main()

@@ -1,13 +1,15 @@
 """Sweep throughput: points per minute with 1 and 2 local workers, and on a Dask LocalCluster.
 
 Runs the same grid (default 4 frequencies x 2 modes, realistic circuit, FMU
-backend, 4 cycles each) into fresh tables with ``--workers 1``, ``--workers 2``
+backend, 16 cycles each) into fresh tables with ``--workers 1``, ``--workers 2``
 and a 2-worker Dask LocalCluster (processes), ``--repeats`` times each, and
 prints the median wall time, the throughput and the speed-up over one worker.
 On this 2-core machine the ideal speed-up is 2; the shortfall is process
-start-up, FMU loading per point and the longest point's tail.
+start-up (a spawned worker imports numpy, scipy, control, fmpy and numba and loads the
+compiled kernel before its first point; one local worker runs in the calling process), FMU
+loading per point and the longest point's tail.
 
-Usage: python benchmarks/sweep_throughput.py [--cycles 4] [--step 20e-6] [--repeats 1]
+Usage: python benchmarks/sweep_throughput.py [--cycles 16] [--step 20e-6] [--repeats 1]
        [--no-dask] [--json]
 """
 from __future__ import annotations
@@ -25,7 +27,7 @@ from smeha import flowstudy, sweep
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frequencies", default="50,70,80,100")
-    ap.add_argument("--cycles", type=float, default=4.0)
+    ap.add_argument("--cycles", type=float, default=16.0)
     ap.add_argument("--step", type=float, default=20e-6)
     ap.add_argument("--repeats", type=int, default=1)
     ap.add_argument("--no-dask", action="store_true")

@@ -510,6 +510,9 @@ class TransducerSlave:
                 "built_from": self._built_from,
                 "transducer": list(transducer.get_state()) if transducer is not None else None,
                 "problem": self._problem,
+                # values are already of their variables' types (not so after a JSON
+                # round trip, which _fmu_state_from_bytes marks False)
+                "typed": True,
             }
             state.update(self._extra_state())
             return state
@@ -524,13 +527,18 @@ class TransducerSlave:
             built_from = state["built_from"]
             if built_from is None:
                 self._transducer, self._built_from = None, None
-            elif self._transducer is None or built_from != self._built_from:
+            elif (self._transducer is None
+                  or (built_from is not self._built_from and built_from != self._built_from)):
                 if not self._build(built_from):
                     return
             if self._transducer is not None:
                 self._transducer.set_state(state["transducer"])
-            for name, value in state["variables"].items():
-                setattr(self, name, coerce(name, value))
+            if state.get("typed"):
+                for name, value in state["variables"].items():
+                    setattr(self, name, value)
+            else:
+                for name, value in state["variables"].items():
+                    setattr(self, name, coerce(name, value))
             self._restore_extra(state)
             self._problem = state["problem"]
         except Exception as exc:
@@ -551,6 +559,7 @@ class TransducerSlave:
             out = json.loads(bytes(state).decode("utf-8"))
             if not isinstance(out, dict):
                 raise ValueError("not a JSON object")
+            out["typed"] = False  # coerce each value again on restore
             return out
         except Exception as exc:
             return {"invalid": f"not a serialised {cls.__name__} state: {exc}"}
