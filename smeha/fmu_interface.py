@@ -548,7 +548,8 @@ class TransducerSlave:
     def _fmu_state_to_bytes(state):
         import json
         try:
-            return json.dumps(state).encode("utf-8")
+            # "typed" describes the in-memory copy, not the state: not serialised
+            return json.dumps({k: v for k, v in state.items() if k != "typed"}).encode("utf-8")
         except Exception as exc:
             return json.dumps({"invalid": f"not serialisable: {exc}"}).encode("utf-8")
 
