@@ -6,6 +6,8 @@ run :func:`smeha.diagnose.diagnose` (default held-out runs; the workflow is
 not told the effect) and tabulate the detection rate (cause named = truth;
 for clean data, ``none``) and the median held-out gain (paper RMS / extended
 RMS). Prints a table, or JSON with ``--json``. Figures only: no timed asserts.
+For the causes with several formulations (``smeha.diagnose.FORMS``) the
+table also counts which form won.
 
     python benchmarks/diagnose_detection.py [--seeds 20] [--workers 2] [--json]
         [--strengths 1,0.3,0.1,0.03] [--noises 0.05,0.01]
@@ -39,7 +41,8 @@ def _one(task):
     t = time.perf_counter()
     d = diagnose.diagnose(runs)
     return {"effect": effect or "none", "seed": seed, "strength": strength, "noise_um": noise,
-            "cause": d.cause, "gain": d.gain, "seconds": time.perf_counter() - t,
+            "cause": d.cause, "form": d.extended.form, "gain": d.gain,
+            "seconds": time.perf_counter() - t,
             "paper_um": d.paper.heldout_rms * 1e6, "extended_um": d.extended.heldout_rms * 1e6}
 
 
@@ -74,15 +77,18 @@ def main(argv=None):
             named = [r for r in sel if r["cause"] == e]
             gains = [r["gain"] for r in sel]
             wrong = {}
+            forms = {}
             for r in sel:
                 if r["cause"] != e:
                     wrong[r["cause"]] = wrong.get(r["cause"], 0) + 1
+                elif r["form"]:
+                    forms[r["form"]] = forms.get(r["form"], 0) + 1
             rows.append({"effect": e, "strength": strength, "noise_um": noise, "runs": len(sel),
                          "detection_rate": len(named) / len(sel),
                          "median_gain": float(np.median(gains)),
                          "min_gain": float(np.min(gains)),
                          "gain_ge_2_rate": float(np.mean([g >= 2.0 for g in gains])),
-                         "misnamed_as": wrong,
+                         "misnamed_as": wrong, "forms": forms,
                          "median_seconds": float(np.median([r["seconds"] for r in sel]))})
     if args.json:
         json.dump({"rows": rows, "wall_seconds": time.perf_counter() - t0}, sys.stdout,
@@ -90,11 +96,14 @@ def main(argv=None):
         sys.stdout.write("\n")
         return 0
     head = (f"{'effect':<29} {'strength':>8} {'noise um':>8} {'n':>3} {'detect':>7} "
-            f"{'med gain':>9} {'min gain':>9} {'gain>=2':>8}  misnamed as")
+            f"{'med gain':>9} {'min gain':>9} {'gain>=2':>8}  misnamed as; forms")
     print(head)
     print("-" * len(head))
     for r in rows:
         wrong = ", ".join(f"{k} x{v}" for k, v in sorted(r["misnamed_as"].items()))
+        if r["forms"]:
+            wrong += ("; " if wrong else "") + "form " + ", ".join(
+                f"{k} x{v}" for k, v in sorted(r["forms"].items()))
         print(f"{r['effect']:<29} {r['strength']:>8g} {r['noise_um']:>8g} {r['runs']:>3} "
               f"{100 * r['detection_rate']:>6.0f}% {r['median_gain']:>9.3g} "
               f"{r['min_gain']:>9.3g} {100 * r['gain_ge_2_rate']:>7.0f}%  {wrong}")

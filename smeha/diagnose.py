@@ -36,7 +36,15 @@ workflow
    on B predicts the paper's B) plus a BIC penalty k ln n for its k added
    parameters. The drift candidate predicts the drift features as the
    least-squares slope of its heating dose over each run's samples (the same
-   functional the features are). Decision (:func:`decide`):
+   functional the features are). Two causes come in several formulations
+   (:data:`FORMS`), each fitted and scored as a candidate of its own, so the
+   penalty for parameters also arbitrates between them: eddy currents as a
+   lumped lag of the field, or as the exact diffusion of the field into a
+   lamination (slab) or a solid rod (cylinder) with its profile across the
+   section (:class:`gmt.extensions.EddyCurrentDiffusion`); the mechanics as
+   eq 27 with re-identified m, c, K (one DOF), or as rod and output mass on a
+   compliant joint (:class:`gmt.extensions.TwoMassMechanics`). Decision
+   (:func:`decide`):
 
    * ``none`` when the paper's model is within noise on the training fit and
      on the held-out runs: reduced chi^2 at most :data:`WITHIN_NOISE`;
@@ -265,7 +273,9 @@ class Candidate:
 
     ``names`` are the extension's own parameters (internal units, mapped to SI
     by :func:`physical_parameters`); ``starts`` several start vectors (the fit
-    keeps the best), ``lower``/``upper`` their bounds.
+    keeps the best), ``lower``/``upper`` their bounds. ``form`` names the
+    formulation when a cause has several (:data:`FORMS`); "" is the cause's
+    first.
     """
 
     cause: str
@@ -273,14 +283,64 @@ class Candidate:
     starts: tuple = ((),)
     lower: tuple = ()
     upper: tuple = ()
+    form: str = ""
 
     @property
     def n_params(self):
         return len(self.names)
 
+    @property
+    def label(self):
+        return _label(self.cause, self.form)
 
-def candidates() -> tuple:
-    """The paper's model and the six candidate extensions, internal parametrisation."""
+
+#: Formulations of the causes that have more than one (the first is the default):
+#: the eddy currents as a lumped lag, or as diffusion into a lamination (slab) or a
+#: solid rod (cylinder); the mechanics with one re-identified DOF, or two masses.
+FORMS = {
+    "eddy_current_diffusion": ("lag", "slab", "cylinder"),
+    "mechanical_resonance": ("one_dof", "two_dof"),
+}
+
+
+def _form(cause, form):
+    """The form's name, "" (the default) resolved to the cause's first."""
+    forms = FORMS.get(cause, ("",))
+    if not form:
+        return forms[0]
+    if form not in forms:
+        raise ValueError(f"form {form!r} is not one of {forms} for {cause}")
+    return form
+
+
+def _label(cause, form):
+    """Display name: the cause, with its form when it has several."""
+    if cause not in FORMS:
+        return cause
+    return f"{cause} ({_form(cause, form)})"
+
+
+def candidates(all_forms: bool = False) -> tuple:
+    """The paper's model and the candidate extensions, internal parametrisation.
+
+    By default one candidate per cause, its first form (:data:`FORMS`); with
+    ``all_forms`` every form, as :func:`diagnose` fits them.
+    """
+    first = _first_forms()
+    if not all_forms:
+        return first
+    return first + (
+        Candidate("eddy_current_diffusion", ("log10_tau",), ((-4.0,), (-3.0,), (-2.0,)),
+                  (-7.0,), (0.0,), form="slab"),
+        Candidate("eddy_current_diffusion", ("log10_tau",), ((-4.0,), (-3.0,), (-2.0,)),
+                  (-7.0,), (0.0,), form="cylinder"),
+        Candidate("mechanical_resonance", ("m2/m", "log10_f_joint_Hz", "zeta_joint"),
+                  ((0.5, 2.7, 0.1), (0.3, 3.0, 0.3), (0.7, 2.4, 0.05)),
+                  (0.02, 1.5, 0.005), (0.98, 4.5, 3.0), form="two_dof"),
+    )
+
+
+def _first_forms() -> tuple:
     return (
         Candidate("none"),
         Candidate("rate_independent_hysteresis",
@@ -289,11 +349,12 @@ def candidates() -> tuple:
                   (0.0,) * len(PLAY_THRESHOLDS), (100.0,) * len(PLAY_THRESHOLDS)),
         Candidate("magnetization_saturation", ("M_b/M_s",), ((0.3,), (0.6,)), (1e-3,), (0.97,)),
         Candidate("eddy_current_diffusion", ("log10_tau", "order"),
-                  ((-4.0, 0.5), (-3.0, 1.0), (-2.5, 0.5)), (-6.0, 0.3), (-1.0, 1.0)),
+                  ((-4.0, 0.5), (-3.0, 1.0), (-2.5, 0.5)), (-6.0, 0.3), (-1.0, 1.0),
+                  form="lag"),
         Candidate("transport_delay", ("tau_ms",), ((0.05,), (1.0,)), (0.0,), (20.0,)),
         Candidate("mechanical_resonance", ("m/m0", "c/c0", "K/K0"),
                   ((1.0, 1.0, 1.0), (3.0, 0.5, 1.0), (0.5, 2.0, 1.0)),
-                  (0.02, 0.02, 0.3), (50.0, 50.0, 3.0)),
+                  (0.02, 0.02, 0.3), (50.0, 50.0, 3.0), form="one_dof"),
         Candidate("thermal_drift", ("offset_rate_um_per_A2s", "gain_rate_pct_per_A2s",
                                     "log10_time_constant_s"),
                   ((0.0, 0.0, 0.0), (0.0, 0.0, 2.0)),
@@ -301,10 +362,21 @@ def candidates() -> tuple:
     )
 
 
-def physical_parameters(cause, extra, context) -> dict:
+def physical_parameters(cause, extra, context, form="") -> dict:
     """The extension's parameters in SI (for the report)."""
     x = list(extra)
     p = context["params"]
+    form = _form(cause, form)
+    if form in ("slab", "cylinder"):
+        tau = 10.0 ** x[0]
+        # the skin depth equals the half thickness or radius at w tau = 2
+        return {"time_constant_s": tau, "skin_depth_equals_size_at_Hz": 1.0 / (math.pi * tau)}
+    if form == "two_dof":
+        m = _two_mass(p, x)
+        return {"rod_mass_kg": m.rod_mass, "output_mass_kg": m.output_mass,
+                "joint_stiffness_N_per_m": m.joint_stiffness,
+                "joint_damping_N_s_per_m": m.joint_damping,
+                "joint_frequency_Hz": 10.0 ** x[1], "joint_damping_ratio": x[2]}
     if cause == "rate_independent_hysteresis":
         return {"thresholds_A_per_m": list(context["thresholds"]),
                 "weights": [0.1 * v for v in x]}
@@ -323,6 +395,13 @@ def physical_parameters(cause, extra, context) -> dict:
     return {}
 
 
+def _two_mass(params, extra):
+    """The two-mass mechanics of the ``two_dof`` form: eq 27's m, c, K with the output's
+    share m_2/m, the joint's frequency 10^x [Hz] and damping ratio."""
+    return ext.TwoMassMechanics.from_joint(params.mass, params.damping, params.stiffness,
+                                           extra[0], 10.0 ** extra[1], extra[2])
+
+
 class _Evaluator:
     """Periodic steady state of a candidate for a run's features (module docstring)."""
 
@@ -333,6 +412,7 @@ class _Evaluator:
         self.grid = grid
         self.theta = 2.0 * np.pi * np.arange(grid) / grid
         self._mech = {}
+        self._two = {}
 
     def mechanics(self, m, c, kk, w, h):
         key = (m, c, kk, w, h)
@@ -343,69 +423,129 @@ class _Evaluator:
                 self._mech[key] = g
         return g
 
-    def predict(self, rf: RunFeatures, loss, cause="none", extra=(), flux=None):
-        """(Y_k [m], B_k [T], offset slope [m/s], Y_1 slope [m/s]) of the model."""
+    def two_mass(self, extra):
+        """The ``two_dof`` form's mechanics, one object per parameter vector (all runs)."""
+        key = tuple(extra)
+        sys2 = self._two.get(key)
+        if sys2 is None:
+            if len(self._two) >= 256:
+                self._two.clear()
+            sys2 = self._two[key] = _two_mass(self.params, key)
+        return sys2
+
+    def predict(self, rf: RunFeatures, loss, cause="none", extra=(), flux=None, form=""):
+        """(Y_k [m], B_k [T], offset slope [m/s], Y_1 slope [m/s]) of the model.
+
+        The magnetisation's fundamental M_1 (referred to the current's phase) is
+        the paper's (mu - 1) H_m, or the eddy forms' field inside the rod. While M
+        is that sinusoid, the force of eqs 25 and 28, A_r E^H K_lambda (M_b + M)^2,
+        has a mean and two harmonics, F_1 = 2 c M_b M_1 and F_2 = c M_1^2 / 2
+        (c = A_r E^H K_lambda; harmonic balance, as gmt.forward.strain_harmonics).
+        Hysteresis and saturation add harmonics to M, so with them M and the
+        force are sampled over one period and their harmonics taken by FFT.
+        """
         p = self.params
+        form = _form(cause, form)
         f, w = rf.frequency, rf.angular_frequency
-        im = rf.current_amplitude
-        hm = p.field_per_ampere * im
+        hm = p.field_per_ampere * rf.current_amplitude
         bm = rf.flux_density_amplitude if flux is None else flux
         mod = bm / (MU_0 * hm)
-        mu_i = min(_mu_imag(loss, f, bm, hm), 0.999 * mod)
-        th = self.theta
-        if cause == "eddy_current_diffusion":
+        c_force = p.rod_area * p.youngs_modulus * p.magnetostriction_coefficient
+        mb = p.bias_magnetization
+        kk = self.k.size
+        fk = np.zeros(kk, complex)
+        mk = np.zeros(kk, complex)
+        b1 = None
+        if form == "lag":
+            mu_i = min(_mu_imag(loss, f, bm, hm), 0.999 * mod)
             g1 = complex(ext.EddyCurrentLag(10.0 ** extra[0], extra[1]).transfer(w))
             mu_r = ext.eddy_calibrated_permeability(bm, hm, mu_i, g1)
             if not math.isfinite(mu_r):
                 mu_r = 1.0
             mu_c = complex(mu_r, -mu_i)
-            coef = (mu_c - 1.0) * g1
-            m = hm * (coef.real * np.cos(th) - coef.imag * np.sin(th))
+            m1 = (mu_c - 1.0) * g1 * hm
             b1 = MU_0 * mu_c * g1 * hm  # B = mu_0 mu H_in, H_in = g H
+            f2 = 0.5 * c_force * m1 * m1
+        elif form in ("slab", "cylinder"):
+            m1, f2, b1 = self._diffusion(loss, f, w, bm, hm, form, extra[0])
         else:
+            mu_i = min(_mu_imag(loss, f, bm, hm), 0.999 * mod)
             mu_r = math.sqrt(mod * mod - mu_i * mu_i)
-            m = hm * ((mu_r - 1.0) * np.cos(th) + mu_i * np.sin(th))
-        if cause == "rate_independent_hysteresis":
-            pi_op = ext.PrandtlIshlinskii(self.thresholds, tuple(0.1 * v for v in extra))
-            m = m + ext.harmonic_remainder(pi_op.periodic(hm, th))
-        elif cause == "magnetization_saturation":
-            sat = ext.SoftSaturation(p.bias_magnetization / extra[0], p.bias_magnetization)
-            m = m + ext.harmonic_remainder(sat.magnetization(m) - m)
-        kl, mb = p.magnetostriction_coefficient, p.bias_magnetization
-        force = p.rod_area * p.youngs_modulus * kl * (mb + m) ** 2
-        n = self.grid
-        fk = np.fft.rfft(force)[self.k] * (2.0 / n)
-        mk = np.fft.rfft(m)[self.k] * (2.0 / n)
-        if cause == "mechanical_resonance":
+            m1 = complex(mu_r - 1.0, -mu_i) * hm
+            f2 = 0.5 * c_force * m1 * m1
+        if cause in ("rate_independent_hysteresis", "magnetization_saturation"):
+            th = self.theta
+            m = np.real(m1 * np.exp(1j * th))
+            if cause == "rate_independent_hysteresis":
+                pi_op = ext.PrandtlIshlinskii(self.thresholds, tuple(0.1 * v for v in extra))
+                m = m + ext.harmonic_remainder(pi_op.periodic(hm, th))
+            else:
+                sat = ext.SoftSaturation(p.bias_magnetization / extra[0], p.bias_magnetization)
+                m = m + ext.harmonic_remainder(sat.magnetization(m) - m)
+            n = self.grid
+            fk = np.fft.rfft(c_force * (mb + m) ** 2)[self.k] * (2.0 / n)
+            mk = np.fft.rfft(m)[self.k] * (2.0 / n)
+        else:
+            fk[0] = 2.0 * c_force * mb * m1
+            fk[1] = f2
+            mk[0] = m1
+        if form == "one_dof":
             g = ext.zoh_frequency_response(p.mass * extra[0], p.damping * extra[1],
                                            p.stiffness * extra[2], self.k * w, rf.step)
+        elif form == "two_dof":
+            g = self.two_mass(extra).response(self.k * w, rf.step)
         else:
             g = self.mechanics(p.mass, p.damping, p.stiffness, w, rf.step)
         y = fk * g
         if cause == "transport_delay":
             y = y * ext.TransportDelay(extra[0] * 1e-3).factor(self.k * w)
-        hk = np.zeros(self.k.size, complex)
+        hk = np.zeros(kk, complex)
         hk[0] = hm
         b = MU_0 * (hk + mk)
-        if cause == "eddy_current_diffusion":
+        if b1 is not None:
             b[0] = b1
         s_off, s_y1 = 0.0, 0.0j
         if cause == "thermal_drift":
             # the features' slope is the least-squares slope of the dose over the samples
-            u = self._drift(extra).dose(rf.time - rf.t_start, im)
+            u = self._drift(extra).dose(rf.time - rf.t_start, rf.current_amplitude)
             tau = rf.time - rf.t_mid
             slope = float(tau @ (u - u.mean()) / (tau @ tau))
             s_off = extra[0] * 1e-6 * slope
             s_y1 = extra[1] * 1e-2 * slope * y[0]
         return y, b, s_off, s_y1
 
+    def _diffusion(self, loss, f, w, bm, hm, geometry, log10_tau):
+        """M_1, the force's F_2 and B_1 with the field diffusing into the rod.
+
+        ext.EddyCurrentDiffusion: H_in(x) = g(x) H, M(x) = (mu - 1) H_in(x) and
+        B(x) = mu_0 mu H_in(x) locally. The coil sees the mean, B_1 = mu_0 mu <g> H_m,
+        and mu is the material's at the applied field: its flux density amplitude
+        at the surface, B_s = B_m / |<g>|, enters eq 16 for mu'', and
+        |mu| = B_s / (mu_0 H_m) (eq 20). Magnetostriction is local and the section
+        moves as one, so the force is A_r E^H K_lambda <(M_b + M(x))^2> (eqs 25, 28):
+        with M_s = (mu - 1) H_m at the surface, its fundamental is 2 c M_b <g> M_s and
+        its second harmonic c M_s^2 <g^2> / 2 (the mean, with <|g|^2>, does not
+        reach the features).
+        """
+        dif = ext.EddyCurrentDiffusion(10.0 ** log10_tau, geometry)
+        g1 = complex(dif.transfer(w))
+        g_sq = complex(dif.mean_squares(w)[0])
+        b_surface = bm / abs(g1)
+        mod = b_surface / (MU_0 * hm)
+        mu_i = min(_mu_imag(loss, f, b_surface, hm), 0.999 * mod)
+        mu_c = complex(math.sqrt(mod * mod - mu_i * mu_i), -mu_i)
+        ms = (mu_c - 1.0) * hm
+        p = self.params
+        c_force = p.rod_area * p.youngs_modulus * p.magnetostriction_coefficient
+        return ms * g1, 0.5 * c_force * ms * ms * g_sq, MU_0 * mu_c * g1 * hm
+
     @staticmethod
     def _drift(extra):
         return ext.LinearDrift(extra[0] * 1e-6, extra[1] * 1e-2, 10.0 ** extra[2])
 
-    def residuals(self, rf: RunFeatures, loss, cause="none", extra=()):
+    def residuals(self, rf: RunFeatures, loss, cause="none", extra=(), form=""):
         """Model minus data over each feature's standard deviation."""
-        y, b, s_off, s_y1 = self.predict(rf, loss, cause, extra)
+        y, b, s_off, s_y1 = self.predict(rf, loss, cause, extra, form=form)
         sy = np.sqrt(rf.y_var + (rf.y_prop_var if rf.y_prop_var is not None else 0.0))
         sb = np.sqrt(rf.b_var)
         dy, db = (y - rf.y) / sy, (b - rf.b) / sb
@@ -414,18 +554,18 @@ class _Evaluator:
                                [(s_off - rf.offset_slope) / math.sqrt(rf.offset_slope_var),
                                 ds.real, ds.imag]))
 
-    def parts(self, rf, loss, cause="none", extra=()):
+    def parts(self, rf, loss, cause="none", extra=(), form=""):
         """chi^2 of y (harmonics), of B, of the drift features."""
-        r = self.residuals(rf, loss, cause, extra)
+        r = self.residuals(rf, loss, cause, extra, form)
         kk = self.k.size
         ry = np.concatenate((r[:kk], r[kk:2 * kk]))
         rb = np.concatenate((r[2 * kk:3 * kk], r[3 * kk:4 * kk]))
         rd = r[4 * kk:]
         return float(ry @ ry), float(rb @ rb), float(rd @ rd)
 
-    def samples(self, rf: RunFeatures, loss, cause="none", extra=()):
+    def samples(self, rf: RunFeatures, loss, cause="none", extra=(), form=""):
         """Model y at the run's samples, best constant offset fitted, [m]."""
-        y, _, _, _ = self.predict(rf, loss, cause, extra)
+        y, _, _, _ = self.predict(rf, loss, cause, extra, form=form)
         th = rf.phase(rf.time)
         out = np.zeros_like(rf.time)
         for k, yk in zip(self.k, y):
@@ -459,10 +599,15 @@ class Fit:
     heldout_rms: float
     score: float
     parameters: dict
+    form: str = ""
 
     @property
     def heldout_excess(self):
         return self.heldout_chi2 - self.heldout_n
+
+    @property
+    def label(self):
+        return _label(self.cause, self.form)
 
 
 def _loss_scale(loss0):
@@ -481,7 +626,7 @@ def fit_candidate(ev: _Evaluator, train, cand: Candidate, loss0) -> tuple:
 
     def fun(x):
         loss = tuple(x[:nl] * np.array([scale[0], 1.0, scale[2], scale[3]]))
-        return np.concatenate([ev.residuals(rf, loss, cand.cause, tuple(x[nl:]))
+        return np.concatenate([ev.residuals(rf, loss, cand.cause, tuple(x[nl:]), cand.form)
                                for rf in train])
 
     best = None
@@ -507,10 +652,10 @@ def _score(ev, cand, loss, extra, chi2_train, n_train, heldout, context) -> Fit:
     sq = 0.0
     ns = 0
     for rf in heldout:
-        a, b, d = ev.parts(rf, loss, cand.cause, extra)
+        a, b, d = ev.parts(rf, loss, cand.cause, extra, cand.form)
         chi_y, chi_b, chi_d = chi_y + a, chi_b + b, chi_d + d
         n += 4 * ev.k.size + 3
-        r = rf.displacement - ev.samples(rf, loss, cand.cause, extra)
+        r = rf.displacement - ev.samples(rf, loss, cand.cause, extra, cand.form)
         sq += float(r @ r)
         ns += r.size
     chi = chi_y + chi_b + chi_d
@@ -519,7 +664,8 @@ def _score(ev, cand, loss, extra, chi2_train, n_train, heldout, context) -> Fit:
                train_chi2=chi2_train, train_n=n_train, heldout_chi2=chi, heldout_n=n,
                heldout_chi2_y=chi_y, heldout_chi2_b=chi_b, heldout_chi2_drift=chi_d,
                heldout_rms=math.sqrt(sq / max(ns, 1)), score=score,
-               parameters=physical_parameters(cand.cause, extra, context))
+               parameters=physical_parameters(cand.cause, extra, context, cand.form),
+               form=_form(cand.cause, cand.form))
 
 
 # ================================================================== holdout
@@ -636,7 +782,8 @@ class Diagnosis:
     def as_dict(self) -> dict:
         """JSON-able report (the ``--json`` output)."""
         def fitd(fit):
-            return {"cause": fit.cause, "heldout_rms_um": fit.heldout_rms * 1e6,
+            return {"cause": fit.cause, "form": fit.form,
+                    "heldout_rms_um": fit.heldout_rms * 1e6,
                     "score": fit.score, "heldout_chi2": fit.heldout_chi2,
                     "heldout_n": fit.heldout_n,
                     "heldout_chi2_y": fit.heldout_chi2_y, "heldout_chi2_b": fit.heldout_chi2_b,
@@ -646,6 +793,7 @@ class Diagnosis:
                     "loss_coefficients": dict(zip(("K_h", "n", "K_e", "K_ex"), fit.loss))}
         return {
             "cause": self.cause,
+            "form": self.extended.form,
             "evidence": list(self.evidence),
             "heldout_runs": list(self.heldout_runs),
             "training_runs": list(self.training_runs),
@@ -747,7 +895,7 @@ def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
     loss0 = (max(loss0[0], 0.0), loss0[1], max(loss0[2], 0.0), max(loss0[3], 0.0))
     _propagate_flux_error(ev, feats.values(), loss0)
     fits = []
-    for cand in candidates():
+    for cand in candidates(all_forms=True):
         if cand.cause != "none" and cand.cause not in causes:
             continue
         start = loss0 if cand.cause == "none" else fits[0].loss
@@ -842,12 +990,12 @@ def _evidence(d: Diagnosis) -> list[str]:
                f"{zg['run']})")
     ranked = sorted((f for f in d.fits if f.cause != "none"), key=lambda f: f.score)
     out.append(f"held-out RMS of y: paper {p.heldout_rms * 1e6:.4g} um; candidates "
-               + ", ".join(f"{f.cause} {f.heldout_rms * 1e6:.4g} um (score {f.score:.4g})"
+               + ", ".join(f"{f.label} {f.heldout_rms * 1e6:.4g} um (score {f.score:.4g})"
                            for f in ranked) + f"; paper's score {p.score:.4g}")
     if d.cause in CAUSES:
         e = d.extended
         explained = 1.0 - max(e.heldout_excess, 0.0) / max(p.heldout_excess, 1e-12)
-        out.append(f"named {d.cause} (acts on {SIGNALS[d.cause]}): held-out BIC lower by "
+        out.append(f"named {e.label} (acts on {SIGNALS[d.cause]}): held-out BIC lower by "
                    f"{p.score - e.score:.4g} (threshold {MIN_BIC_DROP:g}), "
                    f"{100 * explained:.3g} % of the paper's excess chi^2 removed; parameters "
                    f"{_fmt_params(e.parameters)}; held-out RMS {p.heldout_rms * 1e6:.4g} -> "
@@ -874,15 +1022,16 @@ def format_diagnosis(d: Diagnosis, path: str = "") -> str:
     lines = []
     if path:
         lines.append(f"diagnosis of {path}")
-    lines.append(f"cause: {d.cause}")
+    lines.append(f"cause: {d.cause}" + (f" (model: {d.extended.form})"
+                                         if d.cause in FORMS else ""))
     lines.append(f"held-out runs: {', '.join(d.heldout_runs)}")
     lines.append(f"held-out RMS of y: paper {d.paper.heldout_rms * 1e6:.4g} um, extended "
                  f"{d.extended.heldout_rms * 1e6:.4g} um, gain {d.gain:.3g}x")
     lines.append("")
-    head = f"{'candidate':<30} {'held-out RMS [um]':>18} {'chi2/n':>10} {'score':>12} {'k':>3}"
+    head = f"{'candidate':<42} {'held-out RMS [um]':>18} {'chi2/n':>10} {'score':>12} {'k':>3}"
     lines += [head, "-" * len(head)]
     for f in sorted(d.fits, key=lambda f: f.score):
-        lines.append(f"{('paper (none)' if f.cause == 'none' else f.cause):<30} "
+        lines.append(f"{('paper (none)' if f.cause == 'none' else f.label):<42} "
                      f"{f.heldout_rms * 1e6:>18.4g} {f.heldout_chi2 / f.heldout_n:>10.4g} "
                      f"{f.score:>12.5g} {f.n_params:>3}")
     lines.append("")
@@ -909,7 +1058,8 @@ def write_report(d: Diagnosis, directory) -> list:
     paths = []
     for name, rf in d.context["features"].items():
         yp = ev.samples(rf, d.paper.loss)
-        ye = ev.samples(rf, d.extended.loss, d.extended.cause, d.extended.extra)
+        ye = ev.samples(rf, d.extended.loss, d.extended.cause, d.extended.extra,
+                        d.extended.form)
         th = np.mod(rf.phase(rf.time), 2 * np.pi)
         falling = th < np.pi
         fig, axes = plt.subplots(1, 3, figsize=(14, 4))
@@ -919,7 +1069,7 @@ def write_report(d: Diagnosis, directory) -> list:
         ax.plot(rf.current[order], yp[order] * 1e6, "-", lw=0.8, label="paper")
         if d.extended.cause != "none":
             ax.plot(rf.current[order], ye[order] * 1e6, "--", lw=0.8,
-                    label=f"extended ({d.extended.cause})")
+                    label=f"extended ({d.extended.label})")
         ax.set_xlabel("current i [A]")
         ax.set_ylabel("displacement y [um]")
         tag = " (held out)" if name in d.heldout_runs else ""

@@ -18,11 +18,18 @@ magnetisation saturation       :class:`SoftSaturation`: tanh law of the *total*
 eddy-current diffusion         :class:`EddyCurrentLag`: the field inside the rod
                                lags the applied field, g(jw) = (1 + j w tau)^-alpha,
                                alpha = 1 (first order) or 1/2 (fractional, the
-                               high-frequency law of 1-D diffusion)
+                               high-frequency law of 1-D diffusion);
+                               :class:`EddyCurrentDiffusion`: the exact 1-D
+                               diffusion of the field into a lamination (slab,
+                               tanh q / q) or a solid rod (cylinder, Bessel
+                               functions), with the field's profile across the
+                               section (Stoll 1974; Bertotti 1998)
 transport delay                :class:`TransportDelay`: e^{-j k w tau} on the k-th
                                displacement harmonic (a pure delay of the sensor chain)
 mechanical resonance           :class:`ReidentifiedMechanics`: eq 27 with its own
-                               m, c, K (one degree of freedom, re-identified)
+                               m, c, K (one degree of freedom, re-identified);
+                               :class:`TwoMassMechanics`: rod and output mass on a
+                               compliant joint (two degrees of freedom)
 thermal drift                  :class:`LinearDrift`: offset and gain of y drifting
                                linearly in time, at rates proportional to the coil's
                                Joule heating (I_m^2)
@@ -45,9 +52,11 @@ Time-stepping forms
 -------------------
 Every class keeps whatever state a per-sample form needs: the play operators'
 outputs (:meth:`PrandtlIshlinskii.step`), the lag filter's state
-(:meth:`EddyCurrentLag.step`, first order), a delay line
+(:meth:`EddyCurrentLag.step`, first order; :meth:`EddyCurrentDiffusion.step`,
+the diffusion's mean field as its modal sum of first-order lags), a delay line
 (:meth:`TransportDelay.delay_samples`), the ZOH matrices of eq 27
-(:func:`gmt.mechanics.zoh_matrices` with re-identified m, c, K) and the drift's
+(:func:`gmt.mechanics.zoh_matrices` with re-identified m, c, K;
+:meth:`TwoMassMechanics.zoh_matrices` for the two masses) and the drift's
 elapsed time. The periodic forms here (``periodic``, ``transfer``) are what
 the diagnosis evaluates; the FMU would use the step forms (docs/DIAGNOSE.md).
 
@@ -68,6 +77,12 @@ References
   sqrt(j w) high-frequency law).
 * G. Engdahl (ed.), *Handbook of Giant Magnetostrictive Materials*, Academic
   Press 2000 (thermal behaviour of Terfenol-D transducers; transducer dynamics).
+* W. T. Thomson, M. D. Dahleh, *Theory of Vibration with Applications*, 5th ed.,
+  Prentice Hall 1998, ch. 5 (two-degree-of-freedom systems).
+* C. F. Van Loan, "Computing integrals involving the matrix exponential", IEEE
+  Trans. Autom. Control 23 (1978) 395-404 (ZOH discretisation by one
+  exponential); G. F. Franklin, J. D. Powell, M. L. Workman, *Digital Control
+  of Dynamic Systems*, 3rd ed., Addison-Wesley 1998, ch. 4.
 * A. Gelb, W. E. Vander Velde, *Multiple-Input Describing Functions and
   Nonlinear System Design*, McGraw-Hill 1968.
 """
@@ -75,6 +90,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -314,6 +330,166 @@ def eddy_calibrated_permeability(flux_density_amplitude, field_amplitude, mu_ima
     return math.sqrt(mod * mod - mu_imag * mu_imag)
 
 
+#: Geometries of :class:`EddyCurrentDiffusion`.
+DIFFUSION_GEOMETRIES = ("slab", "cylinder")
+
+
+@dataclass(frozen=True)
+class EddyCurrentDiffusion:
+    """Magnetic diffusion into a conducting lamination or rod: the exact 1-D field profile.
+
+    Inside a conductor of permeability mu and conductivity sigma the field
+    obeys the diffusion equation mu_0 mu sigma dH/dt = div grad H (Maxwell's
+    equations without displacement current, linear material). With the
+    applied field H e^{j w t} on the surface, its phasor inside depends on
+    q = sqrt(j w tau), tau = mu_0 mu sigma a^2 (Stoll 1974, ch. 2 and 4;
+    Bertotti 1998, ch. 12), derived for this module as follows:
+
+    * **slab** (a lamination of thickness 2a, the field along it, x from the
+      mid-plane): H'' = (j w tau / a^2) H with H'(0) = 0 gives
+      g(x) = H(x)/H = cosh(q x/a) / cosh(q);
+    * **cylinder** (a solid rod of radius a, axial field): the radial
+      equation (1/r)(r H')' = (j w tau / a^2) H, regular on the axis, gives
+      g(r) = I_0(q r/a) / I_0(q) (modified Bessel functions).
+
+    The coil sees the section's mean flux, so the lag of the mean field is
+    the transfer (:meth:`transfer`)
+
+        slab      <g> = tanh(q) / q,
+        cylinder  <g> = 2 I_1(q) / (q I_0(q)),
+
+    both 1 - j w tau/3 (slab) or 1 - j w tau/8 (cylinder) at low frequency
+    (a first-order lag of tau/3 or tau/8) and (j w tau)^(-1/2) times 1 or 2 at
+    high frequency (phase -> 45 deg, the skin effect). Magnetostriction is
+    local, while the rod's section moves as one, so the force of eq 28 takes
+    the section mean of lambda = K_lambda (M_b + M(x))^2; with
+    M(x) = Re(M g(x) e^{j w t}) that needs <g^2> and <|g|^2>
+    (:meth:`mean_squares`), integrated here in closed form:
+
+        slab      <g^2> = (1/cosh^2 q + tanh(q)/q) / 2,
+                  <|g|^2> = Im(q tanh q) / (w tau),
+        cylinder  <g^2> = 1 - (I_1(q)/I_0(q))^2,
+                  <|g|^2> = 2 Im(q I_1(q)/I_0(q)) / (w tau)
+
+    (the cylinder's from Lommel's integrals of products of Bessel
+    functions; <|g|^2> is, as it must be, proportional to the power the
+    surface impedance absorbs). All tend to 1 as w tau -> 0.
+
+    Attributes
+    ----------
+    time_constant : float
+        tau = mu_0 mu sigma a^2, [s], a the half thickness (slab) or the
+        radius (cylinder); the skin depth sqrt(2/(w mu_0 mu sigma)) equals a
+        at w tau = 2.
+    geometry : {"slab", "cylinder"}
+    """
+
+    time_constant: float
+    geometry: str = "cylinder"
+
+    def __post_init__(self):
+        check_range("time_constant", self.time_constant, 0.0, math.inf, unit="s",
+                    low_open=False)
+        if self.geometry not in DIFFUSION_GEOMETRIES:
+            raise ParameterError(f"geometry = {self.geometry!r} is not one of "
+                                 f"{DIFFUSION_GEOMETRIES}")
+
+    def _q(self, angular_frequency):
+        """(w tau, q = sqrt(j w tau)) with Re q >= 0, arrays."""
+        wt = np.asarray(angular_frequency, dtype=float) * self.time_constant
+        return wt, np.sqrt(1j * wt)
+
+    def _ratio(self, q):
+        """tanh(q) (slab) or I_1(q)/I_0(q) (cylinder); exponentially scaled, no overflow."""
+        if self.geometry == "slab":
+            return np.tanh(q)
+        from scipy.special import ive
+        return ive(1, q) / ive(0, q)
+
+    def profile(self, position, angular_frequency):
+        """g = H(x)/H at the relative position x/a in [0, 1] (0: mid-plane or axis), [-]."""
+        _, q = self._q(angular_frequency)
+        u = np.asarray(position, dtype=float)
+        if self.geometry == "slab":
+            # cosh(q u)/cosh(q) = e^{q (u - 1)} (1 + e^{-2 q u}) / (1 + e^{-2 q})
+            return np.exp(q * (u - 1.0)) * (1.0 + np.exp(-2.0 * q * u)) / (1.0 + np.exp(-2.0 * q))
+        from scipy.special import ive
+        # I_0(q u)/I_0(q) with the scaling e^{-Re q}: ive(0, z) = I_0(z) e^{-|Re z|}
+        return ive(0, q * u) / ive(0, q) * np.exp(q.real * (u - 1.0))
+
+    def transfer(self, angular_frequency):
+        """<g>(j w): the section's mean field per unit applied field, [-]."""
+        wt, q = self._q(angular_frequency)
+        zero = wt == 0.0
+        qs = np.where(zero, 1.0, q)
+        factor = 1.0 if self.geometry == "slab" else 2.0
+        return np.where(zero, 1.0 + 0j, factor * self._ratio(qs) / qs)
+
+    def mean_squares(self, angular_frequency):
+        """(<g^2>, <|g|^2>) over the section, [-] (class docstring)."""
+        wt, q = self._q(angular_frequency)
+        zero = wt == 0.0
+        qs = np.where(zero, 1.0, q)
+        wts = np.where(zero, 1.0, wt)
+        r = self._ratio(qs)
+        if self.geometry == "slab":
+            e = np.exp(-2.0 * qs)
+            sech2 = 4.0 * e / (1.0 + e) ** 2
+            sq = 0.5 * (sech2 + r / qs)
+            mod = np.imag(qs * r) / wts
+        else:
+            sq = 1.0 - r * r
+            mod = 2.0 * np.imag(qs * r) / wts
+        return np.where(zero, 1.0 + 0j, sq), np.where(zero, 1.0, mod)
+
+    def modes(self, count=8):
+        """The mean field as a sum of first-order lags: (time constants [s], weights [-]).
+
+        <g> is meromorphic in s = j w tau with simple poles on the negative
+        axis, at the zeros of cosh q (slab: q = j (n - 1/2) pi) or of I_0(q)
+        (cylinder: q = j j_{0,n}, j_{0,n} the zeros of J_0); by partial
+        fractions
+
+            slab      <g> = sum_n 2 / (s + ((n - 1/2) pi)^2),
+            cylinder  <g> = sum_n 4 / (s + j_{0,n}^2),
+
+        i.e. lags of time constant tau/p_n^2 and weight 2/p_n^2 (slab) or
+        4/p_n^2 (cylinder), whose weights add up to 1. ``count`` modes are
+        kept and the rest, whose lags are the shortest, is taken as
+        instantaneous: a last entry with time constant 0 carries the missing
+        weight, so the static gain stays exactly 1.
+        """
+        if count < 1:
+            raise ParameterError(f"count = {count!r} is outside the allowed range [1, inf)")
+        if self.geometry == "slab":
+            p = (np.arange(1, count + 1) - 0.5) * math.pi
+            w = 2.0 / p ** 2
+        else:
+            from scipy.special import jn_zeros
+            p = jn_zeros(0, count)
+            w = 4.0 / p ** 2
+        taus = np.append(self.time_constant / p ** 2, 0.0)
+        return taus, np.append(w, 1.0 - w.sum())
+
+    def step(self, field, state, step, count=8):
+        """One step of the modal form (:meth:`modes`), exact for H held: (mean H_in, state).
+
+        Parameters
+        ----------
+        field : float
+            Applied field H over the step, [A/m].
+        state : array or None
+            The lags' outputs (``count`` values; None: at rest at ``field``).
+        step : float
+            h, [s].
+        """
+        taus, weights = self.modes(count)
+        x = np.full(count, float(field)) if state is None else np.asarray(state, dtype=float)
+        a = np.exp(-step / taus[:-1])
+        x = a * x + (1.0 - a) * field
+        return float(weights[:-1] @ x + weights[-1] * field), x
+
+
 # ----------------------------------------------------------------- delay
 
 
@@ -423,6 +599,135 @@ def _zoh_matrices(mass, damping, stiffness, step):
     inv = np.array([[a[1, 1], -a[0, 1]], [-a[1, 0], a[0, 0]]]) / det
     bd = inv @ col
     return ad, bd
+
+
+@dataclass(frozen=True)
+class TwoMassMechanics:
+    """Rod and output mass joined by a compliant joint: two degrees of freedom.
+
+    Eq 27 lumps rod, output rod and load into one mass. When the joint
+    between the rod's end and the output (a push rod, a piston, a bolted or
+    glued interface) is compliant, the output mass m_2 moves on its own
+    spring k_j and damper c_j (the standard two-degree-of-freedom model of
+    vibration texts, e.g. Thomson & Dahleh, *Theory of Vibration with
+    Applications*, 5th ed. 1998, ch. 5; Inman, *Engineering Vibration*,
+    ch. 4). With the magnetostrictive force F on the rod (eq 28) and the
+    sensor on the output:
+
+        m_1 y_1'' + c y_1' + K y_1 + c_j (y_1' - y_2') + k_j (y_1 - y_2) = F
+        m_2 y_2'' + c_j (y_2' - y_1') + k_j (y_2 - y_1) = 0
+
+    In the frequency domain (dynamic stiffness D = K - m w^2 + j w c)
+
+        Y_2 / F = Z_j / [(D_1 + Z_j)(D_2 + Z_j) - Z_j^2],
+        Z_j = k_j + j w c_j, D_1 = K - m_1 w^2 + j w c, D_2 = -m_2 w^2,
+
+    which tends to eq 27's 1/(K - (m_1 + m_2) w^2 + j w c) as the joint
+    stiffens (Z_j -> inf), and has the same static compliance 1/K.
+
+    Attributes
+    ----------
+    rod_mass, output_mass : float
+        m_1, m_2, [kg].
+    damping, stiffness : float
+        c [N s/m] and K [N/m] of the rod and prestress spring (eq 27).
+    joint_stiffness, joint_damping : float
+        k_j [N/m], c_j [N s/m].
+    """
+
+    rod_mass: float
+    output_mass: float
+    damping: float
+    stiffness: float
+    joint_stiffness: float
+    joint_damping: float
+
+    def __post_init__(self):
+        for name, unit in (("rod_mass", "kg"), ("output_mass", "kg"), ("stiffness", "N/m"),
+                           ("joint_stiffness", "N/m")):
+            check_range(name, getattr(self, name), 0.0, math.inf, unit=unit)
+        for name in ("damping", "joint_damping"):
+            check_range(name, getattr(self, name), 0.0, math.inf, unit="N s/m",
+                        low_open=False)
+
+    @classmethod
+    def from_joint(cls, mass, damping, stiffness, output_fraction, joint_frequency,
+                   joint_damping_ratio):
+        """From eq 27's m, c, K, the output's share m_2/m of m, and the joint's own mode.
+
+        The joint's natural frequency is that of m_2 on k_j with the rod held,
+        f_j = sqrt(k_j/m_2)/(2 pi) [Hz], and its damping ratio
+        c_j / (2 sqrt(k_j m_2)); m_1 + m_2 = m.
+        """
+        check_range("output_fraction", output_fraction, 0.0, 1.0)
+        m2 = mass * output_fraction
+        kj = m2 * (2.0 * math.pi * joint_frequency) ** 2
+        return cls(mass - m2, m2, damping, stiffness, kj,
+                   2.0 * joint_damping_ratio * math.sqrt(kj * m2))
+
+    def matrices(self):
+        """Continuous (A, B, C), x = [y_1, v_1, y_2, v_2], input F, output y_2."""
+        m1, m2, c, k = self.rod_mass, self.output_mass, self.damping, self.stiffness
+        kj, cj = self.joint_stiffness, self.joint_damping
+        a = np.array([[0.0, 1.0, 0.0, 0.0],
+                      [-(k + kj) / m1, -(c + cj) / m1, kj / m1, cj / m1],
+                      [0.0, 0.0, 0.0, 1.0],
+                      [kj / m2, cj / m2, -kj / m2, -cj / m2]])
+        return a, np.array([0.0, 1.0 / m1, 0.0, 0.0]), np.array([0.0, 0.0, 1.0, 0.0])
+
+    def zoh_matrices(self, step):
+        """Exact ZOH discretisation (A_d, B_d) for one step h, F held over it.
+
+        From one matrix exponential of the augmented system (Van Loan 1978;
+        Franklin, Powell & Workman, *Digital Control of Dynamic Systems*,
+        sec. 4.3): exp([[A, B], [0, 0]] h) = [[A_d, B_d], [0, 1]].
+        """
+        from scipy.linalg import expm
+
+        a, b, _ = self.matrices()
+        aug = np.zeros((5, 5))
+        aug[:4, :4] = a
+        aug[:4, 4] = b
+        e = expm(aug * step)
+        return e[:4, :4], e[:4, 4]
+
+    def response(self, angular_frequency, step=None):
+        """Y_2/F at w, [m/N]: continuous, or the ZOH-sampled model at ``step`` [s].
+
+        The sampled form is C (z I - A_d)^-1 B_d at z = e^{j w h}, with y_2 the
+        state at the start of the step, as :func:`zoh_frequency_response`
+        gives for eq 27.
+        """
+        w = np.atleast_1d(np.asarray(angular_frequency, dtype=float))
+        if step is None:
+            zj = self.joint_stiffness + 1j * w * self.joint_damping
+            d1 = self.stiffness - self.rod_mass * w * w + 1j * w * self.damping
+            d2 = -self.output_mass * w * w
+            return zj / ((d1 + zj) * (d2 + zj) - zj * zj)
+        z = np.exp(1j * w * step)
+        modes = _two_mass_modes(self)
+        if modes is not None:
+            # A = V diag(l) V^-1: A_d = V e^{L h} V^-1, B_d = V diag((e^{l h} - 1)/l) V^-1 B,
+            # C (z I - A_d)^-1 B_d = sum_i r_i (e^{l_i h} - 1) / (l_i (z - e^{l_i h})),
+            # r_i = (C V)_i (V^-1 B)_i
+            lam, res = modes
+            gain = res * np.expm1(lam * step) / lam
+            return (gain[None, :] / (z[:, None] - np.exp(lam * step)[None, :])).sum(axis=1)
+        ad, bd = self.zoh_matrices(step)  # (nearly) repeated eigenvalues
+        _, _, c = self.matrices()
+        lhs = z[:, None, None] * np.eye(4) - ad
+        x = np.linalg.solve(lhs, np.broadcast_to(bd.astype(complex), (w.size, 4))[..., None])
+        return x[:, :, 0] @ c
+
+
+@lru_cache(maxsize=64)
+def _two_mass_modes(system: TwoMassMechanics):
+    """Eigenvalues l_i of A and residues (C V)_i (V^-1 B)_i; None when A is (nearly) defective."""
+    a, b, c = system.matrices()
+    lam, vec = np.linalg.eig(a)
+    if not np.linalg.cond(vec) < 1e8:
+        return None
+    return lam, (c @ vec) * np.linalg.solve(vec, b.astype(complex))
 
 
 # ----------------------------------------------------------------- drift
