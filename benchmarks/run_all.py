@@ -58,8 +58,11 @@ def main(argv=None):
         proc = subprocess.run(cmd, capture_output=True, text=True)
         wall = time.perf_counter() - t
         entry = {"command": " ".join(cmd[1:]), "wall_s": wall, "returncode": proc.returncode}
-        try:
-            entry["result"] = json.loads(proc.stdout.strip().splitlines()[-1])
+        try:  # the whole output is one JSON object, or its last line is
+            try:
+                entry["result"] = json.loads(proc.stdout)
+            except json.JSONDecodeError:
+                entry["result"] = json.loads(proc.stdout.strip().splitlines()[-1])
         except (json.JSONDecodeError, IndexError):
             entry["stdout"] = proc.stdout[-2000:]
             entry["stderr"] = proc.stderr[-2000:]
