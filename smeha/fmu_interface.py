@@ -59,10 +59,12 @@ DESCRIPTION = ("Giant magnetostrictive transducer (GMT) of a smart-material "
                "complex-permeability model of eq 30 (smeha, gmt package)")
 
 #: Accepted values of the String parameter ``model_variant`` (gmt.VARIANTS): the
-#: paper's model, or the paper's plus the extension for one cause ``smeha diagnose`` names.
+#: paper's model, or the paper's plus the extension for one cause ``smeha diagnose`` names,
+#: ``cause:form`` for a form other than the cause's first (gmt.ModelVariant.name).
 MODEL_VARIANTS = ("paper", "rate_independent_hysteresis", "magnetization_saturation",
-                  "eddy_current_diffusion", "transport_delay", "mechanical_resonance",
-                  "thermal_drift")
+                  "eddy_current_diffusion", "eddy_current_diffusion:slab",
+                  "eddy_current_diffusion:cylinder", "transport_delay", "mechanical_resonance",
+                  "mechanical_resonance:two_dof", "thermal_drift")
 #: Accepted values of the String parameter ``branch_rule`` (gmt.parameters.BRANCH_RULES).
 BRANCH_RULES = ("control", "demand")
 
@@ -215,8 +217,10 @@ VARIABLES: tuple[Variable, ...] = (
     _par(_M, "model_variant", None, "Transducer model: \"paper\" (eqs 1-37 of the source "
          "paper), or the paper's plus the extension for the cause smeha diagnose names: "
          "\"rate_independent_hysteresis\", \"magnetization_saturation\", "
-         "\"eddy_current_diffusion\", \"transport_delay\" (sensed_displacement only), "
-         "\"mechanical_resonance\", \"thermal_drift\"; anything else is an error",
+         "\"eddy_current_diffusion\" (lag), \"eddy_current_diffusion:slab\", "
+         "\"eddy_current_diffusion:cylinder\", \"transport_delay\" (sensed_displacement "
+         "only), \"mechanical_resonance\" (one DOF), \"mechanical_resonance:two_dof\", "
+         "\"thermal_drift\"; anything else is an error",
          "paper", kind="String"),
     _par(_M, "variant_parameters", None, "JSON object of the extension's SI parameters, "
          "keyed as the candidate's \"parameters\" in smeha diagnose --json, e.g. "

@@ -32,8 +32,10 @@ pytestmark = pytest.mark.integration
 
 CASES = ("fixed50", "random100", "comp_control", "comp_demand")
 #: One case per model variant (tests/fmu_runner.py VARIANTS): 100 Hz with random steps and
-#: forces, the saturation variant through the compensator.
-VARIANT_CASES = ("v_hysteresis", "v_saturation", "v_eddy", "v_delay", "v_mechanics", "v_drift")
+#: forces, the saturation variant through the compensator; v_slab and v_two_dof are forms
+#: other than their cause's first (model_variant "cause:form").
+VARIANT_CASES = ("v_hysteresis", "v_saturation", "v_eddy", "v_delay", "v_mechanics", "v_drift",
+                 "v_slab", "v_two_dof")
 #: Columns of a row (tests/fmu_runner.py OUTPUTS).
 DISPLACEMENT, SATURATION_COUNT, SENSED = 1, 9, 10
 #: Required by the issue: FMU and gmt agree to 1e-12 relative (they run the same
@@ -238,13 +240,14 @@ def test_fmu_state_round_trip_is_bit_identical(behaviour, reference):
     assert res["state_json_keys"] == ["built_from", "problem", "transducer", "variables"]
 
 
-@pytest.mark.parametrize("case", ("v_delay", "v_hysteresis", "v_eddy"))
+@pytest.mark.parametrize("case", ("v_delay", "v_hysteresis", "v_eddy", "v_slab", "v_two_dof"))
 def test_fmu_state_round_trip_with_a_stateful_variant(behaviour, reference, case):
     check_variant_state(behaviour("2"), reference, case)
 
 
 def check_variant_state(res, reference, case):
-    # the delay line, the plays and the lag's sections are saved with the FMU state:
+    # the delay line, the plays, the lag's sections, the diffusion's modes and the two
+    # masses' rod state are saved with the FMU state:
     # restore and replay (also through serialisation and into an instance built with
     # the paper's model) is bit-identical
     r = res[f"vstate_{case}"]
@@ -272,7 +275,9 @@ PARAMETER_CASES = {
     "variant_parameters_not_json": "variant_parameters",
     "variant_parameters_out_of_range": "delay_s",
     "variant_parameters_missing": "thresholds_A_per_m",
-    "variant_parameters_for_paper": "variant_parameters"}
+    "variant_parameters_for_paper": "variant_parameters",
+    "model_variant_unknown_form": "model_variant",
+    "variant_parameters_derived_disagree": "joint_frequency_Hz"}
 DISCARD, ERROR = 2, 3
 
 

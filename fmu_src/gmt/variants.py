@@ -8,14 +8,14 @@ diagnosis reports them) given to :class:`gmt.Transducer` time-steps the
 extended model sample by sample, for the FMU and the system study.
 
 Each extension has a *step form* (:class:`StepForm` subclasses below, one per
-cause, registered in :data:`FORMS`). Run long enough under a sinusoidal current
-at the operating point, every step form reaches the periodic steady state the
-diagnosis evaluates (``smeha.diagnose._Evaluator.predict``);
-``tests/test_variants.py`` checks this for every cause and states the
-tolerance.
+cause and form, registered in :data:`FORMS`). Run long enough under a
+sinusoidal current at the operating point, every step form reaches the
+periodic steady state the diagnosis evaluates for that form
+(``smeha.diagnose._Evaluator.predict``); ``tests/test_variants.py`` checks
+this for every form and states the tolerance.
 
 =============================  ==================  =======================================
-cause                          acts on             step form
+cause (form)                   acts on             step form
 =============================  ==================  =======================================
 rate_independent_hysteresis    magnetisation M     play operators stepped on H (per sample),
                                                    minus their describing-function
@@ -23,11 +23,18 @@ rate_independent_hysteresis    magnetisation M     play operators stepped on H (
 magnetization_saturation       magnetisation M     tanh law applied to each sample of M,
                                                    minus its fundamental at the operating
                                                    point
-eddy_current_diffusion         field in the rod    first-order lag, or a bank of first-order
+eddy_current_diffusion (lag)   field in the rod    first-order lag, or a bank of first-order
                                                    sections fitted to (1 + j w tau)^-alpha;
                                                    mu' re-solved so B_m is kept
+eddy_current_diffusion (slab,  field profile       the diffusion's modes (first-order lags)
+cylinder)                      across the rod      carry H and H_q; B and M are section
+                                                   means, the strain the section mean of
+                                                   eq 25; mu at the surface flux density
 transport_delay                sensor only         delay line on the sensed displacement
-mechanical_resonance           mechanics           eq 27 with the re-identified m, c, K
+mechanical_resonance (one_dof) mechanics           eq 27 with the re-identified m, c, K
+mechanical_resonance (two_dof) mechanics           rod and output masses on a joint, ZOH of
+                                                   the 4-state model; the load and the
+                                                   outputs on the output mass
 thermal_drift                  strain (force)      offset and gain of the strain drift with
                                                    the heating dose, from the start of the run
 =============================  ==================  =======================================
@@ -78,6 +85,80 @@ the paper's eqs 4-5 applied to the field inside the rod, and mu' is re-solved
 (:func:`gmt.extensions.eddy_calibrated_permeability`) so that the coil still
 sees the measured B_m.
 
+The diffusion in the time domain: section means from the modes
+----------------------------------------------------------------
+For the slab and the cylinder (:class:`gmt.extensions.EddyCurrentDiffusion`,
+q^2 = s tau) the local field per unit applied field, cosh(q x/a)/cosh q or
+I_0(q r/a)/I_0(q), has simple poles at s = -p_n^2/tau, p_n = (n - 1/2) pi
+(slab) or j_{0,n} (cylinder, the zeros of J_0). Its partial fractions give the
+local field as a sum of first-order lags, each with a fixed profile:
+
+    H_in(x, t) = sum_n w_n(x) x_n(t),      tau_n dx_n/dt = H(t) - x_n,  tau_n = tau/p_n^2,
+    slab      w_n(x) = 2 (-1)^(n+1) cos(p_n x/a) / p_n,
+    cylinder  w_n(r) = 2 J_0(p_n r/a) / (p_n J_1(p_n))
+
+(the residue at each pole, worked out for this module). The profiles are the
+eigenfunctions of the diffusion operator on the section (cosines; J_0 with the
+weight r), so they are orthogonal, and w_n is the projection of the uniform
+profile 1 on the n-th of them, phi_n: w_n = (<phi_n> / <phi_n^2>) phi_n. Hence
+<w_n w_k> = 0 for n != k, and <w_n> and <w_n^2> are both <phi_n>^2 / <phi_n^2>:
+
+    <w_n> = <w_n^2> = r_n   (2/p_n^2 slab, 4/p_n^2 cylinder),
+
+the weights of :meth:`EddyCurrentDiffusion.modes`. eq 5 acts locally; with
+H_q through the same modes, M(x, t) = sum_n w_n(x) M_n(t),
+M_n = (mu' - 1) x_n + mu'' x_q,n, and at every instant (Parseval)
+
+    <M> = sum_n r_n M_n,        <M^2> = sum_n r_n M_n^2,
+
+so the section mean of eq 25, which the rod's force needs (the section moves
+as one), is exact in the time domain:
+
+    <lambda> = K_lambda <(M_b + M)^2>
+             = K_lambda (M_b + <M>)^2 + K_lambda sum_n r_n (M_n - <M>)^2,
+
+the paper's strain of the mean magnetisation plus K_lambda times the variance
+of M over the section (sum_n r_n = 1). Under i = I_m cos(w t) each
+M_n = Re(M_s e^{j w t} / (1 + j w tau_n)) with M_s = (mu - 1) H_m at the
+surface, and the force has the diagnosis' fundamental 2 c M_b <g> M_s and
+second harmonic c M_s^2 <g^2> / 2, with <g^2> = sum_n r_n / (1 + j w tau_n)^2,
+and the mean c (M_b^2 + |M_s|^2 <|g|^2> / 2), <|g|^2> = sum_n r_n /
+|1 + j w tau_n|^2 (the diagnosis does not use the mean; the tests check it
+against :meth:`EddyCurrentDiffusion.mean_squares`' closed forms too). B and M
+seen by the coil are the section means. mu is the material's at the surface,
+as in the diagnosis: mu'' from eq 16 at B_s = B_m / |<g>| and mu' from eq 20
+at B_s.
+
+The modes are kept one by one down to a time constant of a twentieth of
+1 / (2 pi :data:`LAG_BAND`) (8 to 256 of them); the rest share one amplitude,
+one more section (:class:`ModalBank`). Modes that share an amplitude still
+form a profile orthogonal to the others whose mean square equals its weight,
+so the Parseval sums hold for the bank as they are. Its weight is the
+remainder :meth:`EddyCurrentDiffusion.modes` leaves, and its time constant
+makes the first moment sum_n r_n tau_n exactly tau/3 (slab) or tau/8
+(cylinder), the low-frequency lags of <g>. The bank's <g> and <g^2> are within
+2.1e-4 of the closed forms over 0 to 100 kHz for tau up to 0.05 s (at most 256
+modes), and within 3.2e-6 over 0 to 1 kHz for tau up to 1 s
+(:attr:`ModalBank.max_relative_error`). Each section steps exactly for the held
+input, as :meth:`EddyCurrentDiffusion.step` does, and holds the mean of its
+response over the step, as the lag's sections do: the stepped loop is within
+about (w h)^2 / 12 of the periodic one.
+
+Two masses: where the outputs and the load are
+----------------------------------------------
+:class:`gmt.extensions.TwoMassMechanics` drives the rod m_1 (with eq 27's c
+and K) by the magnetostrictive force, and the diagnosis compares the output
+m_2's displacement Y_2 with the measured y: the displacement sensor sits on
+the output. The pump's piston, and so the chamber's force, is on the output
+too (the output rod is what the rod pushes through the compliant joint). The
+two-mass variant therefore applies the external force to m_2 and reports the
+output's y_2, v_2 as ``displacement`` and ``velocity``, the names the
+paper's one mass (rod, output and load lumped) has; the rod's y_1, v_1 are
+saved with the state (:class:`TwoMassStepper`). Held over a step, both forces
+enter one exact ZOH, one matrix exponential of the 6 x 6 augmented system
+(Van Loan 1978). Statically y_1 = (F - F_ext)/K and y_2 = y_1 - F_ext/k_j:
+the joint yields under the load.
+
 Where the transport delay acts
 ------------------------------
 The diagnosis delays y's harmonics but not B's, both referred to the measured
@@ -107,11 +188,12 @@ Adding a candidate
 ------------------
 Write a :class:`StepForm` subclass (its ``cause``, its ``form`` when the
 diagnosis has several formulations of the cause, its ``parameters`` as the
-diagnosis reports them, and the hooks it changes) and add it to the tuple
-that builds :data:`FORMS`. Its variant name is the cause, or ``cause:form``
-for a formulation other than the cause's first (:data:`VARIANTS`); the FMU's
-``model_variant`` list follows (``smeha.fmu_interface.check_against_gmt``
-fails the build until it does).
+diagnosis reports them, ``optional`` for those it derives from the others,
+the hooks it changes, and ``stepper`` when the mechanics need more state, as
+the two masses do) and add it to the tuple that builds :data:`FORMS`. Its
+variant name is the cause, or ``cause:form`` for a formulation other than the
+cause's first (:data:`VARIANTS`); the FMU's ``model_variant`` list follows
+(``smeha.fmu_interface.check_against_gmt`` fails the build until it does).
 
 References
 ----------
@@ -120,11 +202,18 @@ References
 * G. Montseny, "Diffusive representation of pseudo-differential
   time-operators", ESAIM Proc. 5 (1998) 159-175.
 * K. Kuhnen, Eur. J. Control 9 (2003) 407-418 (Prandtl-Ishlinskii operator).
+* R. L. Stoll, *The Analysis of Eddy Currents*, Clarendon 1974 (diffusion into
+  a lamination and a rod; the eigenfunction expansions).
+* W. T. Thomson, M. D. Dahleh, *Theory of Vibration with Applications*, 5th ed.,
+  Prentice Hall 1998, ch. 5 (two-degree-of-freedom systems).
+* C. F. Van Loan, "Computing integrals involving the matrix exponential", IEEE
+  Trans. Autom. Control 23 (1978) 395-404.
 * G. Engdahl (ed.), *Handbook of Giant Magnetostrictive Materials*, Academic
   Press 2000 (thermal behaviour).
 """
 from __future__ import annotations
 
+import functools
 import json
 import math
 from collections.abc import Mapping
@@ -138,9 +227,10 @@ from . import extensions as ext
 from .constants import MU_0
 from .errors import ParameterError, check_range
 from .forward import ForwardStepper, Magnetics, OperatingPoint, magnetics, strain_harmonics
+from .losses import imaginary_permeability, separate_losses
 from .magnetostriction import magnetostriction, magnetostrictive_force
 from .parameters import TransducerParameters
-from .permeability import flux_density, magnetization
+from .permeability import amplitude_permeability, flux_density, magnetization, real_permeability
 
 #: Name of the paper's model (no extension).
 PAPER = "paper"
@@ -169,6 +259,10 @@ class Parameter:
         Allowed range; ``low_open``/``high_open`` exclude the bound.
     is_list : bool
         A non-empty list of numbers rather than one number.
+    optional : bool
+        A value the diagnosis reports but derives from the others (e.g. the
+        joint's frequency from its stiffness and mass): it may be left out, and
+        when given the form checks that it agrees (:meth:`StepForm.validate`).
     """
 
     name: str
@@ -178,6 +272,7 @@ class Parameter:
     low_open: bool = True
     high_open: bool = True
     is_list: bool = False
+    optional: bool = False
 
     def check(self, cause, value):
         """``value`` as a float (or tuple of floats), or ParameterError naming it."""
@@ -228,9 +323,11 @@ class ModelVariant:
         ``parameters`` of ``smeha diagnose --json`` (e.g. ``{"delay_s": 5e-4}``);
         empty for the paper. Stored read-only; lists become tuples.
     form : str
-        The formulation, for a cause the diagnosis models in several ways
-        (e.g. ``"lag"`` for the eddy currents, ``"one_dof"`` for the
-        mechanics); "" takes the cause's first, and is replaced by its name.
+        The formulation, for a cause the diagnosis models in several ways:
+        ``"lag"``, ``"slab"`` or ``"cylinder"`` for the eddy currents,
+        ``"one_dof"`` or ``"two_dof"`` for the mechanics; "" takes the cause's
+        first, and is replaced by its name. Another value is refused, naming
+        the cause's forms.
 
     Raises
     ------
@@ -261,19 +358,27 @@ class ModelVariant:
         if self.cause == PAPER or not self.form:
             object.__setattr__(self, "form", forms[0] if forms else "")
         elif self.form not in forms:
-            raise ParameterError(f"form = {self.form!r} of {self.cause!r} has no step form "
-                                 f"(gmt.variants.FORMS has {forms})")
+            allowed = (f"the allowed forms are {forms}" if forms != [""] else
+                       "it has one form (leave form empty)")
+            raise ParameterError(f"form = {self.form!r} is not a form of {self.cause!r}: "
+                                 f"{allowed} (gmt.variants.FORMS)")
         spec = FORMS[self.cause, self.form].parameters if self.cause != PAPER else ()
         names = tuple(p.name for p in spec)
         unknown = [k for k in self.parameters if k not in names]
-        missing = [n for n in names if n not in self.parameters]
+        missing = [p.name for p in spec if p.name not in self.parameters and not p.optional]
         if unknown or missing:
             what = "; ".join(s for s in (
                 f"unknown {', '.join(map(repr, unknown))}" if unknown else "",
                 f"missing {', '.join(map(repr, missing))}" if missing else "") if s)
-            raise ParameterError(f"parameters of {self.cause!r}: {what}; expected exactly "
-                                 f"{list(names)} (SI, as smeha diagnose --json reports them)")
-        clean = {p.name: p.check(self.cause, self.parameters[p.name]) for p in spec}
+            required = [p.name for p in spec if not p.optional]
+            optional = [p.name for p in spec if p.optional]
+            also = f" and optionally {optional} (derived; checked if given)" if optional else ""
+            raise ParameterError(f"parameters of {variant_name(self.cause, self.form)!r}: "
+                                 f"{what}; expected exactly "
+                                 f"{required}{also} (SI, as smeha diagnose --json reports "
+                                 "them)")
+        clean = {p.name: p.check(self.cause, self.parameters[p.name]) for p in spec
+                 if p.name in self.parameters}
         object.__setattr__(self, "parameters", MappingProxyType(clean))
         if self.cause != PAPER:
             FORMS[self.cause, self.form].validate(clean)
@@ -335,7 +440,8 @@ class ModelVariant:
 
     # -- constructors from the diagnosis -----------------------------------------
     @classmethod
-    def from_diagnosis(cls, diagnosis: Mapping, cause: str | None = None) -> "ModelVariant":
+    def from_diagnosis(cls, diagnosis: Mapping, cause: str | None = None,
+                       form: str | None = None) -> "ModelVariant":
         """The winning extension of a diagnosis (``smeha diagnose --json`` or ``smeha paper``'s).
 
         Parameters
@@ -343,13 +449,19 @@ class ModelVariant:
         diagnosis : mapping
             With ``"cause"`` and ``"candidates"``, each candidate with ``"cause"``
             and ``"parameters"`` (SI) and, for a cause with several formulations,
-            ``"form"`` (as is the winner's, at the top level).
+            ``"form"``; the winner's form is the top-level ``"form"``.
         cause : str, optional
-            Take this candidate instead of the winner (its best-scoring form).
+            Take this candidate instead of the winner.
+        form : str, optional
+            With ``cause``: take this form of it (default: its best-scoring form).
 
-        A cause with several candidates (formulations) is resolved by the
-        diagnosis' ``"form"``, else by the lowest ``"score"`` (``smeha diagnose``)
-        or held-out RMS (``smeha paper``).
+        The winner is the candidate of the diagnosis' ``"cause"`` *and* ``"form"``
+        (a candidate without ``"form"`` is its cause's first form, as in
+        diagnoses written before causes had several); its ``"parameters"`` are
+        taken as they are. Without a form to go by (a top-level ``"form"`` that
+        is absent or "", or ``cause`` without ``form``) the cause's candidate
+        with the lowest ``"score"`` (``smeha diagnose``) or held-out RMS
+        (``smeha paper``) is taken.
 
         Returns
         -------
@@ -359,8 +471,24 @@ class ModelVariant:
         Raises
         ------
         ParameterError
-            ``"unexplained"`` (no winner; name a candidate with ``cause``), or a
-            cause with no candidate in the diagnosis.
+            ``"unexplained"`` (no winner; name a candidate with ``cause``), an
+            unknown form (the message names it and the cause's forms), or no
+            candidate of that cause and form in the diagnosis.
+
+        Examples
+        --------
+        >>> d = {"cause": "mechanical_resonance", "form": "two_dof", "candidates": [
+        ...     {"cause": "mechanical_resonance", "form": "one_dof", "score": 9.0,
+        ...      "parameters": {"mass_kg": 0.02, "damping_N_s_per_m": 2945.0,
+        ...                     "stiffness_N_per_m": 1.963e7}},
+        ...     {"cause": "mechanical_resonance", "form": "two_dof", "score": 5.0,
+        ...      "parameters": {"rod_mass_kg": 0.01, "output_mass_kg": 0.01,
+        ...                     "joint_stiffness_N_per_m": 4e8,
+        ...                     "joint_damping_N_s_per_m": 400.0}}]}
+        >>> ModelVariant.from_diagnosis(d).name
+        'mechanical_resonance:two_dof'
+        >>> ModelVariant.from_diagnosis(d, "mechanical_resonance", "one_dof").name
+        'mechanical_resonance'
         """
         if not isinstance(diagnosis, Mapping) or "cause" not in diagnosis:
             raise ParameterError("diagnosis must be a mapping with 'cause' and 'candidates' "
@@ -373,13 +501,25 @@ class ModelVariant:
         if chosen == "unexplained":
             raise ParameterError("the diagnosis names no extension (cause 'unexplained'); "
                                  f"choose one of its candidates {names} explicitly")
+        forms = [f for c, f in FORMS if c == chosen]
+        if not forms:
+            raise ParameterError(f"cause = {chosen!r} is not one of "
+                                 f"{tuple(dict.fromkeys(c for c, _ in FORMS))}")
+        wanted = (diagnosis.get("form") if cause is None else form) or ""
+        if wanted and wanted not in forms:
+            raise ParameterError(f"form = {wanted!r} is not a form of {chosen!r}: the allowed "
+                                 f"forms are {forms}")
         matches = [c for c in candidates if c.get("cause") == chosen]
-        form = diagnosis.get("form") if cause is None else None
-        if form and len(matches) > 1:
-            matches = [c for c in matches if c.get("form", "") == form] or matches
         if not matches:
             raise ParameterError(f"cause = {chosen!r} has no candidate in the diagnosis "
                                  f"(candidates: {names})")
+        if wanted:
+            present = [c.get("form") or forms[0] for c in matches]
+            matches = [c for c, f in zip(matches, present) if f == wanted]
+            if not matches:
+                raise ParameterError(f"cause = {chosen!r} has no candidate of form "
+                                     f"{wanted!r} in the diagnosis (its forms there: "
+                                     f"{sorted(set(present))})")
 
         def rank(c):
             for key in ("score", "heldout_rms_um"):
@@ -393,8 +533,9 @@ class ModelVariant:
     def from_dict(cls, data: Mapping) -> "ModelVariant":
         """From a diagnosis (has ``"candidates"``) or ``{"cause": ..., "parameters": {...}}``.
 
-        ``"none"`` is the paper's model; other top-level keys (``"provenance"``,
-        notes) are ignored.
+        The small form may carry ``"form"`` (default: the cause's first, e.g.
+        ``"lag"``, ``"one_dof"``). ``"none"`` is the paper's model; other
+        top-level keys (``"provenance"``, notes) are ignored.
         """
         if not isinstance(data, Mapping) or "cause" not in data:
             raise ParameterError("a model variant is a JSON object with 'cause' (and "
@@ -441,12 +582,16 @@ class StepForm:
     point : OperatingPoint
         The operating point the stepped model uses (the eddy lag re-solves mu').
     mechanics : tuple
-        (m [kg], c [N s/m], K [N/m]) of eq 27.
+        (m [kg], c [N s/m], K [N/m]) of eq 27; the rest displacement is the bias
+        force over K.
     """
 
     cause = ""
     form = ""  # the diagnosis' name of the formulation, when a cause has several
     parameters: tuple = ()
+    #: The stepper class the form runs in (None: :class:`ExtendedStepper`; the two
+    #: masses need :class:`TwoMassStepper`).
+    stepper = None
 
     @staticmethod
     def validate(values) -> None:
@@ -732,6 +877,219 @@ class EddyLagForm(StepForm):
         self.filters = np.array(state, dtype=float).reshape(self.filters.shape)
 
 
+#: First moment of the section's mean field, -d<g>/d(j w tau) at w = 0: <g> = 1 - j w tau/3
+#: (slab) or 1 - j w tau/8 (cylinder) at low frequency (gmt.extensions.EddyCurrentDiffusion).
+DIFFUSION_FIRST_MOMENT = {"slab": 1.0 / 3.0, "cylinder": 1.0 / 8.0}
+#: Fewest and most diffusion modes kept one by one (module docstring).
+MIN_MODES, MAX_MODES = 8, 256
+
+
+class ModalBank:
+    """The diffusion's field profile as modes (module docstring; :class:`EddyCurrentDiffusion`).
+
+    H_in(x, t) = sum_n w_n(x) x_n(t) with tau_n dx_n/dt = H - x_n; the modes
+    are orthogonal and the weights r_n = <w_n> = <w_n^2>, so for any signal
+    carried by the modes (H, H_q, M) the section mean is sum_n r_n x_n and the
+    mean of its square sum_n r_n x_n^2 (Parseval).
+
+    Kept one by one: the modes of :meth:`EddyCurrentDiffusion.modes` whose time
+    constant tau_n is at least a twentieth of the band's shortest time scale,
+    1 / (2 pi ``band``) (at least :data:`MIN_MODES`, at most :data:`MAX_MODES`).
+    The rest share one amplitude: one more section whose weight is the
+    remainder ``modes`` leaves (so the weights add up to 1, the static gain)
+    and whose time constant makes the first moment sum r_n tau_n exactly
+    tau/3 (slab) or tau/8 (cylinder). Modes sharing an amplitude are still a
+    field profile orthogonal to the others (mean square = weight), so mean and
+    mean square stay consistent; the error falls as the fifth power of the
+    number of modes, where taking the rest as instantaneous (as ``modes`` does)
+    gives the third.
+
+    Parameters
+    ----------
+    diffusion : EddyCurrentDiffusion
+    band : float
+        Frequencies the bank must follow, 0 to ``band``, [Hz].
+
+    Attributes
+    ----------
+    time_constants : array
+        tau_n of the kept modes, then the shared section's, [s].
+    weights : array
+        r_n, [-]; they add up to 1.
+    mode_count : int
+        Modes kept one by one (``EddyCurrentDiffusion.modes(mode_count)``).
+    """
+
+    def __init__(self, diffusion, band=LAG_BAND):
+        self.diffusion = diffusion
+        self.band = band
+        tau = diffusion.time_constant
+        self._step = None
+        if tau == 0.0:  # no diffusion: the applied field everywhere
+            self.time_constants, self.weights, self.mode_count = np.zeros(0), np.zeros(0), 0
+            return
+        floor = 0.05 / (2.0 * math.pi * band)
+        taus, _ = diffusion.modes(MAX_MODES)
+        count = int(min(max(np.count_nonzero(taus[:-1] >= floor), MIN_MODES), MAX_MODES))
+        taus, weights = diffusion.modes(count)
+        rest = float(weights[-1])
+        moment = DIFFUSION_FIRST_MOMENT[diffusion.geometry] * tau - float(
+            weights[:-1] @ taus[:-1])
+        self.mode_count = count
+        self.time_constants = np.append(taus[:-1], max(moment, 0.0) / rest)
+        self.weights = weights
+
+    @property
+    def size(self) -> int:
+        """Number of sections (states per carried signal)."""
+        return int(self.time_constants.size)
+
+    def _lags(self, angular_frequency):
+        w = np.asarray(angular_frequency, dtype=float)
+        return 1.0 / (1.0 + 1j * np.multiply.outer(w, self.time_constants))
+
+    def transfer(self, angular_frequency):
+        """The bank's <g>(j w), [-] (1 without diffusion)."""
+        if not self.size:
+            return np.ones(np.shape(angular_frequency), complex)
+        return self._lags(angular_frequency) @ self.weights
+
+    def mean_squares(self, angular_frequency):
+        """The bank's (<g^2>, <|g|^2>), [-]: sum r_n l_n^2 and sum r_n |l_n|^2 (Parseval)."""
+        if not self.size:
+            one = np.ones(np.shape(angular_frequency))
+            return one + 0j, one
+        lags = self._lags(angular_frequency)
+        return lags ** 2 @ self.weights, np.abs(lags) ** 2 @ self.weights
+
+    @functools.cached_property
+    def max_relative_error(self) -> float:
+        """Largest relative error of <g> and <g^2> against the closed forms, 0 to ``band`` Hz."""
+        if not self.size:
+            return 0.0
+        w = 2.0 * math.pi * np.concatenate(([0.0], np.logspace(-2.0, math.log10(self.band),
+                                                               2000)))
+        g, g2 = self.transfer(w), self.mean_squares(w)[0]
+        exact_g, exact_g2 = self.diffusion.transfer(w), self.diffusion.mean_squares(w)[0]
+        return float(max(np.max(np.abs(g / exact_g - 1.0)), np.max(np.abs(g2 / exact_g2 - 1.0))))
+
+    def step(self, signal, state, step):
+        """(held sections, new state) for inputs ``signal`` held over ``step`` [s].
+
+        ``signal`` has shape (k,), ``state`` and both results (k, size). Each
+        section advances exactly for the held input, as
+        :meth:`EddyCurrentDiffusion.step` does (the kept modes' states are
+        the same numbers); the held value is the mean of its exact response
+        over the step, as :meth:`SectionBank.step` (module docstring).
+        """
+        u = np.asarray(signal, dtype=float)[:, None]
+        if self._step != step:
+            self._step = step
+            self._decay = np.exp(-step / self.time_constants)
+            self._mean = -(self.time_constants / step) * np.expm1(-step / self.time_constants)
+        a = self._decay
+        new = a * state + (1.0 - a) * u
+        return u + (state - u) * self._mean, new
+
+
+class EddyDiffusionForm(StepForm):
+    """Field diffusing into a slab or a rod (:class:`gmt.extensions.EddyCurrentDiffusion`).
+
+    H and H_q are carried by the modes of :class:`ModalBank`; eq 5 acts
+    locally, on each mode: M_n = (mu' - 1) H_n + mu'' H_q,n. The coil sees the
+    section means, B = mu_0 (mu' <H_in> + mu'' <H_in,q>) and M = <M>; the
+    strain is the section mean of eq 25, lambda = K_lambda <(M_b + M(x))^2> =
+    K_lambda (M_b + <M>)^2 + K_lambda sum_n r_n (M_n - <M>)^2 (module
+    docstring), and F = A_r E^H lambda (eq 28). mu is the material's at the
+    surface, where B_s = B_m / |<g>|: mu'' from eq 16 (intermediate regime)
+    at B_s and mu' from eq 20 at B_s, as the diagnosis does. Memory: the
+    sections' states for H and H_q, [A/m].
+    """
+
+    cause = "eddy_current_diffusion"
+    parameters = (Parameter("time_constant_s", "s", 0.0, math.inf, low_open=False),
+                  Parameter("skin_depth_equals_size_at_Hz", "Hz", 0.0, math.inf,
+                            high_open=False, optional=True))
+
+    @classmethod
+    def validate(cls, values):
+        ext.EddyCurrentDiffusion(values["time_constant_s"], cls.form)
+        if "skin_depth_equals_size_at_Hz" in values:
+            tau = values["time_constant_s"]
+            _agrees(cls.cause, "skin_depth_equals_size_at_Hz", values, "Hz",
+                    1.0 / (math.pi * tau) if tau > 0.0 else math.inf, "1 / (pi time_constant_s)")
+
+    def __init__(self, values, params, point):
+        super().__init__(values, params, point)
+        self.diffusion = ext.EddyCurrentDiffusion(values["time_constant_s"], self.form)
+        g1 = complex(self.diffusion.transfer(point.angular_frequency))
+        f, hm = point.frequency, point.field_amplitude
+        b_surface = point.flux_density_amplitude / abs(g1)
+        mu_i = imaginary_permeability(separate_losses(params, f, hm, b_surface).total, hm, f,
+                                      params.rod_volume)
+        if not amplitude_permeability(b_surface, hm) > mu_i:
+            raise ParameterError(
+                f"{self.cause} ({self.form}): time_constant_s = "
+                f"{self.diffusion.time_constant:g} s makes mu' imaginary at f = {f:g} Hz: the "
+                f"surface flux density B_m / |<g>| = {b_surface:g} T gives B_s / (mu_0 H_m) = "
+                f"{amplitude_permeability(b_surface, hm):g}, which must exceed mu'' = {mu_i:g} "
+                "(eqs 16, 20)")
+        self.point = replace(point, mu_real=real_permeability(b_surface, hm, mu_i),
+                             mu_imag=mu_i)
+        self.bank = ModalBank(self.diffusion)
+        self.filters = np.zeros((2, self.bank.size))
+
+    def magnetics(self, current, quadrature, step, time):
+        p, pt = self.params, self.point
+        h = p.field_per_ampere * current
+        hq = p.field_per_ampere * quadrature
+        r = self.bank.weights
+        if not self.bank.size:
+            return magnetics(p, pt, current, quadrature)
+        held, self.filters = self.bank.step((h, hq), self.filters, step)
+        m_modes = magnetization(held[0], held[1], pt.mu_real, pt.mu_imag)  # eq 5, per mode
+        m = float(r @ m_modes)
+        spread = m_modes - m
+        lam = (magnetostriction(m, p.bias_magnetization, p.magnetostriction_coefficient)
+               + p.magnetostriction_coefficient * float(r @ (spread * spread)))
+        b = flux_density(float(r @ held[0]), float(r @ held[1]), pt.mu_real, pt.mu_imag)
+        return Magnetics(h, hq, b, m, lam, magnetostrictive_force(lam, p.rod_area,
+                                                                  p.youngs_modulus))
+
+    def reset(self, rest_displacement):
+        self.filters = np.zeros((2, self.bank.size))
+
+    def get_state(self):
+        return tuple(float(v) for v in self.filters.ravel())
+
+    def set_state(self, state):
+        if len(state) != self.filters.size:
+            raise ParameterError(f"{self.cause} ({self.form}) state has {len(state)} values; "
+                                 f"the diffusion modes need {self.filters.size}")
+        self.filters = np.array(state, dtype=float).reshape(self.filters.shape)
+
+
+class SlabDiffusionForm(EddyDiffusionForm):
+    """:class:`EddyDiffusionForm` into a lamination of thickness 2a (tau = mu_0 mu sigma a^2)."""
+
+    form = "slab"
+
+
+class CylinderDiffusionForm(EddyDiffusionForm):
+    """:class:`EddyDiffusionForm` into a solid rod of radius a (tau = mu_0 mu sigma a^2)."""
+
+    form = "cylinder"
+
+
+def _agrees(cause, name, values, unit, implied, how):
+    """ParameterError unless the derived ``values[name]`` agrees with ``implied`` (1e-6)."""
+    given = values[name]
+    if not math.isclose(given, implied, rel_tol=1e-6):
+        raise ParameterError(f"{cause} parameter {name} = {given:g} {unit} disagrees with "
+                             f"{how} = {implied:g} {unit}; leave it out (it is derived) or "
+                             "give a consistent value")
+
+
 class DelayForm(StepForm):
     """A pure delay of the displacement sensor (:class:`gmt.extensions.TransportDelay`).
 
@@ -811,6 +1169,80 @@ def _mechanics(values):
                                      values["stiffness_N_per_m"])
 
 
+class TwoMassForm(StepForm):
+    """Rod and output mass on a compliant joint (:class:`gmt.extensions.TwoMassMechanics`).
+
+    The diagnosis' two-mass model with eq 27's c and K (the transducer's
+    ``damping`` and ``stiffness``) on the rod m_1, and the output m_2 on the
+    joint k_j, c_j. The magnetostrictive force drives the rod; the output is
+    what the displacement sensor reads (the diagnosis' y) and where the load
+    is, so the external force acts on m_2 and ``displacement``/``velocity``
+    are the output's. Stepped by :class:`TwoMassStepper` (the rod's y_1, v_1
+    are its memory).
+    """
+
+    cause = "mechanical_resonance"
+    form = "two_dof"
+    parameters = (Parameter("rod_mass_kg", "kg", 0.0, math.inf),
+                  Parameter("output_mass_kg", "kg", 0.0, math.inf),
+                  Parameter("joint_stiffness_N_per_m", "N/m", 0.0, math.inf),
+                  Parameter("joint_damping_N_s_per_m", "N s/m", 0.0, math.inf,
+                            low_open=False),
+                  Parameter("joint_frequency_Hz", "Hz", 0.0, math.inf, optional=True),
+                  Parameter("joint_damping_ratio", "-", 0.0, math.inf, low_open=False,
+                            optional=True))
+
+    @staticmethod
+    def validate(values):
+        m2, kj = values["output_mass_kg"], values["joint_stiffness_N_per_m"]
+        if "joint_frequency_Hz" in values:
+            _agrees("mechanical_resonance", "joint_frequency_Hz", values, "Hz",
+                    math.sqrt(kj / m2) / (2.0 * math.pi),
+                    "sqrt(joint_stiffness_N_per_m / output_mass_kg) / (2 pi)")
+        if "joint_damping_ratio" in values:
+            _agrees("mechanical_resonance", "joint_damping_ratio", values, "",
+                    values["joint_damping_N_s_per_m"] / (2.0 * math.sqrt(kj * m2)),
+                    "joint_damping_N_s_per_m / (2 sqrt(joint_stiffness_N_per_m "
+                    "output_mass_kg))")
+
+    def __init__(self, values, params, point):
+        super().__init__(values, params, point)
+        self.system = ext.TwoMassMechanics(
+            values["rod_mass_kg"], values["output_mass_kg"], params.damping, params.stiffness,
+            values["joint_stiffness_N_per_m"], values["joint_damping_N_s_per_m"])
+        # eq 27's K carries the rest: both masses at the bias force over K
+        self.mechanics = (values["rod_mass_kg"] + values["output_mass_kg"], params.damping,
+                          params.stiffness)
+
+    @property
+    def stepper(self):
+        return TwoMassStepper
+
+    def zoh(self, step):
+        """(A_d, B_d) of x = [y_1, v_1, y_2, v_2] for F on the rod and F_ext on the output, held."""
+        return _two_mass_zoh(self.system, float(step))
+
+
+@functools.lru_cache(maxsize=64)
+def _two_mass_zoh(system, step):
+    """ZOH of the two masses with two inputs, by one exponential (Van Loan 1978).
+
+    exp([[A, B], [0, 0]] h) = [[A_d, B_d], [0, I]] with B = [b_F, b_ext]:
+    b_F the force on the rod (:meth:`TwoMassMechanics.matrices`) and
+    b_ext = [0, 0, 0, -1/m_2] the external force opposing the output's
+    elongation. :meth:`TwoMassMechanics.zoh_matrices` is the same with b_F alone.
+    """
+    from scipy.linalg import expm
+
+    a, b, _ = system.matrices()
+    aug = np.zeros((6, 6))
+    aug[:4, :4] = a
+    aug[:4, 4] = b
+    aug[3, 5] = -1.0 / system.output_mass
+    e = expm(aug * step)
+    return e[:4, :4].copy(), e[:4, 4:].copy()
+
+
 class DriftForm(StepForm):
     """Strain drifting with the heating dose (:class:`gmt.extensions.LinearDrift`).
 
@@ -850,7 +1282,8 @@ class DriftForm(StepForm):
 #: (cause, form) -> step form; the first form of a cause is its default. Adding a
 #: candidate is one class and one entry here.
 FORMS: dict[tuple[str, str], type[StepForm]] = {(form.cause, form.form): form for form in (
-    HysteresisForm, SaturationForm, EddyLagForm, DelayForm, MechanicsForm, DriftForm)}
+    HysteresisForm, SaturationForm, EddyLagForm, SlabDiffusionForm, CylinderDiffusionForm,
+    DelayForm, MechanicsForm, TwoMassForm, DriftForm)}
 
 
 def variant_name(cause: str, form: str = "") -> str:
@@ -913,26 +1346,79 @@ class ExtendedStepper(ForwardStepper):
 
     def get_state(self) -> tuple:
         return (super().get_state() + (self.elapsed, self.sensed_displacement)
-                + tuple(self.form.get_state()))
+                + tuple(self._memory()))
 
     def set_state(self, state) -> None:
         state = tuple(float(s) for s in state)
         if len(state) < 7:
             raise ParameterError(f"state has {len(state)} values; this variant needs at "
                                  "least 7")
-        self.form.set_state(state[7:])
+        self._restore_memory(state[7:])
         super().set_state(state[:5])
         self.elapsed, self.sensed_displacement = state[5], state[6]
+
+    def _memory(self) -> tuple:
+        """Everything after the elapsed time and the sensed displacement in the state."""
+        return self.form.get_state()
+
+    def _restore_memory(self, values) -> None:
+        """Restore :meth:`_memory` (raising before changing anything if it does not fit)."""
+        self.form.set_state(values)
+
+    def _mechanics(self, force, current, step, external_force) -> None:
+        """Eq 27 over the step with the form's m, c, K (ZOH), F and F_ext held."""
+        self._advance(force, current, step, external_force, *self.form.mechanics)
 
     def step(self, current: float, step: float, external_force: float = 0.0):
         """Advance by ``step`` [s] with ``current`` [A] and ``external_force`` [N] held."""
         q = self._quadrature(current, step, external_force)
         mag = self.form.magnetics(current, q, step, self.elapsed)
-        self._advance(mag.force, current, step, external_force, *self.form.mechanics)
+        self._mechanics(mag.force, current, step, external_force)
         self.elapsed += step
         self.sensed_displacement = float(self.form.sensed(self.displacement, self.elapsed))
         return VariantStepResult(mag, self.displacement, self.velocity,
                                  self.sensed_displacement)
+
+
+class TwoMassStepper(ExtendedStepper):
+    """:class:`ExtendedStepper` with the rod and the output as two masses (:class:`TwoMassForm`).
+
+    x = [y_1, v_1, y_2, v_2] advances by the exact ZOH of the two-mass model
+    for the magnetostrictive force on the rod and the external force on the
+    output, both held over the step (:func:`_two_mass_zoh`).
+    ``displacement`` and ``velocity`` are the output's y_2, v_2 (the diagnosis'
+    y, what the sensor reads and what pushes the load); ``rod_displacement``
+    and ``rod_velocity`` are y_1, v_1. At rest both sit at the bias force over K.
+
+    Notes
+    -----
+    State: as :class:`ExtendedStepper`'s, with (y, v) the output's, then y_1 [m]
+    and v_1 [m/s] before the form's memory (none).
+    """
+
+    def reset(self):
+        super().reset()
+        self.rod_displacement, self.rod_velocity = self.displacement, 0.0
+
+    def _memory(self) -> tuple:
+        return (self.rod_displacement, self.rod_velocity) + tuple(self.form.get_state())
+
+    def _restore_memory(self, values) -> None:
+        if len(values) < 2:
+            raise ParameterError(f"{self.form.cause} ({self.form.form}) state has "
+                                 f"{len(values) + 7} values; the two masses need at least 9")
+        self.form.set_state(values[2:])
+        self.rod_displacement, self.rod_velocity = values[0], values[1]
+
+    def _mechanics(self, force, current, step, external_force) -> None:
+        ad, bd = self.form.zoh(step)
+        x = np.array((self.rod_displacement, self.rod_velocity, self.displacement,
+                      self.velocity))
+        x = ad @ x + bd @ np.array((float(force), external_force))
+        (self.rod_displacement, self.rod_velocity, self.displacement,
+         self.velocity) = (float(v) for v in x)
+        self.previous_current = current
+        self.previous_step = step
 
 
 def make_stepper(params: TransducerParameters, point: OperatingPoint,
@@ -940,4 +1426,5 @@ def make_stepper(params: TransducerParameters, point: OperatingPoint,
     """The paper's :class:`ForwardStepper`, or an :class:`ExtendedStepper` for a variant."""
     if variant is None or variant.is_paper:
         return ForwardStepper(params, point)
-    return ExtendedStepper(params, point, variant.step_form(params, point))
+    form = variant.step_form(params, point)
+    return (form.stepper or ExtendedStepper)(params, point, form)
