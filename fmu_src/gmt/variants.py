@@ -819,7 +819,26 @@ class SectionBank:
         return out, new
 
 
-class EddyLagForm(StepForm):
+class _FilterBankState:
+    """State of a form whose memory is a bank of first-order sections for H and H_q.
+
+    ``self.bank`` (with ``size``) is set by the form; the state is its filters' outputs.
+    """
+
+    def reset(self, rest_displacement):
+        self.filters = np.zeros((2, self.bank.size))
+
+    def get_state(self):
+        return tuple(float(v) for v in self.filters.ravel())
+
+    def set_state(self, state):
+        if len(state) != self.filters.size:
+            raise ParameterError(f"{self.cause} ({self.form}) state has {len(state)} values; "
+                                 f"its sections need {self.filters.size}")
+        self.filters = np.array(state, dtype=float).reshape(self.filters.shape)
+
+
+class EddyLagForm(_FilterBankState, StepForm):
     """Field inside the rod lagging the applied field (:class:`gmt.extensions.EddyCurrentLag`).
 
     H and H_q pass through :class:`SectionBank`; eqs 4-5 act on the field
@@ -864,17 +883,6 @@ class EddyLagForm(StepForm):
         return Magnetics(h, hq, flux_density(h_in, hq_in, pt.mu_real, pt.mu_imag), m, lam,
                          magnetostrictive_force(lam, p.rod_area, p.youngs_modulus))
 
-    def reset(self, rest_displacement):
-        self.filters = np.zeros((2, self.bank.size))
-
-    def get_state(self):
-        return tuple(float(v) for v in self.filters.ravel())
-
-    def set_state(self, state):
-        if len(state) != self.filters.size:
-            raise ParameterError(f"{self.cause} state has {len(state)} values; the lag needs "
-                                 f"{self.filters.size}")
-        self.filters = np.array(state, dtype=float).reshape(self.filters.shape)
 
 
 #: First moment of the section's mean field, -d<g>/d(j w tau) at w = 0: <g> = 1 - j w tau/3
@@ -992,7 +1000,7 @@ class ModalBank:
         return u + (state - u) * self._mean, new
 
 
-class EddyDiffusionForm(StepForm):
+class EddyDiffusionForm(_FilterBankState, StepForm):
     """Field diffusing into a slab or a rod (:class:`gmt.extensions.EddyCurrentDiffusion`).
 
     H and H_q are carried by the modes of :class:`ModalBank`; eq 5 acts
@@ -1056,17 +1064,6 @@ class EddyDiffusionForm(StepForm):
         return Magnetics(h, hq, b, m, lam, magnetostrictive_force(lam, p.rod_area,
                                                                   p.youngs_modulus))
 
-    def reset(self, rest_displacement):
-        self.filters = np.zeros((2, self.bank.size))
-
-    def get_state(self):
-        return tuple(float(v) for v in self.filters.ravel())
-
-    def set_state(self, state):
-        if len(state) != self.filters.size:
-            raise ParameterError(f"{self.cause} ({self.form}) state has {len(state)} values; "
-                                 f"the diffusion modes need {self.filters.size}")
-        self.filters = np.array(state, dtype=float).reshape(self.filters.shape)
 
 
 class SlabDiffusionForm(EddyDiffusionForm):
