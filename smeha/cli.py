@@ -162,6 +162,12 @@ def _add_cosim_options(p):
                                                  "built if missing or out of date)")
     p.add_argument("--branch-rule", choices=gmt.parameters.BRANCH_RULES, default="control",
                    help="compensator root rule (default 'control', Figure 9)")
+    p.add_argument("--controller-period", type=_positive_float, metavar="S",
+                   help="sample the valve controller every S seconds, act after the valves' "
+                        "exact dead times and put a communication point at each valve action "
+                        "(e.g. 1e-5; default: valves switch on the communication grid)")
+    p.add_argument("--hydraulic-step", type=_positive_float, metavar="S",
+                   help="longest hydraulic substep [s] (e.g. 1e-5; default one per step)")
 
 
 def _add_simulate(subparsers):
@@ -190,7 +196,8 @@ def _case_from(args, frequency, mode, load=None, variant=None):
         cycles = args.duration * frequency
     return Case(frequency=frequency, mode=mode, ideal=args.ideal, load=load, step=args.step,
                 cycles=cycles, backend=args.backend, branch_rule=args.branch_rule,
-                variant=variant)
+                variant=variant, controller_period=args.controller_period,
+                hydraulic_step=args.hydraulic_step)
 
 
 def _fmu_for(args):
@@ -299,6 +306,9 @@ def _run_fast_flow(args) -> int:
     from . import fastpath, flowstudy
     if args.variant:
         raise UsageError("--fast solves the paper's model only; drop --fast to run --variant")
+    if args.controller_period or args.hydraulic_step:
+        raise UsageError("--fast solves the study's default discretisation (valves on the step "
+                         "grid, one hydraulic substep); drop --controller-period/--hydraulic-step")
     loads = [args.load]
     if args.loads:
         try:

@@ -90,6 +90,11 @@ class Case:
     backend: str = "fmu"  # "fmu" or "direct"
     branch_rule: str = "control"
     variant: gmt.ModelVariant | None = None  # None: the paper's model
+    #: valve controller's own sample period [s]; None: it samples at the communication points
+    #: (system_models.cosim.CosimSettings.controller_period)
+    controller_period: float | None = None
+    #: longest hydraulic substep [s]; None: one substep a communication step
+    hydraulic_step: float | None = None
 
     def __post_init__(self):
         from system_models.flowcheck import MINIMUM_CYCLES
@@ -208,7 +213,8 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
     control, a = control_signal(case.mode, case.frequency)
     circuit = presets.ideal_circuit() if case.ideal else presets.realistic_circuit()
     settings = CosimSettings(duration=case.cycles / case.frequency, step=case.step,
-                             load_force=case.load_force)
+                             load_force=case.load_force, controller_period=case.controller_period,
+                             hydraulic_step=case.hydraulic_step)
     start = {"frequency": case.frequency, "current_amplitude": CURRENT_AMPLITUDE,
              "compensated": drive.compensated, "branch_rule": drive.branch_rule,
              **variant_start_values(case.variant)}
