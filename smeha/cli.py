@@ -473,8 +473,9 @@ def _add_diagnose(subparsers):
                     "fit each candidate extension (gmt.extensions) and compare them on the "
                     "held-out runs; print the cause (or 'none' / 'unexplained'), the evidence "
                     "and the held-out gain (smeha.diagnose; docs/DIAGNOSE.md).")
-    p.add_argument("data", metavar="DATA.csv", help="measurement file (CSV, long form) with "
-                                                    "sense_voltage_V")
+    p.add_argument("data", metavar="DATA.csv",
+                   help="measurement file (CSV, long form; docs/MEASURED.md); sense_voltage_V "
+                        "optional but it separates magnetic from mechanical causes")
     p.add_argument("--holdout", metavar="RUN,...",
                    help="comma-separated names of the held-out runs (default: all runs at the "
                         "middle and the second-highest frequency)")

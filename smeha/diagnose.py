@@ -64,6 +64,12 @@ frequencies) and at the second-highest one, so the held-out runs lie inside
 the trained range; with three or four frequencies, the runs at the middle one;
 fewer needs ``holdout`` explicitly.
 
+A run without a sense voltage has no B features: B_m comes from y's
+fundamental (eq 19, :func:`smeha.identify.flux_density_from_displacement`),
+re-derived through each candidate's own path from M to y, and only y's
+harmonics and drift are compared. Other causes within the BIC margin of the
+named one are reported as :func:`also_consistent` (the rule is unchanged).
+
 SI inside; micrometres only in the report.
 """
 from __future__ import annotations
@@ -78,6 +84,7 @@ import gmt
 from gmt import extensions as ext
 from gmt.constants import MU_0
 
+from .identify import flux_density_from_displacement
 from .measured import DataError, Run
 
 #: Harmonics of y and B in the features and the models.
@@ -109,6 +116,15 @@ SIGNALS = {
     "thermal_drift": "y only",
 }
 
+#: Without B (no sense voltage) these candidates are told apart only by the shape of y:
+#: each magnetic cause that changes B and y together against the causes that change y only
+#: and leave a similar trace in y's harmonics against f.
+CONFUSABLE_WITHOUT_B = (
+    ("eddy_current_diffusion", "mechanical_resonance"),
+    ("eddy_current_diffusion", "transport_delay"),
+    ("rate_independent_hysteresis", "magnetization_saturation"),
+)
+
 
 # ================================================================== features
 
@@ -129,8 +145,8 @@ class RunFeatures:
     cycles: int
     y: np.ndarray  # complex harmonics 1..K of y, [m]
     y_var: np.ndarray  # variance of each real component, [m^2]
-    b: np.ndarray  # complex harmonics 1..K of B, [T]
-    b_var: np.ndarray
+    b: np.ndarray | None  # complex harmonics 1..K of B, [T]; None without a sense voltage
+    b_var: np.ndarray | None
     offset_slope: float  # d(mean y)/dt, [m/s]
     offset_slope_var: float
     y1_slope: complex  # d Y_1 / dt, [m/s]
@@ -138,13 +154,24 @@ class RunFeatures:
     flux_density_amplitude: float  # B_m = |B_1|, [T]
     flux_density_stderr: float
     noise_y: float  # per-sample standard deviation of y, [m]
-    noise_e: float  # per-sample standard deviation of E, [V]
+    noise_e: float | None  # per-sample standard deviation of E, [V]; None without E
     time: np.ndarray  # samples used (after the transient), [s]
     displacement: np.ndarray
     current: np.ndarray
     t_start: float
     t_mid: float
     y_prop_var: np.ndarray = field(default=None)  # B_m error carried into y, [m^2]
+    #: where B_m comes from: "sense_voltage" (eq 22) or "displacement" (eq 19, from y's
+    #: fundamental as smeha.identify does); without a sense voltage B is not a feature
+    flux_density_source: str = "sense_voltage"
+    #: without B: M_1/H_m that y's fundamental gives through the paper's mechanics,
+    #: (mu' - 1) - j mu'' of smeha.identify.flux_density_from_displacement, [-]
+    magnetization_ratio: complex | None = None
+
+    @property
+    def has_b(self) -> bool:
+        """True when B's harmonics are features (the run has a sense voltage)."""
+        return self.b is not None
 
     @property
     def angular_frequency(self):
@@ -195,17 +222,17 @@ def run_features(run: Run, params: gmt.TransducerParameters | None = None,
                  harmonics: int = HARMONICS) -> RunFeatures:
     """Reduce a run to its features (module docstring, step 1).
 
+    Without a sense voltage the run has no B features (``b`` is None) and B_m
+    comes from y's fundamental over the same cycles, as
+    :func:`smeha.identify.flux_density_from_displacement` gives it (eq 19).
+
     Raises
     ------
     DataError
-        Without a sense voltage, or with fewer than :data:`MIN_CYCLES` whole
-        cycles after the first.
+        With fewer than :data:`MIN_CYCLES` whole cycles after the first, or a
+        B_m from the displacement that is not positive.
     """
     params = params or gmt.TransducerParameters()
-    if run.sense_voltage is None:
-        raise DataError(f"{run.where()}: diagnose needs the sensing-coil voltage "
-                        "(sense_voltage_V) to separate magnetic from mechanical effects",
-                        run.source, run.name)
     f = float(run.frequency)
     w = 2.0 * math.pi * f
     t = np.asarray(run.time, dtype=float)
@@ -228,33 +255,48 @@ def run_features(run: Run, params: gmt.TransducerParameters | None = None,
     t0 = t_start + TRANSIENT_CYCLES / f
     t1 = t0 + cycles / f
     mask = (t >= t0 - 1e-9 / f) & (t < t1 - 1e-9 / f)
-    ts, ys, es = t[mask], run.displacement[mask], run.sense_voltage[mask]
+    ts, ys = t[mask], run.displacement[mask]
     t_mid = float(ts.mean())
     basis = _basis(ts, w, harmonics, t_mid)
     gram_inv = np.linalg.pinv(basis.T @ basis)
     cy, *_ = np.linalg.lstsq(basis, ys, rcond=None)
-    ce, *_ = np.linalg.lstsq(basis, es, rcond=None)
     noise_y = _cycle_noise(t, run.displacement, f, t0, cycles)
-    noise_e = _cycle_noise(t, run.sense_voltage, f, t0, cycles)
     k = np.arange(1, harmonics + 1)
     rot = np.exp(-1j * k * phi)
     yk = (cy[2:2 + 2 * harmonics:2] - 1j * cy[3:3 + 2 * harmonics:2]) * rot
-    ek = (ce[2:2 + 2 * harmonics:2] - 1j * ce[3:3 + 2 * harmonics:2]) * rot
     diag = np.diag(gram_inv)
     dvar = 0.5 * (diag[2:2 + 2 * harmonics:2] + diag[3:3 + 2 * harmonics:2])
-    na = params.sense_turns * params.sense_area
-    bk = 1j * ek / (k * w * na)
-    b_var = noise_e ** 2 * dvar / (k * w * na) ** 2
+    if run.sense_voltage is not None:
+        es = run.sense_voltage[mask]
+        ce, *_ = np.linalg.lstsq(basis, es, rcond=None)
+        noise_e = _cycle_noise(t, run.sense_voltage, f, t0, cycles)
+        ek = (ce[2:2 + 2 * harmonics:2] - 1j * ce[3:3 + 2 * harmonics:2]) * rot
+        na = params.sense_turns * params.sense_area
+        bk = 1j * ek / (k * w * na)
+        b_var = noise_e ** 2 * dvar / (k * w * na) ** 2
+        bm, se_b, source = float(abs(bk[0])), float(math.sqrt(b_var[0])), "sense_voltage"
+    else:
+        # no B: B_m from y's fundamental (eq 19), as smeha.identify does
+        bk = b_var = noise_e = None
+        bm, se_b, mu_r, mu_i = flux_density_from_displacement(run, params, mask, h)
+        bm, se_b, source = float(bm), float(se_b), "displacement"
+        ratio = complex(mu_r - 1.0, -mu_i)
+        if not (bm > 0 and math.isfinite(bm)):
+            raise DataError(f"{run.where()}: B_m = {bm:g} T from the displacement's "
+                            "fundamental is not positive (no sense voltage)",
+                            run.source, run.name)
+    if run.sense_voltage is not None:
+        ratio = None
     y1s = complex(cy[-2], -cy[-1]) * np.exp(-1j * phi)
     return RunFeatures(
         name=run.name, frequency=f, current_amplitude=im, current_phase=phi, step=h,
         cycles=cycles, y=yk, y_var=noise_y ** 2 * dvar, b=bk, b_var=b_var,
         offset_slope=float(cy[1]), offset_slope_var=noise_y ** 2 * float(diag[1]),
         y1_slope=y1s, y1_slope_var=noise_y ** 2 * 0.5 * float(diag[-1] + diag[-2]),
-        flux_density_amplitude=float(abs(bk[0])),
-        flux_density_stderr=float(math.sqrt(b_var[0])),
+        flux_density_amplitude=bm, flux_density_stderr=se_b,
         noise_y=noise_y, noise_e=noise_e, time=ts, displacement=ys,
-        current=run.current[mask], t_start=t_start, t_mid=t_mid)
+        current=run.current[mask], t_start=t_start, t_mid=t_mid,
+        flux_density_source=source, magnetization_ratio=ratio)
 
 
 # ================================================================== models
@@ -448,7 +490,19 @@ class _Evaluator:
         form = _form(cause, form)
         f, w = rf.frequency, rf.angular_frequency
         hm = p.field_per_ampere * rf.current_amplitude
-        bm = rf.flux_density_amplitude if flux is None else flux
+        if form == "one_dof":
+            g = ext.zoh_frequency_response(p.mass * extra[0], p.damping * extra[1],
+                                           p.stiffness * extra[2], self.k * w, rf.step)
+        elif form == "two_dof":
+            g = self.two_mass(extra).response(self.k * w, rf.step)
+        else:
+            g = self.mechanics(p.mass, p.damping, p.stiffness, w, rf.step)
+        if flux is not None:
+            bm = flux
+        elif getattr(rf, "magnetization_ratio", None) is None:  # B_m measured (eq 22)
+            bm = rf.flux_density_amplitude
+        else:  # no sense voltage: B_m from y through this candidate's path
+            bm = self._flux_from_y(rf, g[0], cause, extra, form)
         mod = bm / (MU_0 * hm)
         c_force = p.rod_area * p.youngs_modulus * p.magnetostriction_coefficient
         mb = p.bias_magnetization
@@ -489,13 +543,6 @@ class _Evaluator:
             fk[0] = 2.0 * c_force * mb * m1
             fk[1] = f2
             mk[0] = m1
-        if form == "one_dof":
-            g = ext.zoh_frequency_response(p.mass * extra[0], p.damping * extra[1],
-                                           p.stiffness * extra[2], self.k * w, rf.step)
-        elif form == "two_dof":
-            g = self.two_mass(extra).response(self.k * w, rf.step)
-        else:
-            g = self.mechanics(p.mass, p.damping, p.stiffness, w, rf.step)
         y = fk * g
         if cause == "transport_delay":
             y = y * ext.TransportDelay(extra[0] * 1e-3).factor(self.k * w)
@@ -513,6 +560,32 @@ class _Evaluator:
             s_off = extra[0] * 1e-6 * slope
             s_y1 = extra[1] * 1e-2 * slope * y[0]
         return y, b, s_off, s_y1
+
+    def _flux_from_y(self, rf, g1, cause, extra, form):
+        """B_m of a run without B, through the candidate's own path from M_1 to y, [T].
+
+        rf.magnetization_ratio is M_1/H_m as y's fundamental gives it through the
+        paper's mechanics G (:func:`smeha.identify.flux_density_from_displacement`);
+        with the paper's model this returns that function's B_m (eq 19). A
+        candidate that changes the path (mechanics g1, a delay) divides by its
+        ratio to the paper's, and the eddy forms, where M_1 = (mu - 1) <g> H_m and
+        B_1 = mu_0 mu <g> H_m, give B_m = mu_0 H_m |M_1/H_m + <g>|. Otherwise the
+        measured B_m would carry the very effect the candidate describes.
+        """
+        p, w = self.params, rf.angular_frequency
+        hm = p.field_per_ampere * rf.current_amplitude
+        g0 = self.mechanics(p.mass, p.damping, p.stiffness, w, rf.step)[0]
+        path = complex(g1 / g0)
+        if cause == "transport_delay":
+            path *= complex(np.ravel(ext.TransportDelay(extra[0] * 1e-3).factor(w))[0])
+        m = rf.magnetization_ratio / path
+        if form == "lag":
+            gin = complex(ext.EddyCurrentLag(10.0 ** extra[0], extra[1]).transfer(w))
+        elif form in ("slab", "cylinder"):
+            gin = complex(ext.EddyCurrentDiffusion(10.0 ** extra[0], form).transfer(w))
+        else:
+            gin = 1.0
+        return MU_0 * hm * abs(m + gin)
 
     def _diffusion(self, loss, f, w, bm, hm, geometry, log10_tau):
         """M_1, the force's F_2 and B_1 with the field diffusing into the rod.
@@ -544,23 +617,32 @@ class _Evaluator:
         return ext.LinearDrift(extra[0] * 1e-6, extra[1] * 1e-2, 10.0 ** extra[2])
 
     def residuals(self, rf: RunFeatures, loss, cause="none", extra=(), form=""):
-        """Model minus data over each feature's standard deviation."""
+        """Model minus data over each feature's standard deviation.
+
+        y's harmonics, B's (only when the run has them, :attr:`RunFeatures.has_b`),
+        then the three drift features.
+        """
         y, b, s_off, s_y1 = self.predict(rf, loss, cause, extra, form=form)
         sy = np.sqrt(rf.y_var + (rf.y_prop_var if rf.y_prop_var is not None else 0.0))
-        sb = np.sqrt(rf.b_var)
-        dy, db = (y - rf.y) / sy, (b - rf.b) / sb
+        dy = (y - rf.y) / sy
         ds = (s_y1 - rf.y1_slope) / math.sqrt(rf.y1_slope_var)
-        return np.concatenate((dy.real, dy.imag, db.real, db.imag,
-                               [(s_off - rf.offset_slope) / math.sqrt(rf.offset_slope_var),
-                                ds.real, ds.imag]))
+        parts = [dy.real, dy.imag]
+        if rf.has_b:
+            db = (b - rf.b) / np.sqrt(rf.b_var)
+            parts += [db.real, db.imag]
+        parts.append([(s_off - rf.offset_slope) / math.sqrt(rf.offset_slope_var),
+                      ds.real, ds.imag])
+        return np.concatenate(parts)
+
+    def n_features(self, rf) -> tuple:
+        """Number of features of y, of B (0 without a sense voltage), of the drift."""
+        return 2 * self.k.size, 2 * self.k.size * rf.has_b, 3
 
     def parts(self, rf, loss, cause="none", extra=(), form=""):
-        """chi^2 of y (harmonics), of B, of the drift features."""
+        """chi^2 of y (harmonics), of B (0 without B), of the drift features."""
         r = self.residuals(rf, loss, cause, extra, form)
-        kk = self.k.size
-        ry = np.concatenate((r[:kk], r[kk:2 * kk]))
-        rb = np.concatenate((r[2 * kk:3 * kk], r[3 * kk:4 * kk]))
-        rd = r[4 * kk:]
+        ny, nb, _ = self.n_features(rf)
+        ry, rb, rd = r[:ny], r[ny:ny + nb], r[ny + nb:]
         return float(ry @ ry), float(rb @ rb), float(rd @ rd)
 
     def samples(self, rf: RunFeatures, loss, cause="none", extra=(), form=""):
@@ -654,7 +736,7 @@ def _score(ev, cand, loss, extra, chi2_train, n_train, heldout, context) -> Fit:
     for rf in heldout:
         a, b, d = ev.parts(rf, loss, cand.cause, extra, cand.form)
         chi_y, chi_b, chi_d = chi_y + a, chi_b + b, chi_d + d
-        n += 4 * ev.k.size + 3
+        n += sum(ev.n_features(rf))
         r = rf.displacement - ev.samples(rf, loss, cand.cause, extra, cand.form)
         sq += float(r @ r)
         ns += r.size
@@ -699,16 +781,19 @@ def characterise(ev: _Evaluator, feats, loss) -> dict:
     rows = []
     for rf in feats:
         y, b, _, _ = ev.predict(rf, loss)
-        ry, rb = rf.y - y, rf.b - b
+        ry = rf.y - y
+        rb = rf.b - b if rf.has_b else None
         r = _synth(ry, theta)
         sy = math.sqrt(float(np.sum(rf.y_var)))  # noise of the periodic residual (RMS-ish)
         data = _synth(rf.y, theta)
         opening = float(_synth(rf.y, np.array([np.pi / 2]))[0]
                         - _synth(rf.y, np.array([3 * np.pi / 2]))[0])
         cy_y, cy_b, cy_d = ev.parts(rf, loss)
+        n_y, n_b, n_d = ev.n_features(rf)
         rows.append({
             "run": rf.name, "frequency_Hz": rf.frequency,
             "current_amplitude_A": rf.current_amplitude,
+            "flux_density_source": rf.flux_density_source,
             "noise_um": rf.noise_y * 1e6,
             "periodic_residual_rms_um": float(np.sqrt(np.mean(r * r))) * 1e6,
             "periodic_noise_rms_um": sy * 1e6,
@@ -716,12 +801,16 @@ def characterise(ev: _Evaluator, feats, loss) -> dict:
             "rising_rms_um": float(np.sqrt(np.mean(r[~falling] ** 2))) * 1e6,
             "y_residual_harmonics_um": [float(abs(v)) * 1e6 for v in ry[:3]],
             "y_residual_phases_deg": [math.degrees(float(np.angle(v))) for v in ry[:3]],
-            "b_residual_harmonics_mT": [float(abs(v)) * 1e3 for v in rb[:3]],
+            # the B entries are None for a run without a sense voltage
+            "b_residual_harmonics_mT": ([float(abs(v)) * 1e3 for v in rb[:3]]
+                                        if rf.has_b else None),
             "y_extra_lag_deg": math.degrees(float(np.angle(y[0] / rf.y[0]))),
             "y_gain_ratio": float(abs(rf.y[0]) / abs(y[0])),
-            "b_extra_lag_deg": math.degrees(float(np.angle(b[0] / rf.b[0]))),
+            "b_extra_lag_deg": (math.degrees(float(np.angle(b[0] / rf.b[0])))
+                                if rf.has_b else None),
             "y3_over_y1_pct": 100.0 * float(abs(rf.y[2]) / abs(rf.y[0])),
-            "b3_over_b1_pct": 100.0 * float(abs(rf.b[2]) / abs(rf.b[0])),
+            "b3_over_b1_pct": (100.0 * float(abs(rf.b[2]) / abs(rf.b[0]))
+                               if rf.has_b else None),
             "loop_opening_um": opening * 1e6,
             "loop_opening_rel": opening / float(np.ptp(data)),
             "offset_drift_um_per_s": rf.offset_slope * 1e6,
@@ -730,7 +819,7 @@ def characterise(ev: _Evaluator, feats, loss) -> dict:
             "gain_drift_z": float((rf.y1_slope * np.conj(rf.y[0]) / abs(rf.y[0])).real
                                   / math.sqrt(rf.y1_slope_var)),
             "chi2_y": cy_y, "chi2_b": cy_b, "chi2_drift": cy_d,
-            "n_y": 2 * ev.k.size, "n_b": 2 * ev.k.size, "n_drift": 3,
+            "n_y": n_y, "n_b": n_b, "n_drift": n_d,
         })
     # loop opening against f, at the largest amplitude
     amps = sorted({round(r["current_amplitude_A"], 2) for r in rows})
@@ -774,6 +863,21 @@ class Diagnosis:
     noise_um: float
     characterisation: dict
     context: dict = field(repr=False, default=None)
+    #: other causes the held-out data do not separate from the named one (:func:`also_consistent`)
+    also_consistent: list = field(default_factory=list)
+
+    @property
+    def runs_without_sense_voltage(self) -> list:
+        """Names of the runs without a sense voltage (B_m from the displacement)."""
+        return [name for name, rf in self.context["features"].items() if not rf.has_b]
+
+    def sense_voltage_report(self) -> dict:
+        """What the missing sense voltage leaves undetermined (``sense_voltage`` in JSON)."""
+        without = self.runs_without_sense_voltage
+        return {"runs_without": without,
+                "flux_density_source": {name: rf.flux_density_source
+                                        for name, rf in self.context["features"].items()},
+                "hard_to_separate": [list(p) for p in CONFUSABLE_WITHOUT_B] if without else []}
 
     @property
     def gain(self):
@@ -801,6 +905,11 @@ class Diagnosis:
             "heldout_rms_um": {"paper": self.paper.heldout_rms * 1e6,
                                "extended": self.extended.heldout_rms * 1e6},
             "gain": self.gain,
+            "also_consistent": [{"cause": f.cause, "form": f.form, "score": f.score,
+                                 "score_above_named": f.score - self.extended.score,
+                                 "heldout_rms_um": f.heldout_rms * 1e6}
+                                for f in self.also_consistent],
+            "sense_voltage": self.sense_voltage_report(),
             "candidates": [fitd(f) for f in self.fits if f.cause != "none"],
             "paper": fitd(self.paper),
             "characterisation": self.characterisation,
@@ -826,9 +935,37 @@ def decide(paper: Fit, fits) -> tuple[str, Fit]:
     return "unexplained", paper
 
 
+def also_consistent(paper: Fit, fits, chosen: Fit) -> list:
+    """Other causes the held-out data do not separate from the named one.
+
+    The best form of each other cause that passes the same two tests as the
+    named one (:func:`decide`) and whose score is within :data:`MIN_BIC_DROP`
+    of the named one's: the data prefer the named cause, but not by the margin
+    the rule asks of a name. The decision itself is unchanged. Empty for
+    ``none`` and ``unexplained``.
+    """
+    if chosen.cause not in CAUSES:
+        return []
+    excess = max(paper.heldout_excess, 1e-12)
+    best = {}
+    for f in fits:
+        if f.cause in ("none", chosen.cause):
+            continue
+        explained = 1.0 - max(f.heldout_excess, 0.0) / excess
+        if (paper.score - f.score > MIN_BIC_DROP and explained >= MIN_EXPLAINED
+                and f.score - chosen.score <= MIN_BIC_DROP):
+            if f.cause not in best or f.score < best[f.cause].score:
+                best[f.cause] = f
+    return sorted(best.values(), key=lambda f: f.score)
+
+
 def _propagate_flux_error(ev, feats, loss):
     """Carry each run's B_m error into the variance of its y harmonics."""
     for rf in feats:
+        if not rf.has_b:
+            # B_m comes from y's own fundamental: its error is y's noise, already counted
+            rf.y_prop_var = np.zeros(rf.y.size)
+            continue
         d = 1e-3 * rf.flux_density_amplitude
         y0 = ev.predict(rf, loss, flux=rf.flux_density_amplitude)[0]
         y1 = ev.predict(rf, loss, flux=rf.flux_density_amplitude + d)[0]
@@ -842,7 +979,9 @@ def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
     Parameters
     ----------
     runs : sequence of Run
-        Measured runs with current, displacement and sense voltage.
+        Measured runs with current and displacement, and the sense voltage
+        where measured: a run without it is fitted on y alone, with B_m from
+        y's fundamental (:func:`run_features`).
     holdout : sequence of str, optional
         Names of the held-out runs; default :func:`default_holdout`.
     params : TransducerParameters, optional
@@ -908,7 +1047,8 @@ def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
     diag = Diagnosis(cause=cause, evidence=[], heldout_runs=holdout,
                      training_runs=[r.name for r in train_runs], paper=paper,
                      extended=chosen, fits=fits, noise_um=noise,
-                     characterisation=character, context=context)
+                     characterisation=character, context=context,
+                     also_consistent=also_consistent(paper, fits, chosen))
     diag.evidence = _evidence(diag)
     return diag
 
@@ -919,22 +1059,36 @@ def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
 def _evidence(d: Diagnosis) -> list[str]:
     p, c = d.paper, d.characterisation
     rows = c["runs"]
+    brows = [r for r in rows if r["b_residual_harmonics_mT"] is not None]  # runs with B
+    without = d.runs_without_sense_voltage
     out = []
+    if without:
+        magnetic = ", ".join(k for k, v in SIGNALS.items() if v == "B and y")
+        pairs = "; ".join(f"{a} vs {b}" for a, b in CONFUSABLE_WITHOUT_B)
+        out.append(f"no sense voltage in {len(without)} of {len(rows)} runs "
+                   f"({', '.join(without)}): B_m of those from y's fundamental (eq 19, as "
+                   "smeha.identify), and only y's harmonics and drift are compared. Without B "
+                   f"the magnetic causes, which change B and y together ({magnetic}), are "
+                   "told from those that change y only by the shape of y alone; hard to tell "
+                   f"apart: {pairs}")
+    e_noise = [d.context["features"][r["run"]].noise_e for r in brows]
     out.append(f"noise (cycle-to-cycle scatter at equal phase): y {d.noise_um:.3g} um per "
-               f"sample (median over runs), sense voltage "
-               f"{np.median([d.context['features'][r['run']].noise_e for r in rows]):.3g} V")
+               "sample (median over runs), sense voltage "
+               + (f"{np.median(e_noise):.3g} V" if e_noise else "not measured"))
     ny = sum(r["n_y"] for r in rows)
     nb = sum(r["n_b"] for r in rows)
     nd = sum(r["n_drift"] for r in rows)
     cy = sum(r["chi2_y"] for r in rows)
     cb = sum(r["chi2_b"] for r in rows)
     cd = sum(r["chi2_drift"] for r in rows)
+    b_text = f"{cb / nb:.3g} on B harmonics" if nb else "no B harmonics (no sense voltage)"
     out.append(f"paper's model, all runs: chi^2/n = {cy / ny:.3g} on y harmonics, "
-               f"{cb / nb:.3g} on B harmonics, {cd / nd:.3g} on the drift terms "
+               f"{b_text}, {cd / nd:.3g} on the drift terms "
                f"(1 = within noise); training reduced chi^2 "
                f"{p.train_chi2 / max(p.train_n - 4, 1):.3g}, held-out "
                f"{p.heldout_chi2 / p.heldout_n:.3g} (threshold {WITHIN_NOISE:g})")
-    carriers = [name for name, v in (("y", cy / ny), ("B", cb / nb), ("drift of y", cd / nd))
+    carriers = [name for name, v in (("y", cy / ny), ("B", cb / nb if nb else 0.0),
+                                     ("drift of y", cd / nd))
                 if v > WITHIN_NOISE]
     out.append("the discrepancy is carried by: " + (", ".join(carriers) if carriers
                                                      else "neither signal (within noise)"))
@@ -949,21 +1103,27 @@ def _evidence(d: Diagnosis) -> list[str]:
                f"{np.mean(rise):.3g} um (mean over runs)")
     lo, hi = min(rows, key=lambda r: r["frequency_Hz"]), max(rows,
                                                               key=lambda r: r["frequency_Hz"])
+    def bres(r):
+        v = r["b_residual_harmonics_mT"]
+        return "/".join(f"{x:.3g}" for x in v) if v is not None else "not measured"
     out.append(
         f"by harmonic (y residual, um, k = 1..3): {lo['run']} "
         + "/".join(f"{v:.3g}" for v in lo["y_residual_harmonics_um"])
         + f"; {hi['run']} " + "/".join(f"{v:.3g}" for v in hi["y_residual_harmonics_um"])
-        + "; B residual (mT): " + "/".join(f"{v:.3g}" for v in lo["b_residual_harmonics_mT"])
-        + " and " + "/".join(f"{v:.3g}" for v in hi["b_residual_harmonics_mT"]))
+        + f"; B residual (mT): {bres(lo)} and {bres(hi)}")
     amps = sorted({round(r["current_amplitude_A"], 2) for r in rows})
     if len(amps) >= 2:
         def mean3(a, key):
-            v = [r[key] for r in rows if round(r["current_amplitude_A"], 2) == a]
-            return float(np.mean(v))
-        out.append(f"third harmonic of B: {mean3(amps[0], 'b3_over_b1_pct'):.3g} % of the "
-                   f"fundamental at {amps[0]:g} A, {mean3(amps[-1], 'b3_over_b1_pct'):.3g} % at "
-                   f"{amps[-1]:g} A; of y: {mean3(amps[0], 'y3_over_y1_pct'):.3g} % and "
-                   f"{mean3(amps[-1], 'y3_over_y1_pct'):.3g} %")
+            v = [r[key] for r in rows
+                 if round(r["current_amplitude_A"], 2) == a and r[key] is not None]
+            return float(np.mean(v)) if v else None
+
+        b_lo, b_hi = mean3(amps[0], "b3_over_b1_pct"), mean3(amps[-1], "b3_over_b1_pct")
+        b_part = (f"third harmonic of B: {b_lo:.3g} % of the fundamental at {amps[0]:g} A, "
+                  f"{b_hi:.3g} % at {amps[-1]:g} A; " if b_lo is not None and b_hi is not None
+                  else "third harmonic of B: not measured (no sense voltage); ")
+        out.append(b_part + f"of y: {mean3(amps[0], 'y3_over_y1_pct'):.3g} % at {amps[0]:g} "
+                   f"A and {mean3(amps[-1], 'y3_over_y1_pct'):.3g} % at {amps[-1]:g} A")
     law = c["opening_vs_f"]
     if law:
         better = min(law, key=lambda k: law[k]["rms"])
@@ -976,9 +1136,10 @@ def _evidence(d: Diagnosis) -> list[str]:
     out.append(f"extra lag of y's fundamental behind the model (deg): {lag}; as a delay "
                f"{c['y_lag_as_delay_s'] * 1e3:.3g} ms leaves {c['y_lag_as_delay_rms_deg']:.2g} "
                "deg RMS")
-    bl = " ".join(f"{r['frequency_Hz']:g}Hz:{r['b_extra_lag_deg']:+.2f}" for r in rows
+    bl = " ".join(f"{r['frequency_Hz']:g}Hz:{r['b_extra_lag_deg']:+.2f}" for r in brows
                   if round(r["current_amplitude_A"], 2) == amps[-1])
-    out.append(f"extra lag of B's fundamental behind the model (deg): {bl}")
+    out.append("extra lag of B's fundamental behind the model (deg): "
+               + (bl or "not measured (no sense voltage)"))
     gains = " ".join(f"{r['frequency_Hz']:g}Hz:{r['y_gain_ratio']:.3f}" for r in rows
                      if round(r["current_amplitude_A"], 2) == amps[-1])
     out.append(f"gain of y's fundamental, measured over model: {gains}")
@@ -1000,6 +1161,13 @@ def _evidence(d: Diagnosis) -> list[str]:
                    f"{100 * explained:.3g} % of the paper's excess chi^2 removed; parameters "
                    f"{_fmt_params(e.parameters)}; held-out RMS {p.heldout_rms * 1e6:.4g} -> "
                    f"{e.heldout_rms * 1e6:.4g} um, gain {d.gain:.3g}x")
+        if d.also_consistent:
+            out.append("also consistent: " + ", ".join(
+                f"{f.label} (score {f.score - e.score:+.3g} from the named one, held-out RMS "
+                f"{f.heldout_rms * 1e6:.4g} um)" for f in d.also_consistent)
+                + f"; the data prefer {e.label} by less than the BIC margin "
+                f"({MIN_BIC_DROP:g}), so they do not separate these causes"
+                + (" (without B, see above)" if without else ""))
     elif d.cause == "none":
         out.append("none: the paper's model is within noise on training and held-out runs")
     else:
@@ -1024,6 +1192,12 @@ def format_diagnosis(d: Diagnosis, path: str = "") -> str:
         lines.append(f"diagnosis of {path}")
     lines.append(f"cause: {d.cause}" + (f" (model: {d.extended.form})"
                                          if d.cause in FORMS else ""))
+    if d.also_consistent:
+        lines.append("also consistent: " + ", ".join(f.label for f in d.also_consistent))
+    without = d.runs_without_sense_voltage
+    if without:
+        lines.append(f"no sense voltage: {', '.join(without)} (B_m from the displacement; "
+                     "y's features only)")
     lines.append(f"held-out runs: {', '.join(d.heldout_runs)}")
     lines.append(f"held-out RMS of y: paper {d.paper.heldout_rms * 1e6:.4g} um, extended "
                  f"{d.extended.heldout_rms * 1e6:.4g} um, gain {d.gain:.3g}x")

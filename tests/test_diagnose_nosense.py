@@ -1,0 +1,109 @@
+"""Diagnosis of runs without a sensing-coil voltage (B not measured).
+
+The data come from :func:`smeha.synthetic.generate_runs` (seeded) with the sense
+voltage dropped (``Run.sense_voltage = None``, as the reader gives a run whose
+``sense_voltage_V`` column is absent or empty). ``Run.meta`` is read only for the
+truth; the workflow gets copies without it.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import pytest
+
+from smeha import diagnose
+from smeha.cli import main
+from smeha.measured import write_measurements
+from smeha.synthetic import generate_runs
+
+#: Issue #5: the extended model must at least halve the held-out RMS error.
+MIN_GAIN = 2.0
+#: Middle and second-highest frequency of the generator's default grid (as test_diagnose).
+HOLDOUT = ["f050_I0.5", "f050_I1.0", "f150_I0.5", "f150_I1.0"]
+
+
+def _without_voltage(runs, keep=()):
+    """Copies without the truth, and without the sense voltage except for runs in ``keep``."""
+    return [dataclasses.replace(r, meta={},
+                                sense_voltage=r.sense_voltage if r.name in keep else None)
+            for r in runs]
+
+
+def test_features_without_voltage_have_no_b_and_flux_from_displacement():
+    run = generate_runs(None, seed=2, frequencies=(50,), amplitudes=(1.0,))[0]
+    rf = diagnose.run_features(_without_voltage([run])[0])
+    assert not rf.has_b and rf.b is None and rf.noise_e is None
+    assert rf.flux_density_source == "displacement"
+    # paper, Table 1: B_m = 0.0637 T at 50 Hz, 1 A (the generator's calibration); from y's
+    # fundamental through eq 19 it is as good as the model that made y (noise 0.05 um)
+    assert rf.flux_density_amplitude == pytest.approx(0.0637, rel=5e-3)
+    ev = diagnose._Evaluator(diagnose.gmt.TransducerParameters(), (1.0,))
+    assert ev.n_features(rf) == (2 * diagnose.HARMONICS, 0, 3)
+    assert ev.residuals(rf, (0.0, 2.0, 0.0, 0.0)).size == 2 * diagnose.HARMONICS + 3
+
+
+def test_clean_data_without_voltage_is_none():
+    runs = generate_runs(None, seed=11)
+    result = diagnose.diagnose(_without_voltage(runs))
+    assert result.cause == "none", "\n".join(result.evidence)
+    assert result.gain == 1.0
+    out = result.as_dict()
+    assert out["sense_voltage"]["runs_without"] == [r.name for r in runs]
+    assert set(out["sense_voltage"]["flux_density_source"].values()) == {"displacement"}
+    assert out["sense_voltage"]["hard_to_separate"]  # named, since B is missing
+    assert out["paper"]["heldout_chi2_b"] == 0.0
+    assert all(r["b_extra_lag_deg"] is None and r["n_b"] == 0
+               for r in out["characterisation"]["runs"])
+    assert "no sense voltage" in result.evidence[0]
+    json.dumps(out)  # the B entries are None, not NaN
+    assert "no sense voltage" in diagnose.format_diagnosis(result)
+
+
+def test_names_saturation_without_voltage():
+    runs = generate_runs("magnetization_saturation", seed=11, strength=1.0)
+    result = diagnose.diagnose(_without_voltage(runs), holdout=HOLDOUT)
+    assert result.cause == "magnetization_saturation", "\n".join(result.evidence)
+    assert result.gain >= MIN_GAIN, "\n".join(result.evidence)
+
+
+def test_mixed_runs_with_and_without_voltage():
+    """Low-frequency runs with a sense voltage, the others without: both kinds enter."""
+    runs = generate_runs("magnetization_saturation", seed=3)
+    keep = {r.name for r in runs if r.frequency <= 20}
+    result = diagnose.diagnose(_without_voltage(runs, keep), holdout=HOLDOUT)
+    assert result.cause == "magnetization_saturation", "\n".join(result.evidence)
+    assert result.gain >= MIN_GAIN
+    assert set(result.runs_without_sense_voltage) == {r.name for r in runs} - keep
+    rows = result.characterisation["runs"]
+    assert {r["run"] for r in rows if r["n_b"] > 0} == keep
+    assert result.paper.heldout_chi2_b == 0.0  # the held-out runs (50, 150 Hz) have no B
+    assert result.paper.train_n == sum(
+        2 * diagnose.HARMONICS * (1 + (r["run"] in keep)) + 3
+        for r in rows if r["run"] in result.training_runs)
+
+
+def test_mechanical_resonance_without_voltage_is_named_with_small_gain():
+    """The documented limit (docs/DIAGNOSE.md, Limits): without B, each run's B_m comes
+    from y's own fundamental, so the paper's model already matches the fundamental's size
+    run by run and the held-out gain of the two masses is small (1.2 to 1.6 over seeds 0-5
+    and 11, against >= 7 with the voltage). The cause is still named."""
+    runs = generate_runs("mechanical_resonance", seed=1)
+    result = diagnose.diagnose(_without_voltage(runs), holdout=HOLDOUT)
+    assert result.cause == "mechanical_resonance", "\n".join(result.evidence)
+    assert result.gain > 1.0
+
+
+def test_cli_file_without_voltage_column(tmp_path, capsys):
+    """A CSV without the sense_voltage_V column: the delay is named, with its gain."""
+    path = tmp_path / "bare.csv"
+    write_measurements(path, _without_voltage(generate_runs("transport_delay", seed=4)))
+    assert "sense_voltage_V" not in path.read_text().splitlines()[0]
+    status = main(["diagnose", str(path), "--json", "--holdout", ",".join(HOLDOUT)])
+    assert status == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["cause"] == "transport_delay", "\n".join(out["evidence"])
+    assert out["gain"] >= MIN_GAIN
+    assert len(out["sense_voltage"]["runs_without"]) == 12
+    assert any("no sense voltage" in e for e in out["evidence"])
+    assert out["also_consistent"] == []  # the delay is separated from the rest by > 25
