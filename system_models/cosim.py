@@ -419,12 +419,12 @@ def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
         last = t >= t_end - 1e-9 * h
         if keep_record and k == len(out):
             out = np.concatenate((out, np.zeros(len(out) // 4 + 8, dtype=out.dtype)))
-        u, u_next = control(t), control(t + h_k)
+        u = control(t)
         # the controller generates u, so it knows where u goes over the coming
         # step: the phase of [t, t + h) follows u(t + h) - u(t), and the valves
         # switch at the control signal's extremes, not a step after them
         if controller is None:
-            compressing = pump_phase(u_next, u, compressing)
+            compressing = pump_phase(control(t + h_k), u, compressing)
         else:
             compressing = controller.phase_at(t)
         if keep_record:

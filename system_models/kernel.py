@@ -214,8 +214,10 @@ def _residual(xn, r, dt, f, g):
 
 
 @njit(cache=True)
-def _newton(r, guess, dt, y, v, cmds, load, P, max_newton, xn, lu, piv, fresh):
+def _newton(r, guess, dt, y, v, cmds, load, P, max_newton, xn, f, lu, piv, fresh):
     """Solve xn - r - dt f(xn) = 0 by damped Newton (as implicit._newton); True if converged.
+
+    On success ``f`` holds rhs(xn), which the caller's quadrature needs.
 
     ``lu, piv`` hold the factors of I - dt J from an earlier point (TR-BDF2's
     two stages share the matrix); they are refreshed here when ``fresh`` is
@@ -223,7 +225,6 @@ def _newton(r, guess, dt, y, v, cmds, load, P, max_newton, xn, lu, piv, fresh):
     residual (a simplified Newton iteration that stalls).
     """
     n = 10
-    f = np.empty(n)
     ft = np.empty(n)
     g = np.empty(n)
     gt = np.empty(n)
@@ -295,24 +296,23 @@ def _substep(x, s0, s1, rod, h, cmds, load, P, max_newton, xn, incr):
     f0 = np.empty(10)
     _rhs(x, y0, v_tr, cmds, load, P, f0)
     xg = np.empty(10)
+    fg = np.empty(10)
+    f1 = np.empty(10)
     lu = np.empty((10, 10))
     piv = np.empty(10, dtype=np.int64)
     # both stages iterate with I - c J (TR-BDF2's shared matrix), J taken at
     # the start of the substep and refreshed only where Newton stalls
     if not _iteration_matrix(x, c, y0, v_tr, cmds, load, P, f0, lu, piv):
         return False
-    if not _newton(x + c * f0, x, c, yg, v_tr, cmds, load, P, max_newton, xg, lu, piv, True):
-        return False
-    if not _newton(a * xg - b * x, xg, c, y1, v_bdf, cmds, load, P, max_newton, xn, lu, piv,
+    if not _newton(x + c * f0, x, c, yg, v_tr, cmds, load, P, max_newton, xg, fg, lu, piv,
                    True):
+        return False
+    if not _newton(a * xg - b * x, xg, c, y1, v_bdf, cmds, load, P, max_newton, xn, f1, lu,
+                   piv, True):
         return False
     t0 = np.empty(3)
     tg = np.empty(3)
     t1 = np.empty(3)
-    fg = np.empty(10)
-    f1 = np.empty(10)
-    _rhs(xg, yg, v_tr, cmds, load, P, fg)
-    _rhs(xn, y1, v_bdf, cmds, load, P, f1)
     _quadrature(x, y0, f0, P, t0)
     _quadrature(xg, yg, fg, P, tg)
     _quadrature(xn, y1, f1, P, t1)
