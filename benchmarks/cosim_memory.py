@@ -13,7 +13,9 @@ from __future__ import annotations
 import argparse
 import json
 import resource
+import sys
 import time
+from pathlib import Path
 
 import gmt
 from smeha import flowstudy
@@ -21,12 +23,8 @@ from system_models import presets
 from system_models.cosim import CosimSettings, DirectTransducer, FmuTransducer, cosimulate
 from system_models.flowcheck import RunningFlow
 
-
-def rss_mb() -> float:
-    """Current resident set size of this process, [MB] (Linux /proc)."""
-    with open("/proc/self/statm") as fh:
-        pages = int(fh.read().split()[1])
-    return pages * resource.getpagesize() / 2 ** 20
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fmu_memory import rss_mb  # noqa: E402
 
 
 def main(argv=None):
