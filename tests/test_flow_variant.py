@@ -48,6 +48,19 @@ def test_bad_variant_file_is_a_usage_error(tmp_path, capsys):
                      "--backend", "direct"]) == 1
 
 
+def _flow_with_variant(diagnosis, tmp_path, capsys):
+    """Write ``diagnosis`` as d.json, run a short `smeha flow --variant d.json --json`
+    (100 Hz, ideal circuit, direct backend); return (path, its JSON output)."""
+    path = tmp_path / "d.json"
+    path.write_text(json.dumps(diagnosis))
+    status = cli.main(["flow", "--frequencies", "100", "--ideal", "--cycles", "4",
+                       "--backend", "direct", "--workers", "1", "--variant", str(path),
+                       "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert status == 0
+    return path, out
+
+
 @pytest.mark.integration
 def test_cli_flow_variant_json_pairs_the_models(tmp_path, capsys):
     # a diagnosis that names the sensor delay: the rod, hence the flow, is the paper's
@@ -56,13 +69,7 @@ def test_cli_flow_variant_json_pairs_the_models(tmp_path, capsys):
         {"cause": "thermal_drift", "parameters": {"offset_rate_m_per_A2s": 0.0,
                                                   "gain_rate_per_A2s": 0.0,
                                                   "thermal_time_constant_s": 1.0}}]}
-    path = tmp_path / "d.json"
-    path.write_text(json.dumps(diagnosis))
-    status = cli.main(["flow", "--frequencies", "100", "--ideal", "--cycles", "4",
-                       "--backend", "direct", "--workers", "1", "--variant", str(path),
-                       "--json"])
-    out = json.loads(capsys.readouterr().out)
-    assert status == 0
+    path, out = _flow_with_variant(diagnosis, tmp_path, capsys)
     assert out["variant"] == {"cause": "transport_delay", "parameters": {"delay_s": 4e-4},
                               "source": str(path)}
     assert sorted(r["model"] for r in out["rows"]) == ["paper", "paper", "transport_delay",
@@ -125,13 +132,7 @@ WINNERS = {
 def test_cli_flow_variant_runs_a_diagnosis_won_by_another_form(tmp_path, capsys, form):
     cause, candidates = WINNERS[form]
     diagnosis = {"cause": cause, "form": form, "gain": 5.0, "candidates": candidates}
-    path = tmp_path / "d.json"
-    path.write_text(json.dumps(diagnosis))
-    status = cli.main(["flow", "--frequencies", "100", "--ideal", "--cycles", "4",
-                       "--backend", "direct", "--workers", "1", "--variant", str(path),
-                       "--json"])
-    out = json.loads(capsys.readouterr().out)
-    assert status == 0
+    path, out = _flow_with_variant(diagnosis, tmp_path, capsys)
     winner = candidates[1]
     assert out["variant"] == {"cause": cause, "form": form, "parameters": winner["parameters"],
                               "source": str(path)}
