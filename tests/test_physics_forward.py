@@ -253,3 +253,35 @@ def test_external_force_lowers_by_f_over_k(params, table2):
     d0 = gmt.periodic_response(params, point, t)["displacement"]
     d1 = gmt.periodic_response(params, point, t, external_force=f_ext)["displacement"]
     np.testing.assert_allclose(d0 - d1, shift, rtol=1e-9)
+
+
+# ---------------------------------------------------------------- closed-form ZOH of eq 27
+
+@pytest.mark.parametrize("zeta", [0.0, 1e-6, 0.3, 1.0 - 1e-7, 1.0, 1.0 + 1e-7, 1.5, 2.35, 50.0])
+@pytest.mark.parametrize("h", [1e-7, 1e-5, 1e-3, 3e-2])
+def test_zoh_closed_form_matches_python_control(table2, zeta, h):
+    # Reference: python-control's matrix-exponential ZOH of eq 27's state space.
+    # Table 2's m and K with the damping set by zeta, from undamped through the
+    # critical point (where Sylvester's formula divides by ~0) to strongly
+    # over-damped (2.35 is Table 2's own). Each entry is compared in the units
+    # of its own natural scale (1, 1/w_n, w_n, 1, 1/K, 1/sqrt(K m)); expm and
+    # the closed form agree to ~5e-12 there at worst (undamped, 30 ms ~ 800
+    # oscillations: both lose digits to the phase), so 1e-10 flags any wrong
+    # term, which shows at order 1.
+    import control
+
+    from gmt import mechanics
+    m, k = table2.mass, table2.stiffness
+    c = 2.0 * zeta * math.sqrt(k * m)
+    sysd = control.sample_system(mechanics.state_space(m, c, k), h, method="zoh")
+    ref = np.r_[np.asarray(sysd.A).ravel(), np.asarray(sysd.B).ravel()]
+    wn = math.sqrt(k / m)
+    scale = np.array([1.0, 1.0 / wn, wn, 1.0, 1.0 / k, 1.0 / math.sqrt(k * m)])
+    got = np.array(mechanics.zoh_closed_form(m, c, k, h))
+    assert np.max(np.abs(got - ref) / scale) < 1e-10
+
+
+def test_zoh_closed_form_rejects_bad_values():
+    from gmt import mechanics
+    with pytest.raises(gmt.ParameterError, match="h = -1"):
+        mechanics.zoh_closed_form(0.02, 2945.0, 1.963e7, -1.0)

@@ -95,6 +95,7 @@ from functools import lru_cache
 import numpy as np
 
 from .errors import ParameterError, check_range
+from .mechanics import zoh_closed_form
 
 #: The causes the extensions stand for, in the order of the issue.
 CAUSES = ("rate_independent_hysteresis", "magnetization_saturation",
@@ -576,29 +577,9 @@ def zoh_frequency_response(mass, damping, stiffness, angular_frequency, step=Non
 
 
 def _zoh_matrices(mass, damping, stiffness, step):
-    """A_d = e^{A h}, B_d = A^-1 (A_d - I) B of eq 27 (x = [y, v], input F), closed form.
-
-    e^{A h} = (l1 e^{l2 h} - l2 e^{l1 h})/(l1 - l2) I + (e^{l1 h} - e^{l2 h})/(l1 - l2) A
-    with the eigenvalues l1, l2 of A (Sylvester's formula; the limit for a double
-    root). Small 2x2 arithmetic, no BLAS.
-    """
-    a = np.array([[0.0, 1.0], [-stiffness / mass, -damping / mass]])
-    tr, det = a[0, 0] + a[1, 1], a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
-    disc = complex(tr * tr / 4.0 - det) ** 0.5
-    l1, l2 = tr / 2.0 + disc, tr / 2.0 - disc
-    e1, e2 = np.exp(l1 * step), np.exp(l2 * step)
-    if abs(l1 - l2) > 1e-9 * max(abs(l1), abs(l2), 1.0 / step):
-        c0 = (l1 * e2 - l2 * e1) / (l1 - l2)
-        c1 = (e1 - e2) / (l1 - l2)
-    else:  # double root l: e^{Ah} = e^{lh} (I + (A - l I) h)
-        c0 = e1 * (1.0 - l1 * step)
-        c1 = e1 * step
-    ad = (c0 * np.eye(2) + c1 * a).real
-    # B_d = A^-1 (A_d - I) B, B = [0, 1/m]; A^-1 = [[a11, -a01], [-a10, a00]] / det
-    col = (ad - np.eye(2))[:, 1] / mass
-    inv = np.array([[a[1, 1], -a[0, 1]], [-a[1, 0], a[0, 0]]]) / det
-    bd = inv @ col
-    return ad, bd
+    """A_d = e^{A h}, B_d of eq 27 (x = [y, v], input F) as arrays (:func:`gmt.mechanics.zoh_closed_form`)."""
+    a11, a12, a21, a22, b1, b2 = zoh_closed_form(mass, damping, stiffness, step)
+    return np.array([[a11, a12], [a21, a22]]), np.array([b1, b2])
 
 
 @dataclass(frozen=True)

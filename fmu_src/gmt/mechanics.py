@@ -1,4 +1,8 @@
-"""Mass-spring-damper of the transducer, eqs 27 and 29, through python-control.
+"""Mass-spring-damper of the transducer, eqs 27 and 29.
+
+Transfer function, state space and frequency response through python-control;
+the per-step ZOH discretisation the steppers use in closed form
+(:func:`zoh_closed_form`, checked against python-control).
 
 The rod, output rod and prestress spring act on the load as one degree of
 freedom, m y'' + c y' + K y = F - F_ext (eq 27 with an external axial force
@@ -16,6 +20,8 @@ from functools import lru_cache
 
 import control
 import numpy as np
+
+from .errors import ParameterError
 
 
 def transfer_function(mass, damping, stiffness):
@@ -47,20 +53,75 @@ def state_space(mass, damping, stiffness):
     return control.ss(a, b, c, d)
 
 
+def zoh_closed_form(mass, damping, stiffness, step):
+    """Exact ZOH discretisation of eq 27 in closed form, for any damping.
+
+    With x = [y, v] and A = [[0, 1], [-K/m, -c/m]], the Cayley-Hamilton
+    theorem gives e^{A h} = alpha_0 I + alpha_1 A. Writing the eigenvalues as
+    r +- s with r = -c/(2m) and s^2 = (c/(2m))^2 - K/m:
+
+        alpha_1 = e^{r h} h sinh(s h)/(s h),
+        alpha_0 = e^{r h} (cosh(s h) - r h sinh(s h)/(s h)),
+
+    real for every sign of s^2 (sinh/cosh become sin/cos for an under-damped
+    rod, and the ratio tends to 1 at critical damping, so no branch loses
+    digits there). Far from critical damping the same coefficients are taken
+    from e^{(r+-s) h} directly, which cannot overflow. The input column
+    follows from B_d = A^-1 (A_d - I) B with B = [0, 1/m]:
+    b_1 = (1 - alpha_0)/K, b_2 = alpha_1/m.
+
+    Parameters
+    ----------
+    mass, damping, stiffness : float
+        m [kg] > 0, c [N s/m] >= 0, K [N/m] > 0.
+    step : float
+        h, [s], > 0.
+
+    Returns
+    -------
+    tuple of float
+        (a11, a12, a21, a22, b1, b2): y+ = a11 y + a12 v + b1 F, v+ = a21 y +
+        a22 v + b2 F, F = net force held over the step [N].
+    """
+    m, c, k, h = float(mass), float(damping), float(stiffness), float(step)
+    if not (m > 0.0 and k > 0.0 and c >= 0.0 and h > 0.0
+            and all(math.isfinite(q) for q in (m, c, k, h))):
+        raise ParameterError(f"zoh_closed_form needs m > 0, c >= 0, K > 0, h > 0; got "
+                         f"m = {m!r} kg, c = {c!r} N s/m, K = {k!r} N/m, h = {h!r} s")
+    r = -c / (2.0 * m)
+    s2 = r * r - k / m
+    if s2 > 0.0 and math.sqrt(s2) * h > 0.5:
+        s = math.sqrt(s2)  # over-damped, well separated roots r1 > r2
+        e1, e2 = math.exp((r + s) * h), math.exp((r - s) * h)
+        alpha1 = (e1 - e2) / (2.0 * s)
+        alpha0 = ((r + s) * e2 - (r - s) * e1) / (2.0 * s)
+    else:
+        x = math.sqrt(abs(s2)) * h
+        if s2 > 0.0:
+            even, ratio = math.cosh(x), (math.sinh(x) / x if x > 0.0 else 1.0)
+        else:
+            even, ratio = math.cos(x), (math.sin(x) / x if x > 0.0 else 1.0)
+        e = math.exp(r * h)
+        alpha1 = e * h * ratio
+        alpha0 = e * (even - r * h * ratio)
+    return (alpha0, alpha1, -k / m * alpha1, alpha0 - c / m * alpha1,
+            (1.0 - alpha0) / k, alpha1 / m)
+
+
 @lru_cache(maxsize=256)
 def _zoh_cached(mass, damping, stiffness, step):
-    sysd = control.sample_system(state_space(mass, damping, stiffness), step,
-                                 method="zoh")
-    ad = np.array(sysd.A, dtype=float)
-    bd = np.array(sysd.B, dtype=float).ravel()
-    return (float(ad[0, 0]), float(ad[0, 1]), float(ad[1, 0]), float(ad[1, 1]),
-            float(bd[0]), float(bd[1]))
+    return zoh_closed_form(mass, damping, stiffness, step)
 
 
 def zoh_matrices(mass, damping, stiffness, step):
-    """Exact ZOH discretisation of eq 27 for one step, via python-control.
+    """Exact ZOH discretisation of eq 27 for one step (:func:`zoh_closed_form`).
 
-    x[k+1] = A_d x[k] + B_d F[k], with F held constant over the step.
+    x[k+1] = A_d x[k] + B_d F[k], with F held constant over the step. Equal
+    to python-control's ``sample_system(..., method="zoh")`` (matrix
+    exponential) to ~1e-13, ``tests/test_physics_forward.py``; the closed form
+    costs about a microsecond where python-control took milliseconds, which
+    matters when a host varies its step (every distinct step was a new
+    discretisation).
 
     Parameters
     ----------
@@ -72,8 +133,7 @@ def zoh_matrices(mass, damping, stiffness, step):
     Returns
     -------
     tuple of float
-        (a11, a12, a21, a22, b1, b2); cached per (m, c, K, h), so a fixed
-        step costs one discretisation.
+        (a11, a12, a21, a22, b1, b2); cached per (m, c, K, h).
     """
     return _zoh_cached(float(mass), float(damping), float(stiffness), float(step))
 
