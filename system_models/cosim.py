@@ -158,6 +158,14 @@ class FmuTransducer:
         self.fmu.exitInitializationMode()
         self._in = [self._vr["u"], self._vr["external_force"]]
         self._out = [self._vr["displacement"], self._vr["velocity"], self._vr["current"]]
+        # the step's FMI calls with their argument arrays built once: fmpy's
+        # setReal/getReal build two ctypes arrays per call, a third of a step's cost
+        from fmpy.fmi2 import fmi2Real, fmi2True, fmi2ValueReference
+        self._in_vr = (fmi2ValueReference * 2)(*self._in)
+        self._in_val = (fmi2Real * 2)()
+        self._out_vr = (fmi2ValueReference * 3)(*self._out)
+        self._out_val = (fmi2Real * 3)()
+        self._true = fmi2True
         self._state = None
 
     def rod_state(self):
@@ -177,9 +185,13 @@ class FmuTransducer:
             self.fmu.setString(vr, [str(value)])
 
     def step(self, time, step, control, force):
-        self.fmu.setReal(self._in, [control, force])
-        self.fmu.doStep(currentCommunicationPoint=time, communicationStepSize=step)
-        return tuple(self.fmu.getReal(self._out))
+        fmu, val = self.fmu, self._in_val
+        val[0], val[1] = control, force
+        fmu.fmi2SetReal(fmu.component, self._in_vr, 2, val)
+        fmu.fmi2DoStep(fmu.component, time, step, self._true)
+        fmu.fmi2GetReal(fmu.component, self._out_vr, 3, self._out_val)
+        out = self._out_val
+        return out[0], out[1], out[2]
 
     def save(self):
         # one saved state at a time: free the previous one (flat memory)

@@ -203,6 +203,15 @@ def quadrature_current(current, previous_current, current_amplitude,
         branch sign; see the module docstring for the rule.
     """
     amp2 = current_amplitude ** 2
+    if isinstance(current, float) and isinstance(previous_current, float) \
+            and isinstance(step, float):
+        # one sample (the stepper's, every step): the same arithmetic on plain
+        # floats, without numpy's per-call overhead on scalars (~6 us -> ~1 us)
+        curvature = (math.cos(angular_frequency * step)
+                     if amp2 - current ** 2 <= amp2 * (angular_frequency * step) ** 2 else 1.0)
+        direction = previous_current - current * curvature
+        sign = 1.0 if direction > 0.0 else (-1.0 if direction < 0.0 else float(previous_sign))
+        return sign * math.sqrt(max(amp2 - current ** 2, 0.0)), sign
     near_reversal = amp2 - current ** 2 <= amp2 * (angular_frequency * step) ** 2
     curvature = np.where(near_reversal, np.cos(angular_frequency * step), 1.0)
     direction = previous_current - current * curvature

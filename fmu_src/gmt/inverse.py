@@ -76,6 +76,10 @@ def required_magnetization(params: TransducerParameters, displacement, velocity=
         including the bias displacement).
     """
     force = params.mass * acceleration + params.damping * velocity + params.stiffness * displacement
+    if isinstance(force, float):  # one sample (the compensator's): plain floats, same arithmetic
+        radicand = force / (params.rod_area * params.youngs_modulus
+                            * params.magnetostriction_coefficient)
+        return (math.sqrt(radicand) if radicand >= 0.0 else math.nan) - params.bias_magnetization
     radicand = np.asarray(force / (params.rod_area * params.youngs_modulus
                                    * params.magnetostriction_coefficient), dtype=float)
     root = np.sqrt(np.where(radicand >= 0.0, radicand, np.nan))
