@@ -12,6 +12,8 @@ A sweep spec is a TOML file (docs/SWEEP.md)::
     cycles = 6                                    # pumping cycles simulated
     backend = "fmu"                               # "fmu" or "direct"
     branch_rule = "control"                       # "control" or "demand"
+    controller_period = 10e-6                     # optional: valve controller's sample period [s]
+    hydraulic_step = 10e-6                        # optional: longest hydraulic substep [s]
 
 Every point of the cartesian product of the grid is one
 :class:`smeha.flowstudy.Case`, run by :func:`smeha.flowstudy.run_case`. The
@@ -45,7 +47,11 @@ from . import flowstudy
 #: Grid keys: the Case field each sets and the type check of its values.
 GRID_KEYS = ("frequency", "mode", "load", "ideal")
 #: Settings keys shared by every point, with their defaults (flowstudy.Case's).
-SETTINGS_DEFAULTS = {"step": 20e-6, "cycles": 8.0, "backend": "fmu", "branch_rule": "control"}
+SETTINGS_DEFAULTS = {"step": 20e-6, "cycles": 8.0, "backend": "fmu", "branch_rule": "control",
+                     "controller_period": None, "hydraulic_step": None}
+#: Settings that may be absent (None: flowstudy.Case's default); tables written before they
+#: existed have no column for them and read as None.
+OPTIONAL_SETTINGS = ("controller_period", "hydraulic_step")
 BACKENDS = ("fmu", "direct")
 
 #: Result fields copied from flowstudy.run_case's row dict, SI with unit suffixes.
@@ -79,23 +85,31 @@ class Point:
     cycles: float
     backend: str
     branch_rule: str
+    controller_period: float | None = None
+    hydraulic_step: float | None = None
 
     def case(self) -> flowstudy.Case:
         return flowstudy.Case(frequency=self.frequency, mode=self.mode, ideal=self.ideal,
                               load=self.load, step=self.step, cycles=self.cycles,
-                              backend=self.backend, branch_rule=self.branch_rule)
+                              backend=self.backend, branch_rule=self.branch_rule,
+                              controller_period=self.controller_period,
+                              hydraulic_step=self.hydraulic_step)
 
     @property
     def key(self) -> tuple:
         """The key of the point in a sweep table (floats normalised, so CSV round-trips match)."""
         return (float(self.frequency), self.mode, None if self.load is None else float(self.load),
                 bool(self.ideal), float(self.step), float(self.cycles), self.backend,
-                self.branch_rule)
+                self.branch_rule,
+                None if self.controller_period is None else float(self.controller_period),
+                None if self.hydraulic_step is None else float(self.hydraulic_step))
 
     def columns(self) -> dict:
         return {"frequency": self.frequency, "mode": self.mode, "load": self.load,
                 "ideal": self.ideal, "step": self.step, "cycles": self.cycles,
-                "backend": self.backend, "branch_rule": self.branch_rule}
+                "backend": self.backend, "branch_rule": self.branch_rule,
+                "controller_period": self.controller_period,
+                "hydraulic_step": self.hydraulic_step}
 
 
 @dataclass
@@ -176,6 +190,9 @@ def parse_spec(spec: dict) -> list[Point]:
     s = {**SETTINGS_DEFAULTS, **settings}
     if not (_is_number(s["step"]) and s["step"] > 0):
         raise SpecError(f"settings.step = {s['step']!r}: must be a positive number [s]")
+    for key in OPTIONAL_SETTINGS:
+        if s[key] is not None and not (_is_number(s[key]) and 0 < s[key] <= 1.0):
+            raise SpecError(f"settings.{key} = {s[key]!r}: must be a number in (0, 1] [s]")
     if not _is_number(s["cycles"]):
         raise SpecError(f"settings.cycles = {s['cycles']!r}: must be a number")
     if s["backend"] not in BACKENDS:
@@ -183,8 +200,9 @@ def parse_spec(spec: dict) -> list[Point]:
     if s["branch_rule"] not in gmt.parameters.BRANCH_RULES:
         raise SpecError(f"settings.branch_rule = {s['branch_rule']!r} is not one of "
                         f"{gmt.parameters.BRANCH_RULES}")
+    optional = [None if s[k] is None else float(s[k]) for k in OPTIONAL_SETTINGS]
     points = [Point(float(f), m, None if ld is None else float(ld), i, float(s["step"]),
-                    float(s["cycles"]), s["backend"], s["branch_rule"])
+                    float(s["cycles"]), s["backend"], s["branch_rule"], *optional)
               for f, m, ld, i in itertools.product(freqs, modes, loads, ideals)]
     try:
         points[0].case()  # the settings checks of Case (cycles) apply to every point alike
@@ -254,7 +272,8 @@ def read_table(path) -> list[dict]:
         return []
     with open(path, newline="") as fh:
         reader = csv.DictReader(fh)
-        missing = [c for c in KEY_COLUMNS + ("status",) if c not in (reader.fieldnames or [])]
+        missing = [c for c in KEY_COLUMNS + ("status",)
+                   if c not in (reader.fieldnames or []) and c not in OPTIONAL_SETTINGS]
         if missing:
             raise SpecError(f"{path}: not a sweep table (no column(s) {missing}); "
                             "give another --out")
@@ -270,7 +289,8 @@ def read_table(path) -> list[dict]:
 def row_key(row: dict) -> tuple:
     """The point key (:attr:`Point.key`) of a table row."""
     return Point(row["frequency"], row["mode"], row["load"], row["ideal"], row["step"],
-                 row["cycles"], row["backend"], row["branch_rule"]).key
+                 row["cycles"], row["backend"], row["branch_rule"],
+                 row.get("controller_period"), row.get("hydraulic_step")).key
 
 
 # --------------------------------------------------------------------------- tasks

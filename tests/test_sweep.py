@@ -81,6 +81,41 @@ def test_grid_is_the_cartesian_product():
     assert all(p.cycles == 6 and p.backend == "fmu" and not p.ideal for p in points)
 
 
+def test_controller_period_and_hydraulic_step_reach_the_case():
+    # the two CosimSettings options of `smeha flow` are sweep settings too; absent -> None
+    # (Case's default), and they are part of the point's key, so a table swept without them
+    # does not count as done for a sweep with them
+    plain, timed = (sweep.parse_spec({"grid": {"frequency": [100], "mode": ["compensated"]},
+                                      "settings": extra})[0]
+                    for extra in ({}, {"controller_period": 1e-5, "hydraulic_step": 2e-5}))
+    assert (plain.case().controller_period, plain.case().hydraulic_step) == (None, None)
+    assert (timed.case().controller_period, timed.case().hydraulic_step) == (1e-5, 2e-5)
+    assert plain.key != timed.key
+    row = {**timed.columns(), "status": "ok"}
+    assert sweep.row_key(row) == timed.key
+
+
+def test_table_without_the_optional_columns_still_reads(tmp_path):
+    # a table written before controller_period/hydraulic_step existed: those cells read as None
+    point = sweep.parse_spec({"grid": {"frequency": [100], "mode": ["compensated"]}})[0]
+    table = sweep.write_table([{**point.columns(), "status": "ok", "error": ""}],
+                              tmp_path / "t.csv")
+    lines = table.read_text().splitlines()
+    header = lines[0].split(",")
+    drop = [header.index(c) for c in sweep.OPTIONAL_SETTINGS]
+    table.write_text("\n".join(",".join(c for i, c in enumerate(line.split(","))
+                                        if i not in drop) for line in lines) + "\n")
+    rows = sweep.read_table(table)
+    assert sweep.row_key(rows[0]) == point.key
+
+
+@pytest.mark.parametrize("key", ["controller_period", "hydraulic_step"])
+def test_bad_optional_setting_names_the_key(key):
+    with pytest.raises(sweep.SpecError, match=f"settings.{key}"):
+        sweep.parse_spec({"grid": {"frequency": [100], "mode": ["compensated"]},
+                          "settings": {key: -1e-5}})
+
+
 def test_missing_spec_file_is_exit_1(tmp_path, capsys):
     assert cli.main(["sweep", str(tmp_path / "none.toml")]) == 1
     assert "no such file" in capsys.readouterr().err
