@@ -71,6 +71,10 @@ class Transducer:
         self.forward = make_stepper(self.params, self.point, self.variant)
         self.compensator = (InverseCompensator(self.params, self.point, self.drive)
                             if self.drive.compensated else None)
+        # sizes of the fixed parts of the flat state (the paper stepper's values, the
+        # compensator's), taken once: set_state runs at every retried co-simulation step
+        self._nf = len(ForwardStepper.get_state(self.forward))
+        self._nc = len(self.compensator.get_state()) if self.compensator is not None else 0
         self.reset()
 
     def reset(self):
@@ -90,19 +94,14 @@ class Transducer:
         """
         comp = self.compensator.get_state() if self.compensator is not None else ()
         forward = self.forward.get_state()
-        nf = self._paper_state_size()
+        nf = self._nf
         return (forward[:nf] + comp + (float(self.saturation_count), self.previous_step)
                 + forward[nf:])
 
-    def _paper_state_size(self) -> int:
-        # the paper stepper's own values; an ExtendedStepper appends its own after them
-        return len(ForwardStepper.get_state(self.forward))
-
     def set_state(self, state) -> None:
         """Restore a state from :meth:`get_state`."""
-        state = tuple(float(s) for s in state)
-        nf = self._paper_state_size()
-        nc = len(self.compensator.get_state()) if self.compensator is not None else 0
+        state = tuple(map(float, state))
+        nf, nc = self._nf, self._nc
         fixed = nf + nc + 2
         if self.variant.is_paper:
             bad, need = len(state) != fixed, f"{fixed}"
