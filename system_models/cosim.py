@@ -321,6 +321,23 @@ def _integrate_step(x, rod0, rod1, segments, load, params, h, substeps, held_val
 
     Returns (x_end, p_P at the end, volume into B, compression volume, halvings).
     """
+    if compiled and method == "tr_bdf2" and len(segments) == 1:
+        # the common case, without the general loop's Python overhead (same call)
+        from . import kernel
+        x = np.array(x, dtype=float)
+        commands = segments[0][1]
+        for k in range(4):
+            if held_valves[k]:
+                x[6 + k] = commands[k]
+        status, x, _, dvol, dcomp, halvings = kernel.circuit_step(
+            x, rod0, rod1, h, commands, load, params if packed is None else packed, substeps,
+            segment=(0.0, h))
+        if status == kernel.CHAMBER_EMPTIED:
+            raise gmt.ParameterError(
+                f"rod displacement {max(rod0[0], rod1[0]):g} m empties the pump chamber")
+        if status == kernel.NEWTON_FAILED:
+            raise IntegrationError(f"Newton did not converge within a {h:g} s step")
+        return x, x[0], dvol, dcomp, halvings
     pos = _hermite(rod0[0], rod0[1], rod1[0], rod1[1], h)
     x = np.array(x, dtype=float)
     volume_big = compressed = 0.0
