@@ -21,6 +21,7 @@ build when the two drift apart.
 from __future__ import annotations
 
 import math
+import operator
 from dataclasses import dataclass
 from typing import Any
 
@@ -256,6 +257,11 @@ EXCITATION_PARAMETERS = tuple(v.name for v in VARIABLES if v.group == _E)
 DRIVE_PARAMETERS = tuple(v.name for v in VARIABLES if v.group == _D)
 #: Real outputs copied from a gmt.TransducerOutput, in :data:`OUTPUTS` order.
 REAL_OUTPUTS = tuple(v.name for v in VARIABLES if v.causality == "output" and v.kind == "Real")
+#: Every variable's name, in VARIABLES order, and one C-level getter of all their values:
+#: a saved FMU state holds the values as a tuple in this order (a co-simulation master
+#: saves and restores the state at every step, and a dict of ~50 getattrs was most of it)
+VARIABLE_NAMES = tuple(v.name for v in VARIABLES)
+_all_values = operator.attrgetter(*VARIABLE_NAMES)
 
 
 def coerce(name: str, value):
@@ -510,7 +516,7 @@ class TransducerSlave:
         try:
             transducer = self._transducer
             state = {
-                "variables": {v.name: getattr(self, v.name) for v in VARIABLES},
+                "values": _all_values(self),
                 "built_from": self._built_from,
                 "transducer": list(transducer.get_state()) if transducer is not None else None,
                 "problem": self._problem,
@@ -538,8 +544,10 @@ class TransducerSlave:
             if self._transducer is not None:
                 self._transducer.set_state(state["transducer"])
             if state.get("typed"):
-                for name, value in state["variables"].items():
-                    setattr(self, name, value)
+                # only what changed since (inputs, outputs): the rest already holds these values
+                for name, now, value in zip(VARIABLE_NAMES, _all_values(self), state["values"]):
+                    if now is not value and now != value:
+                        setattr(self, name, value)
             else:
                 for name, value in state["variables"].items():
                     setattr(self, name, coerce(name, value))
@@ -552,8 +560,12 @@ class TransducerSlave:
     def _fmu_state_to_bytes(state):
         import json
         try:
-            # "typed" describes the in-memory copy, not the state: not serialised
-            return json.dumps({k: v for k, v in state.items() if k != "typed"}).encode("utf-8")
+            # "typed" describes the in-memory copy, not the state: not serialised; the
+            # values are written by name
+            out = {k: v for k, v in state.items() if k not in ("typed", "values")}
+            if "values" in state:
+                out["variables"] = dict(zip(VARIABLE_NAMES, state["values"]))
+            return json.dumps(out).encode("utf-8")
         except Exception as exc:
             return json.dumps({"invalid": f"not serialisable: {exc}"}).encode("utf-8")
 
