@@ -336,36 +336,24 @@ def _integrate_step(x, rod0, rod1, segments, load, params, h, substeps, held_val
 
     Returns (x_end, p_P at the end, volume into B, compression volume, halvings).
     """
-    if compiled and method == "tr_bdf2" and len(segments) == 1:
-        # the common case, without the general loop's Python overhead (same call)
+    use_kernel = compiled and method == "tr_bdf2"
+    if use_kernel:
         from . import kernel
-        x = np.array(x, dtype=float)
-        commands = segments[0][1]
-        for k in range(4):
-            if held_valves[k]:
-                x[6 + k] = commands[k]
-        status, x, _, dvol, dcomp, halvings = kernel.circuit_step(
-            x, rod0, rod1, h, commands, load, params if packed is None else packed, substeps,
-            segment=(0.0, h))
-        if status == kernel.CHAMBER_EMPTIED:
-            raise gmt.ParameterError(
-                f"rod displacement {max(rod0[0], rod1[0]):g} m empties the pump chamber")
-        if status == kernel.NEWTON_FAILED:
-            raise IntegrationError(f"Newton did not converge within a {h:g} s step")
-        return x, x[0], dvol, dcomp, halvings
-    pos = _hermite(rod0[0], rod0[1], rod1[0], rod1[1], h)
+        kernel_params = params if packed is None else packed
+    else:  # the Python integrators sample the rod's trajectory themselves
+        pos = _hermite(rod0[0], rod0[1], rod1[0], rod1[1], h)
     x = np.array(x, dtype=float)
     volume_big = compressed = 0.0
     deepest = 0
     bounds = [s for s, _ in segments[1:]] + [h]
     for (s0, commands), s1 in zip(segments, bounds):
-        x[6:10] = np.where(held_valves, commands, x[6:10])
+        for k in range(4):  # valves without their own dynamics take the command at once
+            if held_valves[k]:
+                x[6 + k] = commands[k]
         n_sub = max(1, math.ceil(substeps * (s1 - s0) / h - 1e-9))
-        if method == "tr_bdf2" and compiled:
-            from . import kernel
+        if use_kernel:
             status, x, _, dvol, dcomp, halvings = kernel.circuit_step(
-                x, rod0, rod1, h, commands, load, params if packed is None else packed, n_sub,
-                segment=(s0, s1))
+                x, rod0, rod1, h, commands, load, kernel_params, n_sub, segment=(s0, s1))
             if status == kernel.CHAMBER_EMPTIED:
                 raise gmt.ParameterError(
                     f"rod displacement {max(rod0[0], rod1[0]):g} m empties the pump chamber")
