@@ -148,6 +148,14 @@ def _check_list(section: str, key: str, values, kind: str, check) -> list:
     return values
 
 
+def _reject_unknown(section: str, table: dict, keys: tuple) -> None:
+    """SpecError naming every key of [section] that is not one of ``keys``."""
+    unknown = set(table) - set(keys)
+    if unknown:
+        raise SpecError(f"unknown key(s) {section}.{f', {section}.'.join(sorted(unknown))}; "
+                        f"the {section} keys are {keys}")
+
+
 def parse_spec(spec: dict) -> list[Point]:
     """The grid points of a parsed spec (a dict as :mod:`tomllib` gives it).
 
@@ -164,10 +172,7 @@ def parse_spec(spec: dict) -> list[Point]:
     grid = spec.get("grid")
     if not isinstance(grid, dict):
         raise SpecError("the spec has no [grid] table")
-    unknown = set(grid) - set(GRID_KEYS)
-    if unknown:
-        raise SpecError(f"unknown key(s) grid.{', grid.'.join(sorted(unknown))}; "
-                        f"the grid keys are {GRID_KEYS}")
+    _reject_unknown("grid", grid, GRID_KEYS)
     for key in ("frequency", "mode"):
         if key not in grid:
             raise SpecError(f"grid.{key} is missing")
@@ -183,10 +188,7 @@ def parse_spec(spec: dict) -> list[Point]:
     settings = spec.get("settings", {})
     if not isinstance(settings, dict):
         raise SpecError("[settings] must be a table")
-    unknown = set(settings) - set(SETTINGS_DEFAULTS)
-    if unknown:
-        raise SpecError(f"unknown key(s) settings.{', settings.'.join(sorted(unknown))}; "
-                        f"the settings keys are {tuple(SETTINGS_DEFAULTS)}")
+    _reject_unknown("settings", settings, tuple(SETTINGS_DEFAULTS))
     s = {**SETTINGS_DEFAULTS, **settings}
     if not (_is_number(s["step"]) and s["step"] > 0):
         raise SpecError(f"settings.step = {s['step']!r}: must be a positive number [s]")
