@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from ctypes import byref
 from pathlib import Path
 from dataclasses import dataclass
 from typing import Callable, Protocol
@@ -206,7 +207,6 @@ class FmuTransducer:
         return out[0], out[1], out[2]
 
     def save(self):
-        from ctypes import byref
         comp = self.fmu.component
         # one saved state at a time: free the previous one (flat memory)
         if self._state is not None:
