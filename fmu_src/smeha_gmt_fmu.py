@@ -1,7 +1,7 @@
 """FMI 2.0 co-simulation slave of the giant magnetostrictive transducer (pythonfmu 0.7).
 
-A thin slave: it registers the variables of ``smeha.fmu_interface`` (bundled
-as ``smeha_fmu_interface``), copies values in and out, and delegates every step
+A thin slave: it registers the variables of ``smeha_fmu_interface`` (the
+file next to this one), copies values in and out, and delegates every step
 to :class:`gmt.Transducer`. No physics here.
 
 Life cycle
@@ -26,10 +26,7 @@ from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Intege
 from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Status
 
-try:  # inside the FMU: resources/smeha_fmu_interface.py
-    import smeha_fmu_interface as iface
-except ImportError:  # pragma: no cover - source tree
-    from smeha import fmu_interface as iface
+import smeha_fmu_interface as iface  # next to this file, in fmu_src/ and in the FMU's resources
 
 gmt, _IMPORT_PROBLEM = iface.load_physics()  # resources/smeha_fmu_gmt: the FMU's own copy
 
@@ -43,7 +40,7 @@ _VARIABILITY = {"fixed": Fmi2Variability.fixed, "continuous": Fmi2Variability.co
 class SmehaGmt(iface.TransducerSlave, Fmi2Slave):
     """Giant magnetostrictive transducer with its amplifier and inverse compensator.
 
-    Every callback is :class:`smeha.fmu_interface.TransducerSlave`'s; this class
+    Every callback is :class:`smeha_fmu_interface.TransducerSlave`'s; this class
     names the FMI 2.0 flavour and registers the variables.
     """
 

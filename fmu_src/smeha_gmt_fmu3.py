@@ -3,7 +3,7 @@
 The FMI 3.0 twin of ``smeha_gmt_fmu.py``: same variables (plus the
 independent variable ``time`` FMI 3.0 requires), same life cycle, same error
 handling and FMU state; units are declared natively (``register_units`` and
-``unit=`` on every Float64), from the same table ``smeha.fmu_interface``.
+``unit=`` on every Float64), from the same table ``smeha_fmu_interface``.
 Types: Real -> Float64, Integer -> Int32, Boolean, String.
 
 Errors never reach pythonfmu3 (an exception there is fmi3Fatal): a bad input
@@ -18,10 +18,7 @@ from xml.etree.ElementTree import Element
 from pythonfmu3 import (Boolean, DefaultExperiment, Float64, Fmi3Causality, Fmi3Slave,
                         Fmi3Status, Fmi3Variability, Int32, String, Unit)
 
-try:  # inside the FMU: resources/smeha_fmu_interface.py
-    import smeha_fmu_interface as iface
-except ImportError:  # pragma: no cover - source tree
-    from smeha import fmu_interface as iface
+import smeha_fmu_interface as iface  # next to this file, in fmu_src/ and in the FMU's resources
 
 gmt, _IMPORT_PROBLEM = iface.load_physics()  # resources/smeha_fmu_gmt: the FMU's own copy
 
@@ -50,7 +47,7 @@ def _units(names):
 class SmehaGmt3(iface.TransducerSlave, Fmi3Slave):
     """Giant magnetostrictive transducer with its amplifier and inverse compensator.
 
-    Every callback is :class:`smeha.fmu_interface.TransducerSlave`'s; this class
+    Every callback is :class:`smeha_fmu_interface.TransducerSlave`'s; this class
     names the FMI 3.0 flavour, registers the variables with their units, and
     keeps the independent variable ``time`` (advanced by each step, saved with
     the FMU state).

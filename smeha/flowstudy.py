@@ -146,10 +146,9 @@ def default_fmu_path() -> Path:
 
 def ensure_fmu(path: Path | None = None, quiet: bool = False) -> Path:
     """Build the FMI 2.0 FMU unless it exists and is newer than its sources."""
-    from . import fmu_build, fmu_interface
+    from . import fmu_build
     path = Path(path) if path else default_fmu_path()
-    sources = list((fmu_build.FMU_SRC).rglob("*.py")) + [Path(fmu_interface.__file__),
-                                                        Path(fmu_build.__file__)]
+    sources = list((fmu_build.FMU_SRC).rglob("*.py")) + [Path(fmu_build.__file__)]
     newest = max(p.stat().st_mtime for p in sources)
     if path.is_file() and path.stat().st_mtime >= newest:
         return path

@@ -8,12 +8,12 @@
    ``sys.modules``, and an FMU later loaded by the same process would run them
    instead of its bundled copies. So the builder runs in a fresh interpreter
    (:func:`_worker`), on a staging copy of the sources: the slave script,
-   ``fmu_src/gmt`` and ``smeha/fmu_interface.py`` renamed
-   ``smeha_fmu_interface.py``. The calling process imports neither.
+   ``fmu_src/gmt`` and ``fmu_src/smeha_fmu_interface.py``. The calling process
+   imports neither (it reads the variable table through :data:`iface`).
 2. **Patch the model description** (this process, XML only). FMI 2.0:
    pythonfmu 0.7 writes no units and no ``ModelStructure/InitialUnknowns``;
    :func:`patch_fmi2` adds ``UnitDefinitions`` (SI base-unit exponents from
-   :data:`smeha.fmu_interface.UNITS`), ``unit`` on every Real and the initial
+   :data:`iface.UNITS`), ``unit`` on every Real and the initial
    unknowns. FMI 3.0 declares units natively (the slave registers them).
 3. **Make it reproducible.** The GUID (FMI 2.0) or instantiationToken (FMI 3.0)
    is ``uuid5(GUID_NAMESPACE, <model description with guid and date blanked>)``:
@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import importlib.util
 import os
 import shutil
 import subprocess
@@ -38,11 +39,30 @@ import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
-from . import fmu_interface as iface
-
 #: Repository root (the build needs the source tree: fmu_src/ is not installed).
 REPO = Path(__file__).resolve().parents[1]
 FMU_SRC = REPO / "fmu_src"
+
+
+def _load_interface():
+    """``fmu_src/smeha_fmu_interface.py`` (the FMU's variable table), as ``smeha._fmu_interface``.
+
+    Loaded from the source tree under a name of its own: registered as
+    ``smeha_fmu_interface``, an FMU this process loads later would import this
+    copy instead of the one bundled in its resources.
+    """
+    name = "smeha._fmu_interface"
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(name, FMU_SRC / "smeha_fmu_interface.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # dataclasses look their module up while it executes
+    spec.loader.exec_module(module)
+    return module
+
+
+#: The FMU's variable table and slave logic (``fmu_src/smeha_fmu_interface.py``).
+iface = _load_interface()
 #: Namespace of the deterministic GUIDs (uuid5 of the model description).
 GUID_NAMESPACE = uuid.UUID("5d0c3c8e-6f1e-5a4b-9a55-736d6568612e")
 
@@ -80,7 +100,7 @@ def patch_fmi2(root: ET.Element) -> ET.Element:
 
     * ``UnitDefinitions`` with the units the variables use, each with its SI
       ``BaseUnit`` exponents (none for a unit integer exponents cannot express);
-    * ``unit`` on every ``Real`` (from :data:`smeha.fmu_interface.VARIABLES`);
+    * ``unit`` on every ``Real`` (from :data:`iface.VARIABLES`);
     * ``ModelStructure/InitialUnknowns``: every output (initial calculated),
       by 1-based index in ModelVariables (pythonfmu issue #193).
     """
@@ -168,7 +188,7 @@ def rewrite_fmu(raw: Path, dest: Path) -> Path:
 
 # -- building -----------------------------------------------------------------------
 def _stage(fmi: str, staging: Path) -> Path:
-    """Copy the slave, gmt and the interface table into ``staging``; return the script."""
+    """Copy the slave, the interface table and gmt into ``staging``; return the script."""
     module = iface.SLAVE_MODULE_FMI2 if fmi == "2" else iface.SLAVE_MODULE_FMI3
     script = FMU_SRC / f"{module}.py"
     if not script.is_file() or not (FMU_SRC / "gmt" / "__init__.py").is_file():
@@ -176,7 +196,7 @@ def _stage(fmi: str, staging: Path) -> Path:
                          "the smeha source tree (fmu_src/ is not installed)")
     staging.mkdir(parents=True)
     shutil.copy2(script, staging / script.name)
-    shutil.copy2(Path(iface.__file__), staging / f"{iface.BUNDLED_INTERFACE_MODULE}.py")
+    shutil.copy2(FMU_SRC / f"{iface.INTERFACE_MODULE}.py", staging)
     shutil.copytree(FMU_SRC / "gmt", staging / iface.BUNDLED_PHYSICS_PACKAGE,
                     ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
     return staging / script.name
@@ -187,7 +207,7 @@ def _worker(fmi: str, workdir: str) -> None:
     work = Path(workdir)
     script = _stage(fmi, work / "src")
     sys.path.insert(0, str(script.parent))
-    import smeha_fmu_interface  # noqa: F401  (the staged copy)
+    import smeha_fmu_interface  # the staged copy
 
     smeha_fmu_interface.check_against_gmt()
     if fmi == "2":

@@ -136,7 +136,7 @@ class FmuTransducer:
     path : str or Path
         The ``.fmu`` file.
     start_values : dict
-        Parameter name -> value (names of :mod:`smeha.fmu_interface`).
+        Parameter name -> value (the FMU's variables: fmu_src/smeha_fmu_interface.py).
     instance_name : str
     """
 

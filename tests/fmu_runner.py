@@ -28,7 +28,7 @@ import math
 import os
 import sys
 
-#: Output columns of every row (smeha.fmu_interface.OUTPUTS, sensed_displacement last so
+#: Output columns of every row (fmu_src/smeha_fmu_interface.py OUTPUTS, sensed_displacement last so
 #: the earlier columns keep their index).
 OUTPUTS = ("current", "displacement", "velocity", "field", "flux_density", "magnetization",
            "strain", "force", "saturated", "saturation_count", "sensed_displacement")

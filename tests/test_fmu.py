@@ -26,7 +26,7 @@ except ImportError:  # tests/ imported as a package
                                     fmu_dist, max_relative_difference, reference,
                                     run_runner, runner_dir)
 
-from smeha import fmu_interface as iface
+from smeha.fmu_build import iface
 
 pytestmark = pytest.mark.integration
 

@@ -193,7 +193,7 @@ the hooks it changes, and ``stepper`` when the mechanics need more state, as
 the two masses do) and add it to the tuple that builds :data:`FORMS`. Its
 variant name is the cause, or ``cause:form`` for a formulation other than the
 cause's first (:data:`VARIANTS`); the FMU's ``model_variant`` list follows
-(``smeha.fmu_interface.check_against_gmt`` fails the build until it does).
+(``smeha_fmu_interface.check_against_gmt`` fails the build until it does).
 
 References
 ----------

@@ -1,17 +1,19 @@
 """The FMU's variable table and slave logic, defined once for both slaves and the build.
 
-Both slaves (``fmu_src/smeha_gmt_fmu.py``, FMI 2.0, and
-``fmu_src/smeha_gmt_fmu3.py``, FMI 3.0) register their variables from
+Both slaves (``smeha_gmt_fmu.py``, FMI 2.0, and ``smeha_gmt_fmu3.py``, FMI 3.0,
+next to this file in ``fmu_src/``) register their variables from
 :data:`VARIABLES` and take every callback from :class:`TransducerSlave`;
-:mod:`smeha.fmu_build` writes the units of the FMI 2.0 model description from
-the same table, and ``docs/FMU.md`` documents it.
+``smeha.fmu_build`` writes the units of the FMI 2.0 model description from the
+same table, and ``docs/FMU.md`` documents it.
 
-Inside an FMU this file is bundled as ``resources/smeha_fmu_interface.py`` (a
-module name unique to this project, so that it cannot collide with another
-Python FMU in the same host process). It therefore imports nothing from
-:mod:`smeha` and does not import :mod:`gmt` at module level; :func:`make_transducer`
-and :func:`check_against_gmt` import ``gmt`` when called, which inside an FMU
-is the bundled copy.
+The FMU bundles this file under its own name, ``resources/smeha_fmu_interface.py``
+(a module name unique to this project, so that it cannot collide with another
+Python FMU in the same host process). It imports nothing from ``smeha`` and does
+not import ``gmt`` at module level; :func:`make_transducer` and
+:func:`check_against_gmt` import ``gmt`` when called, which inside an FMU is the
+bundled copy. ``smeha.fmu_build`` loads this file from the source tree under
+another module name (``smeha._fmu_interface``), so a process that builds an FMU
+and then loads it still runs the FMU's bundled copy.
 
 Names of the parameters are the field names of :class:`gmt.TransducerParameters`,
 :class:`gmt.Excitation` and :class:`gmt.DriveParameters`; their start values are
@@ -33,8 +35,8 @@ MODEL_NAME_FMI3 = "SmehaGmt3"
 #: every pythonfmu FMU of a host process, and modules are shared by name).
 SLAVE_MODULE_FMI2 = "smeha_gmt_fmu"
 SLAVE_MODULE_FMI3 = "smeha_gmt_fmu3"
-#: Name under which this file is bundled in the FMU's resources.
-BUNDLED_INTERFACE_MODULE = "smeha_fmu_interface"
+#: Module name of this file, in fmu_src/ and in the FMU's resources.
+INTERFACE_MODULE = "smeha_fmu_interface"
 #: Name under which the gmt package is bundled in the FMU's resources. Unique to
 #: this project, so that a host that has imported its own ``gmt`` (the smeha
 #: co-simulation master does) cannot make the FMU run the host's copy: one Python
@@ -249,7 +251,6 @@ VARIABLES: tuple[Variable, ...] = (
 )
 
 BY_NAME: dict[str, Variable] = {v.name: v for v in VARIABLES}
-INPUTS = tuple(v.name for v in VARIABLES if v.causality == "input")
 PARAMETERS = tuple(v.name for v in VARIABLES if v.causality == "parameter")
 OUTPUTS = tuple(v.name for v in VARIABLES if v.causality == "output")
 TRANSDUCER_PARAMETERS = tuple(v.name for v in VARIABLES if v.group == _T)
