@@ -1,9 +1,10 @@
-"""Build the smeha transducer FMU(s) into dist/.
+"""Build the smeha transducer FMU(s) into dist/ of the source tree.
 
-    python build_fmu.py [--fmi 2|3|both] [--out dist] [--no-validate]
+    python build_fmu.py [--fmi 2|3|both] [--out DIR] [--no-validate]
 
-All the logic is in :mod:`smeha.fmu_build` (``smeha build`` calls the same
-function). Exits non-zero on failure.
+The same command as ``smeha build`` (its options: ``smeha build --help``), for a
+checkout where the package is not installed; the logic is in :mod:`smeha.fmu_build`.
+Exits non-zero on failure (2 for bad options).
 """
 import sys
 from pathlib import Path

@@ -23,6 +23,7 @@ HERE = Path(__file__).resolve().parent
 
 #: name -> (full arguments, --quick arguments)
 BENCHMARKS = {
+    "cli_startup": ([], ["--repeats", "3"]),
     "fmu_step_cost": ([], ["--runs", "2", "--steps", "5000", "--memory-steps", "0"]),
     "flow_fastpath": ([], ["--skip-timestepping", "--repeats", "1"]),
     "cosim_realtime": (["--duration", "1", "--repeats", "3"],

@@ -16,44 +16,48 @@ Subcommands
 ``smeha sweep SPEC.toml [--scheduler ADDRESS] [--workers N] [--out FILE] [--json] [--plot FILE]``
     A grid of flow-study cases from a TOML spec on local processes or a
     Dask cluster, resumable, into one CSV table (:mod:`smeha.sweep`).
-``smeha identify DATA.csv [--json]``
-    Identification from measured runs (:mod:`smeha.identify`).
-``smeha diagnose DATA.csv [--holdout RUN,...] [--json] [--report DIR]``
-    What the paper's model gets wrong on measured runs, the cause, the
-    extended model and its held-out gain (:mod:`smeha.diagnose`).
-``smeha build [...]``
-    Build the FMU(s); arguments go unchanged to :func:`smeha.fmu_build.main`.
 ``smeha identify DATA.csv [--oversample K] [--json]``
     B_m, mu'' per measured run and the loss coefficients of eq 16
     (:mod:`smeha.identify`; file format in :mod:`smeha.measured`).
+``smeha diagnose DATA.csv [--holdout RUN,...] [--json] [--report DIR]``
+    What the paper's model gets wrong on measured runs, the cause, the
+    extended model and its held-out gain (:mod:`smeha.diagnose`).
+``smeha build [--fmi 2|3|both] [--out DIR] [--no-validate]``
+    Build the FMU(s) (:mod:`smeha.fmu_build`) into the source tree's ``dist/``,
+    where ``simulate``, ``flow`` and ``sweep`` look for the FMU.
 
 Adding a subcommand: write ``_add_<name>(subparsers)`` that registers its
 parser with ``set_defaults(run=_run_<name>)``, and append it to
-:data:`SUBCOMMANDS`. A subcommand whose parser sets ``passthrough=True``
-receives the arguments it does not know in ``args.extra``.
+:data:`SUBCOMMANDS`. Build its options from the types of
+:mod:`smeha.cliargs` (files, folders, numbers), so bad input is refused while
+the command line is parsed; ``tests/test_cli_input.py`` drives every command
+with bad input on that basis.
 
-Exit status: 0 on success, 1 on a failure of the run (missing component or
-data), 2 on bad input (argparse errors and :class:`gmt.ParameterError`),
-printed on stderr without a traceback.
+Exit status: 0 on success, 1 on a failure of the run (a missing component or
+data file of the installation, failed sweep points), 2 on bad input (the
+command line, :class:`gmt.ParameterError` and the other ``ValueError`` s of
+bad files), printed on stderr on one line without a traceback.
+
+Start-up: the heavy modules (numpy, scipy, python-control, fmpy, matplotlib)
+are imported by the command that needs them, so ``smeha --help`` answers at
+once (``benchmarks/cli_startup.py``).
 """
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import os
 import sys
 from pathlib import Path
 
-import numpy as np
-
-import gmt
+import gmt  # cheap: its names load on first use (gmt/__init__.py)
 
 from . import __version__
+from .cliargs import (Parser, UsageError, count, input_file, join_negative_values, number,
+                      number_list, output_dir, output_file, warn)
 
-
-class UsageError(ValueError):
-    """Bad input to a subcommand that argparse cannot check (exit status 2)."""
+#: Frequencies the study accepts, (0, 1000] Hz (gmt.Excitation's range).
+FREQUENCY = number(0.0, 1000.0, unit="Hz")
 
 
 def _add_paper(subparsers):
@@ -62,29 +66,22 @@ def _add_paper(subparsers):
         description="Model results for every Table 1 case and the compensated runs of "
                     "Table 3, next to the paper's measured values.")
     p.add_argument("--json", action="store_true",
-                   help="print only a JSON object {rows, compensated} on stdout")
-    p.add_argument("--plots", metavar="DIR",
+                   help="print only a JSON object {rows, compensated, diagnosis} on stdout")
+    p.add_argument("--plots", metavar="DIR", type=output_dir,
                    help="write the figures (PNG) into DIR (created if missing)")
-    p.add_argument("--branch-rule", choices=gmt.parameters.BRANCH_RULES, default="control",
-                   help="compensator root rule: 'control' (Figure 9, default) or 'demand'")
+    _add_branch_rule(p)
     p.set_defaults(run=_run_paper)
 
 
-def _output_directory(option: str, path: str) -> Path:
-    """Create an output directory named on the command line; bad ones are usage errors."""
-    try:
-        Path(path).mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise UsageError(f"{option} {path}: cannot create the directory "
-                         f"({exc.strerror or exc})") from None
-    return Path(path)
+def _add_branch_rule(p):
+    p.add_argument("--branch-rule", choices=gmt.parameters.BRANCH_RULES, default="control",
+                   help="compensator root rule: 'control' (Figure 9, default) or 'demand' "
+                        "(the direction of the demanded magnetisation)")
 
 
 def _run_paper(args) -> int:
     from . import paper
 
-    if args.plots:
-        _output_directory("--plots", args.plots)
     params = gmt.TransducerParameters()
     runs = paper.compensated_runs(params, args.branch_rule)
     report = paper.paper_report(params, args.branch_rule, runs)
@@ -105,69 +102,95 @@ def _run_paper(args) -> int:
 
 def _add_build(subparsers):
     p = subparsers.add_parser(
-        "build", add_help=False,
-        help="build the FMU(s) (arguments are passed to smeha.fmu_build)")
-    p.set_defaults(run=_run_build, passthrough=True)
+        "build", help="build the transducer FMU(s) into dist/ of the source tree",
+        description="Build and validate the transducer FMU(s) (smeha.fmu_build; "
+                    "'python build_fmu.py' is the same command). By default they go into "
+                    "dist/ of the smeha source tree, where simulate, flow and sweep look for "
+                    "dist/SmehaGmt.fmu (and build it when it is missing or older than its "
+                    "sources).")
+    p.add_argument("--fmi", choices=("2", "3", "both"), default="2",
+                   help="FMI version: 2 (pythonfmu, default), 3 (pythonfmu3) or both")
+    p.add_argument("--out", metavar="DIR", type=output_dir,
+                   help="output folder (default: dist/ of the source tree; created if "
+                        "missing)")
+    p.add_argument("--no-validate", action="store_true",
+                   help="skip fmpy's validation of the built FMU")
+    p.set_defaults(run=_run_build)
 
 
 def _run_build(args) -> int:
-    try:
-        fmu_build = importlib.import_module("smeha.fmu_build")
-    except ModuleNotFoundError as exc:
-        if exc.name not in ("smeha.fmu_build",):
-            raise
-        print("smeha build: the FMU builder (smeha.fmu_build) is not available in this "
-              "installation", file=sys.stderr)
-        return 1
-    try:
-        status = fmu_build.main(list(args.extra))
-    except SystemExit as exc:
-        status = exc.code
-    if status is None:
-        return 0
-    return status if isinstance(status, int) else 1
+    from . import fmu_build
+
+    return fmu_build.build_all(args.fmi, args.out or fmu_build.DIST,
+                               validate=not args.no_validate)
 
 
-def _positive_float(text):
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (value > 0 and value < float("inf")):
-        raise argparse.ArgumentTypeError(f"{text!r} must be a positive finite number")
-    return value
+#: Steps a pumping cycle at and above which the flow's convergence was measured:
+#: valves on the step grid, 40 us at 100 Hz (flow within 0.5 % uncompensated, 2.6 %
+#: compensated of the step halved; benchmarks/README.md, Convergence); with a controller
+#: period, 100 us at 100 Hz (within 0.5 % of a 2.5 us reference; tests/test_cosim_streaming.py).
+CONVERGED_STEPS_PER_CYCLE = 250
+CONVERGED_STEPS_PER_CYCLE_TIMED_VALVES = 100
 
 
-def _frequencies(text):
-    try:
-        values = [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of "
-                                         "frequencies in Hz") from None
-    if not values or any(not (0 < v <= 1000) for v in values):
-        raise argparse.ArgumentTypeError(f"{text!r}: frequencies must lie in (0, 1000] Hz")
-    return values
+def _check_step(command, step, frequency, controller_period) -> None:
+    """Warn (stderr) when the communication step is coarser than any measured to converge."""
+    need = (CONVERGED_STEPS_PER_CYCLE if controller_period is None
+            else CONVERGED_STEPS_PER_CYCLE_TIMED_VALVES)
+    per_cycle = 1.0 / (frequency * step)
+    if per_cycle < need:
+        warn(command, f"--step {step:g} s is {per_cycle:.0f} steps a cycle at {frequency:g} Hz; "
+                      f"the flow was measured to converge from {need} steps a cycle "
+                      f"(--step {1.0 / (need * frequency):.2g} s) on (benchmarks/README.md): "
+                      "expect a larger error")
+
+
+def _cycles(text):
+    """--cycles: at least system_models.flowcheck.MINIMUM_CYCLES (the flow check's need)."""
+    from system_models.flowcheck import MINIMUM_CYCLES
+    return number(MINIMUM_CYCLES, low_open=False, unit="cycles")(text)
+
+
+_cycles.numeric = True
+
+#: Defaults of the co-simulation options, shown in --help (flowstudy.Case's own defaults).
+DEFAULT_STEP, DEFAULT_CYCLES = 20e-6, 8.0
 
 
 def _add_cosim_options(p):
     p.add_argument("--ideal", action="store_true",
                    help="ideal limit: stiff oil, fast wide valves, no load (eqs 40/41 hold)")
-    p.add_argument("--step", type=_positive_float, default=20e-6,
-                   help="communication step [s] (default 2e-05)")
-    p.add_argument("--cycles", type=_positive_float, default=8.0,
-                   help="simulated pumping cycles, at least 4 (default 8; the first 2 are discarded)")
-    p.add_argument("--backend", choices=("fmu", "direct"), default="fmu",
+    p.add_argument("--step", type=number(0.0, unit="s"), default=DEFAULT_STEP, metavar="S",
+                   help=f"communication step [s] (default {DEFAULT_STEP:g}; a warning below "
+                        f"{CONVERGED_STEPS_PER_CYCLE} steps a cycle)")
+    p.add_argument("--cycles", type=_cycles, metavar="N",
+                   help=f"simulated pumping cycles, at least 4: the flow check discards the "
+                        f"first 2 and averages the rest (default {DEFAULT_CYCLES:g})")
+    p.add_argument("--backend", choices=("fmu", "direct"),
                    help="transducer through the FMU and fmpy (default) or gmt in-process")
-    p.add_argument("--fmu", metavar="FILE", help="transducer FMU (default dist/SmehaGmt.fmu, "
-                                                 "built if missing or out of date)")
-    p.add_argument("--branch-rule", choices=gmt.parameters.BRANCH_RULES, default="control",
-                   help="compensator root rule (default 'control', Figure 9)")
-    p.add_argument("--controller-period", type=_positive_float, metavar="S",
+    p.add_argument("--fmu", metavar="FILE", type=input_file,
+                   help="transducer FMU (default dist/SmehaGmt.fmu of the source tree, built "
+                        "if missing or out of date; see 'smeha build')")
+    _add_branch_rule(p)
+    p.add_argument("--controller-period", type=number(0.0, unit="s"), metavar="S",
                    help="sample the valve controller every S seconds, act after the valves' "
                         "exact dead times and put a communication point at each valve action "
                         "(e.g. 1e-5; default: valves switch on the communication grid)")
-    p.add_argument("--hydraulic-step", type=_positive_float, metavar="S",
+    p.add_argument("--hydraulic-step", type=number(0.0, unit="s"), metavar="S",
                    help="longest hydraulic substep [s] (e.g. 1e-5; default one per step)")
+
+
+def _add_load(p):
+    p.add_argument("--load", type=number(unit="N"), metavar="N",
+                   help="load on the cylinder [N]: positive opposes the pumped direction "
+                        "(oil into the big cavity), negative assists it (default 150 "
+                        "realistic, 0 ideal)")
+
+
+MODE_HELP = ("uncompensated: u = I_m/K_a cos(2 pi f t), the coil current i = I_m cos(2 pi f t), "
+             "valves switching at i = -+I_m (eq 40); compensated: u = a + a cos(2 pi f t) "
+             "through the inverse compensator (Figure 9), valves switching at u = 0 and 2a "
+             "(eq 41)")
 
 
 def _add_simulate(subparsers):
@@ -176,38 +199,42 @@ def _add_simulate(subparsers):
         description="Co-simulate the transducer FMU with the pump chamber, valves V1-V4, "
                     "cylinder and accumulator, and check the cylinder flow against eq 40 "
                     "(uncompensated) or eq 41 (compensated).")
-    p.add_argument("--frequency", type=_positive_float, required=True, help="pumping frequency [Hz]")
-    p.add_argument("--mode", choices=("uncompensated", "compensated"), required=True)
-    p.add_argument("--duration", type=_positive_float,
-                   help="simulated time [s] (default: --cycles pumping cycles)")
-    p.add_argument("--load", type=float, help="load on the cylinder, opposing 'down' [N] "
-                                               "(default 150 realistic, 0 ideal)")
+    p.add_argument("--frequency", type=FREQUENCY, required=True, metavar="HZ",
+                   help="pumping frequency [Hz], in (0, 1000]")
+    p.add_argument("--mode", choices=("uncompensated", "compensated"), required=True,
+                   help=MODE_HELP)
+    p.add_argument("--duration", type=number(0.0, unit="s"), metavar="S",
+                   help="simulated time [s], at least 4 cycles (default: --cycles pumping "
+                        "cycles)")
+    _add_load(p)
     _add_cosim_options(p)
-    p.add_argument("--csv", metavar="FILE", help="write the time series (SI) as CSV")
-    p.add_argument("--plot", metavar="FILE", help="write a PNG of the run")
+    p.add_argument("--csv", metavar="FILE", type=output_file,
+                   help="write the time series as CSV, SI units in the column names "
+                        "(time_s, rod_displacement_m, p_pump_Pa, ...), as the measurement "
+                        "files of 'smeha identify' name theirs")
+    p.add_argument("--plot", metavar="FILE", type=output_file, help="write a PNG of the run")
     p.add_argument("--json", action="store_true", help="print only a JSON object")
     p.set_defaults(run=_run_simulate)
 
 
 def _case_from(args, frequency, mode, load=None, variant=None):
     from .flowstudy import Case
-    cycles = args.cycles
+    cycles = getattr(args, "cycles", None)
     if getattr(args, "duration", None):
         cycles = args.duration * frequency
+    optional = {"cycles": cycles, "backend": args.backend}
     return Case(frequency=frequency, mode=mode, ideal=args.ideal, load=load, step=args.step,
-                cycles=cycles, backend=args.backend, branch_rule=args.branch_rule,
-                variant=variant, controller_period=args.controller_period,
-                hydraulic_step=args.hydraulic_step)
+                branch_rule=args.branch_rule, variant=variant,
+                controller_period=args.controller_period, hydraulic_step=args.hydraulic_step,
+                **{k: v for k, v in optional.items() if v is not None})
 
 
-def _fmu_for(args):
+def _fmu_for(args, cases):
     from . import flowstudy
-    if args.backend != "fmu":
+    if all(c.backend != "fmu" for c in cases):
         return None
     if args.fmu:
-        if not Path(args.fmu).is_file():
-            raise FileNotFoundError(f"--fmu {args.fmu}: no such file")
-        return Path(args.fmu)
+        return args.fmu
     return flowstudy.ensure_fmu(quiet=getattr(args, "json", False))
 
 
@@ -224,10 +251,38 @@ def _progress_bar(total_steps, label, quiet):
     return bar, update
 
 
+def _check_simulate(args) -> None:
+    """The cross-option rules of simulate, in the options' own terms (before any work)."""
+    from system_models.flowcheck import MINIMUM_CYCLES
+    if args.duration is not None:
+        if args.cycles is not None:
+            raise UsageError(f"give --duration or --cycles, not both (--duration "
+                             f"{args.duration:g} s is {args.duration * args.frequency:g} "
+                             f"cycles at {args.frequency:g} Hz)")
+        if args.duration * args.frequency < MINIMUM_CYCLES:
+            raise UsageError(
+                f"--duration {args.duration:g} s is {args.duration * args.frequency:.3g} "
+                f"cycles at {args.frequency:g} Hz; the flow check discards the first 2 cycles "
+                f"and averages at least 2 more: give --duration "
+                f">= {MINIMUM_CYCLES / args.frequency:g} s")
+    _check_step("simulate", args.step, args.frequency, args.controller_period)
+
+
+def _write_record_csv(record, path) -> None:
+    """The co-simulation record as CSV, each column named with its SI unit (p_pump_Pa)."""
+    import numpy as np
+    from system_models.cosim import RESULT_UNITS
+
+    names = [f"{n}_{RESULT_UNITS[n]}" if RESULT_UNITS[n] else n for n in record.dtype.names]
+    np.savetxt(path, np.column_stack([record[n] for n in record.dtype.names]),
+               delimiter=",", header=",".join(names), comments="")
+
+
 def _run_simulate(args) -> int:
     from . import flowstudy
+    _check_simulate(args)
     case = _case_from(args, args.frequency, args.mode, args.load)
-    fmu = _fmu_for(args)
+    fmu = _fmu_for(args, [case])
     n = int(round(case.cycles / case.frequency / case.step))
     bar, update = _progress_bar(n, f"{case.mode} {case.frequency:g} Hz", args.json)
     try:
@@ -235,8 +290,7 @@ def _run_simulate(args) -> int:
     finally:
         bar.close()
     if args.csv:
-        np.savetxt(args.csv, np.column_stack([record[n] for n in record.dtype.names]),
-                   delimiter=",", header=",".join(record.dtype.names), comments="")
+        _write_record_csv(record, args.csv)
     if args.plot:
         from .flowplots import plot_run
         plot_run(record, row, args.plot)
@@ -250,10 +304,17 @@ def _run_simulate(args) -> int:
     print(f"  {eq} flow f A_d dy   {row['flow_eq_m3_s']:.4e} m^3/s (ratio {row['flow_ratio']:.4f})")
     print(f"  dy                   {row['dy_um']:.3f} um between the valve switching instants")
     if row["flow_paper_m3_s"] is not None:
-        print(f"  paper, Table 3       {row['flow_paper_m3_s']:.4e} m^3/s (dy {row['dy_paper_um']:g} um)")
+        print(f"  paper, Table 3       {row['flow_paper_m3_s']:.4e} m^3/s, f A_d dy computed "
+              f"from its measured dy {row['dy_paper_um']:g} um (eqs 40/41)")
     print(f"  volume balance       {row['volume_imbalance_m3']:.2e} m^3 of "
           f"{row['volume_pumped_m3']:.2e} m^3 pumped; wall {row['wall_s']:.1f} s")
+    for path in (args.csv, args.plot):
+        if path:
+            print(f"wrote {path}")
     return 0
+
+
+WORKERS_HELP = "worker processes, at least 1 (default 2)"
 
 
 def _add_flow(subparsers):
@@ -261,16 +322,17 @@ def _add_flow(subparsers):
         "flow", help="cylinder flow against frequency, both modes (the flow study)",
         description="Co-simulate both modes at each frequency and compare the mean "
                     "cylinder flow with eqs 40/41 and the paper's Table 3.")
-    p.add_argument("--frequencies", type=_frequencies, default=[50.0, 70.0, 80.0, 100.0],
-                   help="comma-separated frequencies [Hz] (default 50,70,80,100)")
-    p.add_argument("--load", type=float, help="load on the cylinder [N] "
-                                               "(default 150 realistic, 0 ideal)")
-    p.add_argument("--loads", metavar="N,N,...",
-                   help="also trace the load line: flow against load at each frequency")
-    p.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1),
-                   help="worker processes (default 2)")
+    p.add_argument("--frequencies", type=number_list(0.0, 1000.0, unit="Hz"),
+                   default=[50.0, 70.0, 80.0, 100.0], metavar="HZ,HZ,...",
+                   help="comma-separated frequencies [Hz], each in (0, 1000] "
+                        "(default 50,70,80,100)")
+    _add_load(p)
+    p.add_argument("--loads", metavar="N,N,...", type=number_list(unit="N"),
+                   help="also trace the load line: flow against load at each frequency "
+                        "(negative loads assist)")
+    p.add_argument("--workers", type=count(1), metavar="N", help=WORKERS_HELP)
     _add_cosim_options(p)
-    p.add_argument("--variant", metavar="FILE",
+    p.add_argument("--variant", metavar="FILE", type=input_file,
                    help="also run every case with the extended transducer model: FILE is the "
                         "output of 'smeha diagnose --json' (its winning extension) or "
                         "{\"cause\": ..., \"parameters\": {...}} (e.g. data/paper_variant.json); "
@@ -278,12 +340,14 @@ def _add_flow(subparsers):
     p.add_argument("--fast", action="store_true",
                    help="solve each case's periodic steady state directly (smeha.fastpath: "
                         "the paper's model, gmt in-process; ~0.1 s a case) instead of "
-                        "time-stepping the co-simulation")
+                        "time-stepping the co-simulation; refuses the options it has no use "
+                        "for")
     p.add_argument("--json", action="store_true",
                    help="print only a JSON object {rows: [...]} (with --variant also "
                         "{variant, comparison})")
-    p.add_argument("--plot", metavar="FILE", help="write flow against frequency (PNG; the "
-                                                   "paper's model)")
+    p.add_argument("--plot", metavar="FILE", type=output_file,
+                   help="write flow against frequency (PNG; with --variant both models, "
+                        "with --loads the load lines)")
     p.set_defaults(run=_run_flow)
 
 
@@ -291,30 +355,37 @@ def _read_variant(path):
     """The gmt.ModelVariant of a diagnosis or variant JSON file (--variant FILE)."""
     try:
         text = Path(path).read_text()
-    except FileNotFoundError:
-        raise FileNotFoundError(f"--variant {path}: no such file") from None
-    except OSError as exc:
-        raise FileNotFoundError(f"--variant {path}: cannot read it ({exc.strerror or exc})"
-                                ) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UsageError(f"--variant {path}: cannot read it ({getattr(exc, 'strerror', exc)})"
+                         ) from None
     try:
         return gmt.ModelVariant.from_json(text)
     except gmt.ParameterError as exc:
         raise UsageError(f"--variant {path}: {exc}") from None
 
 
+#: Options the periodic-steady-state fast path has no use for, and why.
+FAST_REFUSES = {
+    "variant": "it solves the paper's model only",
+    "controller_period": "it solves the study's default discretisation (valves on the step "
+                         "grid)",
+    "hydraulic_step": "it solves the study's default discretisation (one hydraulic substep)",
+    "cycles": "it solves the periodic steady state, not a number of cycles",
+    "workers": "it runs in this process (~0.1 s a case)",
+    "backend": "it runs gmt in-process",
+    "fmu": "it runs gmt in-process",
+}
+
+
 def _run_fast_flow(args) -> int:
     from . import fastpath, flowstudy
-    if args.variant:
-        raise UsageError("--fast solves the paper's model only; drop --fast to run --variant")
-    if args.controller_period or args.hydraulic_step:
-        raise UsageError("--fast solves the study's default discretisation (valves on the step "
-                         "grid, one hydraulic substep); drop --controller-period/--hydraulic-step")
-    loads = [args.load]
-    if args.loads:
-        try:
-            loads += [float(v) for v in args.loads.split(",") if v.strip()]
-        except ValueError:
-            raise UsageError(f"--loads {args.loads!r} is not a comma-separated list") from None
+    given = [k for k in FAST_REFUSES if getattr(args, k) is not None]
+    if given:
+        option = "--" + given[0].replace("_", "-")
+        raise UsageError(f"--fast does not take {option}: {FAST_REFUSES[given[0]]}; "
+                         f"drop --fast or {option}")
+    _check_step("flow", args.step, max(args.frequencies), None)
+    loads = [args.load] + (args.loads or [])
     rows = fastpath.flow_table(args.frequencies, flowstudy.MODES, ideal=args.ideal,
                                load=loads if len(loads) > 1 else args.load, step=args.step,
                                branch_rule=args.branch_rule)
@@ -330,7 +401,13 @@ def _run_fast_flow(args) -> int:
         print()
         print(flowstudy.format_load_lines(rows))
     print(f"\n(periodic-steady-state fast path, {sum(r['wall_s'] for r in rows):.2f} s)")
+    if args.plot:
+        print(f"wrote {args.plot}")
     return 0
+
+
+def _workers(args) -> int:
+    return args.workers if args.workers is not None else min(2, os.cpu_count() or 1)
 
 
 def _run_flow(args) -> int:
@@ -338,33 +415,35 @@ def _run_flow(args) -> int:
     if args.fast:
         return _run_fast_flow(args)
     variant = _read_variant(args.variant) if args.variant else None
-    if variant is not None and variant.is_paper:
-        print(f"smeha flow: --variant {args.variant} is the paper's model (the diagnosis named "
-              "no extension): running the paper's model only", file=sys.stderr)
+    no_extension = variant is not None and variant.is_paper
+    if no_extension:
+        note = (f"--variant {args.variant} names no extension (the diagnosis found nothing "
+                "the paper's model misses: cause 'none'), so there is no extended model to "
+                "compare: running the paper's model only")
+        warn("flow", note)
         variant = None
-    fmu = _fmu_for(args)
+    _check_step("flow", args.step, max(args.frequencies), args.controller_period)
     models = [None] if variant is None else [None, variant]
     cases = [_case_from(args, f, m, args.load, v) for v in models for f in args.frequencies
              for m in flowstudy.MODES]
-    if args.loads:
-        try:
-            loads = [float(v) for v in args.loads.split(",") if v.strip()]
-        except ValueError:
-            raise UsageError(f"--loads {args.loads!r} is not a comma-separated list") from None
-        cases += [_case_from(args, f, m, load, v) for v in models for f in args.frequencies
-                  for m in flowstudy.MODES for load in loads]
-    rows = flowstudy.run_cases(cases, fmu, workers=max(1, args.workers), quiet=args.json)
+    cases += [_case_from(args, f, m, load, v) for v in models for f in args.frequencies
+              for m in flowstudy.MODES for load in (args.loads or [])]
+    fmu = _fmu_for(args, cases)
+    rows = flowstudy.run_cases(cases, fmu, workers=_workers(args), quiet=args.json)
     paper_rows = [r for r in rows if r["model"] == "paper"]
     table = [r for r in paper_rows if r["load_N"] == cases[0].load_force]
     pairs = flowstudy.compare_variant(rows) if variant is not None else None
     if args.plot:
         from .flowplots import plot_flow
-        plot_flow(paper_rows, args.plot)
+        plot_flow(rows, args.plot)
     if args.json:
         out = {"rows": rows}
         if variant is not None:
             out["variant"] = {**variant.as_dict(), "source": str(args.variant)}
             out["comparison"] = pairs
+        elif no_extension:
+            out["variant"] = {"cause": "none", "source": str(args.variant), "note": note}
+            out["comparison"] = []
         print(json.dumps(out))
         return 0
     print(flowstudy.format_table(table))
@@ -374,6 +453,10 @@ def _run_flow(args) -> int:
     if variant is not None:
         print()
         print(flowstudy.format_comparison(pairs, variant, str(args.variant)))
+    if no_extension:
+        print(f"\n{note}")
+    if args.plot:
+        print(f"wrote {args.plot}")
     return 0
 
 
@@ -383,38 +466,55 @@ def _add_sweep(subparsers):
         description="Run every point of the spec's grid (docs/SWEEP.md) as a flow-study "
                     "co-simulation on local worker processes or a Dask distributed cluster, "
                     "into one CSV table; a rerun runs only the points missing or failed there.")
-    p.add_argument("spec", metavar="SPEC", help="sweep spec (TOML: [grid], [settings])")
+    p.add_argument("spec", metavar="SPEC", type=input_file,
+                   help="sweep spec (TOML: [grid], [settings])")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="Dask scheduler, e.g. tcp://host:8786 (default: local processes)")
-    p.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1),
-                   help="local worker processes (default 2; ignored with --scheduler)")
-    p.add_argument("--out", metavar="FILE", help="result table (CSV; default sweep.csv beside "
-                                                  "SPEC)")
-    p.add_argument("--fmu", metavar="FILE", help="transducer FMU (default dist/SmehaGmt.fmu, "
-                                                 "built if missing or out of date)")
+    p.add_argument("--workers", type=count(1), metavar="N",
+                   help="local worker processes, at least 1 (default 2; not with --scheduler)")
+    p.add_argument("--out", metavar="FILE", type=output_file,
+                   help="result table (CSV; default: the spec's name with .csv, beside it: "
+                        "grid.toml -> grid.csv)")
+    p.add_argument("--fmu", metavar="FILE", type=input_file,
+                   help="transducer FMU (default dist/SmehaGmt.fmu of the source tree, built "
+                        "if missing or out of date; see 'smeha build')")
     p.add_argument("--json", action="store_true",
                    help="print only a JSON object {rows, skipped, failed, ran}")
-    p.add_argument("--plot", metavar="FILE", help="write flow against frequency (PNG)")
+    p.add_argument("--plot", metavar="FILE", type=output_file,
+                   help="write flow against frequency (PNG)")
     p.set_defaults(run=_run_sweep)
+
+
+def default_sweep_table(spec: Path) -> Path:
+    """The sweep's table when --out is not given: the spec's name with .csv, beside it."""
+    out = spec.with_suffix(".csv")
+    return out if out != spec else spec.with_name(spec.name + ".csv")
 
 
 def _run_sweep(args) -> int:
     from . import flowstudy, sweep
 
+    if args.scheduler and args.workers is not None:
+        raise UsageError("--workers sets local processes; with --scheduler the Dask "
+                         "cluster's workers run the points: drop one of them")
     points = sweep.read_spec(args.spec)  # SpecError (a ValueError): exit 2
-    if args.workers < 1:
-        raise UsageError(f"--workers {args.workers} is outside the allowed range [1, inf)")
-    out = Path(args.out) if args.out else Path(args.spec).parent / "sweep.csv"
+    out = args.out
+    if out is None:
+        try:
+            out = output_file(str(default_sweep_table(args.spec)))
+        except argparse.ArgumentTypeError as exc:
+            raise UsageError(f"the default table (--out) {exc}") from None
+    highest = {}  # (step, controller period) -> the highest frequency swept with it
+    for q in points:
+        key = (q.step, q.controller_period)
+        highest[key] = max(highest.get(key, 0.0), q.frequency)
+    for (step, period), frequency in highest.items():
+        _check_step("sweep", step, frequency, period)
     fmu = None
     if any(p.backend == "fmu" for p in points):
-        if args.fmu:
-            if not Path(args.fmu).is_file():
-                raise FileNotFoundError(f"--fmu {args.fmu}: no such file")
-            fmu = Path(args.fmu)
-        else:
-            fmu = flowstudy.ensure_fmu(quiet=args.json)
+        fmu = args.fmu or flowstudy.ensure_fmu(quiet=args.json)
     try:
-        result = sweep.run_sweep(points, out, fmu, workers=args.workers,
+        result = sweep.run_sweep(points, out, fmu, workers=_workers(args),
                                  scheduler=args.scheduler, quiet=args.json)
     except sweep.SweepError as exc:
         print(f"smeha sweep: error: {exc}", file=sys.stderr)
@@ -437,11 +537,12 @@ def _add_identify(subparsers):
                     "sense voltage (eq 22) or its displacement, fit mu'' of each run to the "
                     "measured loop with eq 30, and fit K_h, n, K_e, K_ex to the set of "
                     "eqs 16 with standard uncertainties.")
-    p.add_argument("data", metavar="DATA.csv", help="measurement file (CSV, long form)")
-    p.add_argument("--oversample", type=int, default=1, metavar="K",
+    p.add_argument("data", metavar="DATA.csv", type=input_file,
+                   help="measurement file (CSV, long form)")
+    p.add_argument("--oversample", type=count(1, 1000), default=1, metavar="K",
                    help="run the model on a K times finer step than the data (cubic-spline "
-                        "current); K >= 16 removes the half-step hold delay for data from "
-                        "the physical transducer (default 1: the data's step)")
+                        "current), K in [1, 1000]; K >= 16 removes the half-step hold delay "
+                        "for data from the physical transducer (default 1: the data's step)")
     p.add_argument("--json", action="store_true",
                    help="print only a JSON object {runs, loss_coefficients, correlation, ...}")
     p.set_defaults(run=_run_identify)
@@ -450,10 +551,6 @@ def _add_identify(subparsers):
 def _run_identify(args) -> int:
     from . import identify, measured
 
-    if not Path(args.data).is_file():
-        raise FileNotFoundError(f"{args.data}: no such file")
-    if not 1 <= args.oversample <= 1000:
-        raise UsageError(f"--oversample {args.oversample} is outside the allowed range [1, 1000]")
     runs = measured.read_measurements(args.data)  # DataError (a ValueError): exit 2
     result = identify.identify(runs, oversample=args.oversample)
     if args.json:
@@ -473,7 +570,7 @@ def _add_diagnose(subparsers):
                     "fit each candidate extension (gmt.extensions) and compare them on the "
                     "held-out runs; print the cause (or 'none' / 'unexplained'), the evidence "
                     "and the held-out gain (smeha.diagnose; docs/DIAGNOSE.md).")
-    p.add_argument("data", metavar="DATA.csv",
+    p.add_argument("data", metavar="DATA.csv", type=input_file,
                    help="measurement file (CSV, long form; docs/MEASURED.md); sense_voltage_V "
                         "optional but it separates magnetic from mechanical causes")
     p.add_argument("--holdout", metavar="RUN,...",
@@ -482,24 +579,20 @@ def _add_diagnose(subparsers):
     p.add_argument("--json", action="store_true",
                    help="print only a JSON object {cause, evidence, heldout_runs, "
                         "heldout_rms_um, gain, candidates, ...}")
-    p.add_argument("--report", metavar="DIR",
+    p.add_argument("--report", metavar="DIR", type=output_dir,
                    help="write PNG figures per run into DIR (loops, residual by branch, "
-                        "paper vs extended)")
+                        "paper vs extended; created if missing)")
     p.set_defaults(run=_run_diagnose)
 
 
 def _run_diagnose(args) -> int:
     from . import diagnose, measured
 
-    if not Path(args.data).is_file():
-        raise FileNotFoundError(f"{args.data}: no such file")
     holdout = None
     if args.holdout is not None:
         holdout = [h.strip() for h in args.holdout.split(",") if h.strip()]
         if not holdout:
             raise UsageError(f"--holdout {args.holdout!r} names no run")
-    if args.report:
-        _output_directory("--report", args.report)
     runs = measured.read_measurements(args.data)  # DataError (a ValueError): exit 2
     result = diagnose.diagnose(runs, holdout=holdout)
     written = diagnose.write_report(result, args.report) if args.report else []
@@ -515,20 +608,24 @@ def _run_diagnose(args) -> int:
 
 
 #: Registration functions of the subcommands, in the order ``--help`` lists them.
-SUBCOMMANDS = (_add_paper, _add_simulate, _add_flow, _add_build, _add_identify,
-               _add_diagnose, _add_sweep)
+SUBCOMMANDS = (_add_paper, _add_simulate, _add_flow, _add_sweep, _add_identify,
+               _add_diagnose, _add_build)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser() -> Parser:
     """The top-level parser with every subcommand registered."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="smeha",
         description="Giant magnetostrictive transducer of a smart-material "
-                    "electrohydrostatic actuator: paper reproduction, FMU build.")
+                    "electrohydrostatic actuator: the paper's model, the transducer FMU, the "
+                    "actuator's flow by co-simulation, identification and diagnosis from "
+                    "measured data. Each command has --help.")
     parser.add_argument("--version", action="version", version=f"smeha {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for add in SUBCOMMANDS:
         add(subparsers)
+    for sub in subparsers.choices.values():  # main() reports stray arguments as the command's
+        sub.set_defaults(parser=sub)
     return parser
 
 
@@ -540,20 +637,20 @@ def main(argv=None) -> int:
     argv : list of str, optional
         Arguments without the program name; ``sys.argv[1:]`` if None.
     """
+    argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser()
     try:
-        args, extra = parser.parse_known_args(argv)
-        if extra and not getattr(args, "passthrough", False):
-            parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        args, extra = parser.parse_known_args(join_negative_values(argv))
+        if extra:
+            args.parser.error(f"unrecognized arguments: {' '.join(extra)}")
     except SystemExit as exc:  # argparse: --help, --version (0) or a usage error (2)
         return exc.code if isinstance(exc.code, int) else 2
-    args.extra = extra
     try:
         return args.run(args)
-    except (gmt.ParameterError, UsageError, ValueError) as exc:
+    except ValueError as exc:  # UsageError, gmt.ParameterError, a bad data file or spec
         print(f"smeha {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except FileNotFoundError as exc:
+    except FileNotFoundError as exc:  # a file of the installation (the paper's data)
         print(f"smeha {args.command}: error: {exc}", file=sys.stderr)
         return 1
     except BrokenPipeError:  # stdout closed early, e.g. `smeha paper --json | head`

@@ -139,9 +139,9 @@ class VariantDirectTransducer(DirectTransducer):
 
 
 def default_fmu_path() -> Path:
-    """dist/SmehaGmt.fmu of the source tree."""
+    """dist/SmehaGmt.fmu of the source tree (:data:`smeha.fmu_build.DIST`)."""
     from . import fmu_build
-    return fmu_build.REPO / "dist" / "SmehaGmt.fmu"
+    return fmu_build.DIST / "SmehaGmt.fmu"
 
 
 def ensure_fmu(path: Path | None = None, quiet: bool = False) -> Path:
@@ -299,9 +299,11 @@ def format_table(rows) -> str:
             f"{'q eq40/41':>10}  {'sim/eq':>6}  {'dy [um]':>7}  {'q paper':>10}  "
             f"{'dy paper':>8}  {'dy free':>7}  {'q/q free':>8}  {'q [L/min]':>9}")
     lines = ["Cylinder flow: co-simulation against eqs 40/41 and the paper's Table 3",
-             "(dy: the rod between the valve switching instants of this run; dy free: the "
-             "transducer alone, no oil; q/q free: delivered flow over f A_d dy free, the flow "
-             "eqs 40/41 give for the free transducer, as the paper computes them)", head]
+             "(dy: the rod between the valve switching instants of this run; q paper: f A_d dy "
+             "that the paper computes with eqs 40/41 from Table 3's measured dy (dy paper), not "
+             "a measured flow; dy free: the transducer alone, no oil; q/q free: delivered flow "
+             "over f A_d dy free, the flow eqs 40/41 give for the free transducer, as the paper "
+             "computes them)", head]
     for r in rows:
         paper = "-" if r["flow_paper_m3_s"] is None else f"{r['flow_paper_m3_s']:.3e}"
         dyp = "-" if r["dy_paper_um"] is None else f"{r['dy_paper_um']:.1f}"

@@ -1,7 +1,7 @@
 """Build the transducer FMUs: FMI 2.0 (pythonfmu 0.7) and FMI 3.0 (pythonfmu3).
 
-``python build_fmu.py [--fmi 2|3|both] [--out dist]`` and ``smeha build`` call
-:func:`main`. For each FMU:
+``smeha build [--fmi 2|3|both] [--out DIR]`` (:mod:`smeha.cli`; ``python build_fmu.py``
+is the same command) calls :func:`build_all`, by default into :data:`DIST`. For each FMU:
 
 1. **Build in a child process.** pythonfmu's builder imports the slave module
    and ``gmt`` and instantiates the slave; those modules stay in
@@ -26,7 +26,6 @@
 """
 from __future__ import annotations
 
-import argparse
 import datetime
 import importlib.util
 import os
@@ -42,6 +41,9 @@ from xml.etree import ElementTree as ET
 #: Repository root (the build needs the source tree: fmu_src/ is not installed).
 REPO = Path(__file__).resolve().parents[1]
 FMU_SRC = REPO / "fmu_src"
+#: Where ``smeha build`` writes the FMUs and ``smeha simulate``/``flow``/``sweep`` look for
+#: ``SmehaGmt.fmu``: dist/ of the source tree, whatever the current folder.
+DIST = REPO / "dist"
 
 
 def _load_interface():
@@ -224,7 +226,7 @@ def _worker(fmi: str, workdir: str) -> None:
                               **FMI3_OPTIONS)
 
 
-def build(fmi: str = "2", out: str | os.PathLike = "dist", validate: bool = True) -> Path:
+def build(fmi: str = "2", out: str | os.PathLike = DIST, validate: bool = True) -> Path:
     """Build one FMU (``fmi`` "2" or "3") into ``out``; return its path.
 
     The pythonfmu builder runs in a child process (see the module docstring).
@@ -262,28 +264,30 @@ def validate_fmu(path) -> list[str]:
     return [str(p) for p in fmpy_validate(str(path))]
 
 
-def main(argv=None) -> int:
-    """Command line: ``build_fmu.py [--fmi 2|3|both] [--out DIR] [--no-validate]``."""
-    parser = argparse.ArgumentParser(
-        prog="build_fmu.py", description="Build the smeha transducer FMU(s).")
-    parser.add_argument("--fmi", choices=("2", "3", "both"), default="2",
-                        help="FMI version: 2 (pythonfmu, default), 3 (pythonfmu3) or both")
-    parser.add_argument("--out", default="dist", help="output directory (default: dist)")
-    parser.add_argument("--no-validate", action="store_true",
-                        help="skip fmpy's validation of the built FMU")
-    args = parser.parse_args(argv)
-    versions = ("2", "3") if args.fmi == "both" else (args.fmi,)
+def build_all(fmi: str = "2", out: str | os.PathLike = DIST, validate: bool = True) -> int:
+    """Build ``fmi`` ("2", "3" or "both") into ``out``, printing each FMU; return the exit status.
+
+    A :class:`BuildError` is printed on stderr and gives status 1 (the other
+    version is still built).
+    """
+    versions = ("2", "3") if fmi == "both" else (fmi,)
     status = 0
-    for fmi in versions:
+    for version in versions:
         try:
-            path = build(fmi, args.out, validate=not args.no_validate)
+            path = build(version, out, validate=validate)
         except BuildError as exc:
-            print(f"error: {exc}", file=sys.stderr)
+            print(f"smeha build: error: {exc}", file=sys.stderr)
             status = 1
             continue
-        checked = "" if args.no_validate else ", validated: no problems found"
-        print(f"FMI {fmi}.0 co-simulation FMU: {path}{checked}")
+        checked = ", validated: no problems found" if validate else ""
+        print(f"FMI {version}.0 co-simulation FMU: {path}{checked}")
     return status
+
+
+def main(argv=None) -> int:
+    """``python build_fmu.py [...]``: the command line of ``smeha build`` (:mod:`smeha.cli`)."""
+    from .cli import main as cli_main
+    return cli_main(["build", *(sys.argv[1:] if argv is None else argv)])
 
 
 if __name__ == "__main__":  # pragma: no cover

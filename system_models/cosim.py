@@ -65,6 +65,16 @@ RESULT_FIELDS = (
     "q_v1", "q_v2", "q_v3", "q_v4", "volume_into_big", "compression_volume",
     "compressing", "valves_compressing", "iterations",
 )
+#: SI unit of each field, as CSV column names carry it (``p_pump_Pa``, ``q_v1_m3_s``):
+#: "" for a 0/1 flag (``compressing``: the controller's pump phase, ``valves_compressing``:
+#: the phase the valves act on) and a count (``iterations`` of the coupling).
+RESULT_UNITS = {
+    "time": "s", "control": "V", "current": "A", "rod_displacement": "m",
+    "rod_velocity": "m_s", "force": "N", "p_pump": "Pa", "p_big": "Pa", "p_small": "Pa",
+    "p_accumulator": "Pa", "piston_position": "m", "piston_velocity": "m_s",
+    "q_v1": "m3_s", "q_v2": "m3_s", "q_v3": "m3_s", "q_v4": "m3_s", "volume_into_big": "m3",
+    "compression_volume": "m3", "compressing": "", "valves_compressing": "", "iterations": "",
+}
 
 
 class TransducerBackend(Protocol):

@@ -18,6 +18,7 @@ def _run(keep, observer=None, step=40e-6):
                       observer=observer, keep_record=keep)
 
 
+@pytest.mark.integration
 def test_streamed_run_gives_the_recorded_flow_and_final_state():
     full = _run(True)
     running = RunningFlow()
@@ -28,6 +29,7 @@ def test_streamed_run_gives_the_recorded_flow_and_final_state():
     assert running.flow == flow_check(full, 100.0, 1256e-6).flow_sim
 
 
+@pytest.mark.integration
 def test_event_aligned_steps_put_communication_points_at_valve_actions():
     """Valves act 0.2 ms after u's extremes (5, 10 ... ms): those instants are record times."""
     rec = _run(True, step=80e-6)
@@ -41,6 +43,7 @@ def test_running_flow_needs_whole_cycles():
         RunningFlow().flow
 
 
+@pytest.mark.integration
 def test_cli_simulate_with_the_sampled_valve_controller(capsys):
     """--controller-period/--hydraulic-step reach the co-simulation: at h = 100 us the flow
     stays within 0.5 % of the 2.5 us reference of benchmarks/README.md (1.3995e-6 m^3/s)."""

@@ -17,6 +17,9 @@ from smeha.cli import main
 from smeha.measured import write_measurements
 from smeha.synthetic import generate_runs
 
+#: Each test diagnoses seeded runs end to end (2-10 s apiece): integration.
+pytestmark = pytest.mark.integration
+
 #: Issue #5: the extended model must at least halve the held-out RMS error.
 MIN_GAIN = 2.0
 #: Middle and second-highest frequency of the generator's default grid (as test_diagnose).

@@ -16,6 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PAPER_VARIANT = ROOT / "data" / "paper_variant.json"
 
 
+@pytest.mark.integration
 def test_shipped_paper_variant_is_what_the_paper_diagnosis_picks():
     # data/paper_variant.json is regenerated from smeha.paperdiag, not typed in: the file
     # must still be that diagnosis' pick (the least-squares fit may move in the last digits)
@@ -45,7 +46,7 @@ def test_bad_variant_file_is_a_usage_error(tmp_path, capsys):
     assert cli.main(["flow", "--variant", str(bad), "--backend", "direct"]) == 2
     assert "delay_s = -1 s" in capsys.readouterr().err
     assert cli.main(["flow", "--variant", str(tmp_path / "missing.json"),
-                     "--backend", "direct"]) == 1
+                     "--backend", "direct"]) == 2
 
 
 def _flow_with_variant(diagnosis, tmp_path, capsys):

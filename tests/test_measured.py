@@ -239,7 +239,7 @@ def test_duplicate_column(tmp_path, capsys):
     expect_error(path, capsys, "line 1", "'current_A' appears twice")
 
 
-def test_missing_file_exit_1(tmp_path, capsys):
+def test_missing_file_exit_2(tmp_path, capsys):
     status = cli.main(["identify", str(tmp_path / "nope.csv")])
     _, err = capsys.readouterr()
-    assert status == 1 and "no such file" in err and "Traceback" not in err
+    assert status == 2 and "no such file" in err and "Traceback" not in err

@@ -7,6 +7,9 @@ from smeha.paperdiag import HELDOUT, TRAIN, paper_data_diagnosis
 # minimum [um]; the text's peak-to-peak at 50 and 100 Hz
 TABLE3 = {50: (42.0, 1.8), 70: (38.0, 3.0), 80: (36.0, 4.0), 100: (31.2, 4.6)}
 
+#: The diagnosis of the paper's data fits every candidate extension (~5 s): integration.
+pytestmark = pytest.mark.integration
+
 
 @pytest.fixture(scope="module")
 def result():

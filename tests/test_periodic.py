@@ -306,4 +306,5 @@ def test_cli_flow_fast_json(capsys):
 def test_cli_flow_fast_refuses_a_variant(capsys):
     from smeha import cli
     assert cli.main(["flow", "--fast", "--variant", "data/paper_variant.json"]) == 2
-    assert "--fast solves the paper's model only" in capsys.readouterr().err
+    assert "--fast does not take --variant: it solves the paper's model only" in \
+        capsys.readouterr().err

@@ -68,7 +68,7 @@ def test_bad_spec_is_a_usage_error_naming_the_key(tmp_path, capsys, text, names)
     assert cli.main(["sweep", str(spec)]) == 2
     err = capsys.readouterr().err
     assert names in err and "Traceback" not in err
-    assert not (tmp_path / "sweep.csv").exists()
+    assert not (tmp_path / "bad.csv").exists()
 
 
 def test_grid_is_the_cartesian_product():
@@ -116,8 +116,9 @@ def test_bad_optional_setting_names_the_key(key):
                           "settings": {key: -1e-5}})
 
 
-def test_missing_spec_file_is_exit_1(tmp_path, capsys):
-    assert cli.main(["sweep", str(tmp_path / "none.toml")]) == 1
+def test_missing_spec_file_is_exit_2(tmp_path, capsys):
+    # bad input, like any other (tests/test_cli_input.py drives every input file)
+    assert cli.main(["sweep", str(tmp_path / "none.toml")]) == 2
     assert "no such file" in capsys.readouterr().err
 
 
@@ -129,7 +130,7 @@ def test_local_sweep_writes_table_and_rerun_skips(tmp_path, capsys):
     status, report = _sweep(capsys, spec, "--workers", 2)
     assert status == 0
     assert (report["skipped"], report["failed"], report["ran"]) == (0, 0, 2)
-    table = tmp_path / "sweep.csv"  # default: beside the spec
+    table = tmp_path / "spec.csv"  # default: the spec's name, beside it
     with open(table, newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert [(r["mode"], r["status"]) for r in rows] == [("uncompensated", "ok"),

@@ -23,23 +23,45 @@ module                 equations
 =====================  ==============================================
 
 SI units throughout. This package imports no FMI, file or plotting code.
+
+The names below are loaded on first use (PEP 562 module ``__getattr__``), so
+``import gmt`` is cheap: a command that only needs ``gmt.ParameterError`` or
+``gmt.parameters`` does not pay for scipy and python-control.
 """
-from .calibration import DEFAULT_CALIBRATION, TABLE_1, FluxDensityCalibration
-from .errors import GmtError, ParameterError
-from .forward import (ForwardStepper, OperatingPoint, bias_displacement, loop_metrics,
-                      operating_point, periodic_response, simulate)
-from .inverse import InverseCompensator, current_roots
-from .parameters import DriveParameters, Excitation, TransducerParameters
-from .transducer import Transducer, TransducerOutput
-from .variants import VARIANTS, ModelVariant
+import importlib
 
 __version__ = "0.1.0"
 
-__all__ = [
-    "DEFAULT_CALIBRATION", "TABLE_1", "FluxDensityCalibration", "GmtError",
-    "ParameterError", "ForwardStepper", "OperatingPoint", "bias_displacement",
-    "loop_metrics", "operating_point", "periodic_response", "simulate",
-    "InverseCompensator", "current_roots", "DriveParameters", "Excitation",
-    "TransducerParameters", "Transducer", "TransducerOutput", "ModelVariant", "VARIANTS",
-    "__version__",
-]
+#: Public name -> the submodule that defines it.
+_EXPORTS = {
+    "DEFAULT_CALIBRATION": "calibration", "TABLE_1": "calibration",
+    "FluxDensityCalibration": "calibration",
+    "GmtError": "errors", "ParameterError": "errors",
+    "ForwardStepper": "forward", "OperatingPoint": "forward", "bias_displacement": "forward",
+    "loop_metrics": "forward", "operating_point": "forward", "periodic_response": "forward",
+    "simulate": "forward",
+    "InverseCompensator": "inverse", "current_roots": "inverse",
+    "DriveParameters": "parameters", "Excitation": "parameters",
+    "TransducerParameters": "parameters",
+    "Transducer": "transducer", "TransducerOutput": "transducer",
+    "VARIANTS": "variants", "ModelVariant": "variants",
+}
+_SUBMODULES = ("calibration", "constants", "errors", "extensions", "field", "forward",
+               "inverse", "losses", "magnetostriction", "mechanics", "parameters",
+               "permeability", "sensing", "transducer", "variants")
+
+__all__ = [*_EXPORTS, "__version__"]
+
+
+def __getattr__(name):
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    if name in _SUBMODULES:
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted({*globals(), *_EXPORTS, *_SUBMODULES})

@@ -1,0 +1,198 @@
+"""The rules of the ``smeha`` command line: its parser and one type per kind of argument.
+
+Every command of :mod:`smeha.cli` builds its options from these, so a rule holds
+for every option of its kind and a new command gets the same checks:
+
+* :class:`Parser` reports a bad command line on one line, naming the argument,
+  with exit status 2 and no traceback (argparse prints the whole usage first).
+* Input files (:func:`input_file`): a missing path or a directory is refused
+  while the command line is parsed, before any work starts.
+* Output files and folders (:func:`output_file`, :func:`output_dir`): the
+  folder is created (with its parents) while parsing, so a path that cannot be
+  written fails at once instead of after a long run.
+* Numbers (:func:`number`, :func:`count`): a range per option, and the message
+  repeats the option, the value typed and the allowed range with its unit.
+* Negative numbers (:func:`join_negative_values`): ``--load -100`` works as
+  ``--load=-100`` does. Python 3.11's argparse takes ``-100`` for a value but
+  ``-1e2`` or ``-100,0`` for an unknown option; Python 3.14 widened the same
+  rule (CPython issue gh-105712).
+
+Errors found after parsing that still come before the work (two options that
+contradict each other, a file whose content is wrong) raise :class:`UsageError`;
+:func:`smeha.cli.main` prints them on one line with exit status 2.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import re
+import sys
+import tempfile
+from pathlib import Path
+
+
+class UsageError(ValueError):
+    """Bad input to a command that argparse cannot check (exit status 2)."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with a one-line error: ``smeha flow: error: argument --step: ...``.
+
+    Options are not abbreviated: ``--frequency`` is not taken for ``--frequencies``.
+    """
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
+#: A token that starts like a negative number: -100, -1e2, -.5, -100,0 (a list).
+_NEGATIVE = re.compile(r"-\.?\d")
+
+
+def join_negative_values(argv):
+    """``--opt -100`` -> ``--opt=-100`` for every long option followed by a negative number.
+
+    No option of ``smeha`` is spelt like a number, so a token such as ``-1e2``
+    after a long option can only be that option's value (see the module
+    docstring). An option that takes no value still refuses it (exit 2).
+    """
+    out = []
+    for token in argv:
+        previous = out[-1] if out else ""
+        if (_NEGATIVE.match(token) and previous.startswith("--") and previous != "--"
+                and "=" not in previous):
+            out[-1] = f"{previous}={token}"
+        else:
+            out.append(token)
+    return out
+
+
+# -- files --------------------------------------------------------------------------------
+def input_file(text: str) -> Path:
+    """An existing, readable file (argparse type)."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a directory, not a file")
+    if not path.exists():
+        raise argparse.ArgumentTypeError(f"{text}: no such file")
+    if not os.access(path, os.R_OK):
+        raise argparse.ArgumentTypeError(f"{text}: cannot read it (permission denied)")
+    return path
+
+
+def _make_folder(folder: Path, text: str) -> None:
+    """Create ``folder`` with its parents and prove it takes a file (a probe, not os.access:
+    permissions alone do not tell, e.g. for root or on a read-only mount)."""
+    existing = next((p for p in (folder, *folder.parents) if p.exists()), Path("."))
+    if not existing.is_dir():
+        raise argparse.ArgumentTypeError(f"{text}: {existing} is a file, not a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        raise argparse.ArgumentTypeError(
+            f"{text}: cannot write into the folder {folder} ({exc.strerror or exc})") from None
+
+
+def output_file(text: str) -> Path:
+    """A file to write; its folder is created now (argparse type)."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a directory; give a file name")
+    _make_folder(path.parent, text)
+    if path.exists():
+        try:
+            with open(path, "ab"):
+                pass
+        except OSError as exc:
+            raise argparse.ArgumentTypeError(f"{text}: cannot write it "
+                                             f"({exc.strerror or exc})") from None
+    return path
+
+
+def output_dir(text: str) -> Path:
+    """A folder to write files into, created now with its parents (argparse type)."""
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a file, not a folder")
+    _make_folder(path, text)
+    return path
+
+
+# -- numbers ------------------------------------------------------------------------------
+def _interval(low, high, low_open, high_open, unit) -> str:
+    lo = "-inf" if low is None else f"{low:g}"
+    hi = "inf" if high is None else f"{high:g}"
+    u = f" {unit}" if unit else ""
+    return (f"{'(' if low_open or low is None else '['}{lo}, {hi}"
+            f"{')' if high_open or high is None else ']'}{u}")
+
+
+def number(low=None, high=None, *, low_open=True, high_open=False, unit=""):
+    """An argparse type: a finite float in the range (``low``, ``high``].
+
+    ``None`` leaves a side unbounded; ``low_open``/``high_open`` exclude the bound.
+    """
+    def in_range(v):
+        if low is not None and not (v > low if low_open else v >= low):
+            return False
+        return high is None or (v < high if high_open else v <= high)
+
+    def convert(text):
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if not (math.isfinite(value) and in_range(value)):
+            raise argparse.ArgumentTypeError(
+                f"{text} is outside the allowed range "
+                f"{_interval(low, high, low_open, high_open, unit)}")
+        return value
+
+    convert.numeric = True  # tests/test_cli_input.py drives every numeric option
+    return convert
+
+
+def number_list(low=None, high=None, *, low_open=True, high_open=False, unit=""):
+    """An argparse type: comma-separated numbers, each checked as :func:`number`."""
+    one = number(low, high, low_open=low_open, high_open=high_open, unit=unit)
+
+    def convert(text):
+        items = [v for v in text.split(",") if v.strip()]
+        if not items:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of "
+                                             "numbers")
+        return [one(v.strip()) for v in items]
+
+    convert.numeric = True
+    return convert
+
+
+def count(low=1, high=None):
+    """An argparse type: a whole number in [``low``, ``high``] (``None``: unbounded)."""
+    def convert(text):
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+        if not math.isfinite(value) or value < low or (high is not None and value > high):
+            raise argparse.ArgumentTypeError(
+                f"{text} is outside the allowed range "
+                f"{_interval(low, high, False, False, '')}")
+        if value != int(value):
+            raise argparse.ArgumentTypeError(f"{text} is not a whole number")
+        return int(value)
+
+    convert.numeric = True
+    return convert
+
+
+def warn(command: str, message: str) -> None:
+    """A warning on stderr, one line, in the form of the errors."""
+    print(f"smeha {command}: warning: {message}", file=sys.stderr)
