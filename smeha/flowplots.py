@@ -1,88 +1,205 @@
-"""Figures of the flow study: one co-simulation run, flow against frequency, load lines."""
+"""Figures of the flow study: one co-simulation run, flow against frequency, load lines.
+
+One meaning per colour in every figure: blue is the uncompensated mode, red the
+compensated one (:data:`MODE_COLOURS`). What else differs -- the source of a flow
+(co-simulation, eqs 40/41, the paper), the transducer model (the paper's or an
+extended one), the pumping frequency of a load line -- is told by line style and
+marker, each with its own legend.
+"""
 from __future__ import annotations
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
+from matplotlib.patches import Patch  # noqa: E402
+
+#: Colour of each drive mode, the same in every panel.
+MODE_COLOURS = {"uncompensated": "tab:blue", "compensated": "tab:red"}
+#: Marker of each pumping frequency in the load-line panel (cycled).
+FREQUENCY_MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
+_SKIPPED = "first cycles, discarded by the flow check"
+
+
+def _eq(mode):
+    return "eq 41" if mode == "compensated" else "eq 40"
+
+
+def _simulated_label(rows) -> str:
+    """How the rows' flows were obtained: time-stepped co-simulation or the fast path."""
+    return ("periodic steady state (fast path)" if rows and rows[0].get("backend") == "fastpath"
+            else "co-simulation")
+
+
+def run_figure(record, row, skip_cycles: int | None = None):
+    """Rod displacement and control, pressures, valve phase and pumped volume of one run.
+
+    The rod displacement is drawn as Table 3 measures it: zero at the rod's lowest
+    point over the cycles the flow check averages (after ``skip_cycles``). The
+    model's absolute y, from the unmagnetised and unloaded rod, includes the bias
+    strain and the rod's compression by the chamber pressure; the offset is stated
+    in the axis label.
+    """
+    if skip_cycles is None:
+        from system_models.flowcheck import SKIP_CYCLES as skip_cycles
+    t = record["time"] * 1e3
+    period_ms = 1e3 / row["frequency_Hz"]
+    steady = t >= skip_cycles * period_ms
+    y = record["rod_displacement"] * 1e6
+    bottom = float(np.min(y[steady])) if steady.any() else float(np.min(y))
+    fig, axes = plt.subplots(4, 1, figsize=(9, 9.5), sharex=True,
+                             gridspec_kw={"height_ratios": [3, 3, 1, 2]})
+    ax = axes[0]
+    twin = ax.twinx()
+    for a in (twin, *axes[1:]):
+        a.axvspan(0.0, min(skip_cycles * period_ms, t[-1]), color="0.92", zorder=0)
+    for a in axes:
+        a.grid(alpha=0.3)
+    rod, = ax.plot(t, y - bottom, color="tab:blue", lw=1.4, label="rod displacement y")
+    ax.set_ylabel(f"rod y [um], 0 at its lowest point after the first\ncycles (there y = "
+                  f"{bottom:.1f} um from the free, unmagnetised rod)", fontsize=7)
+    control, = twin.plot(t, record["control"], color="0.45", lw=0.8,
+                         label="control signal u (right axis)")
+    twin.set_ylabel("control u [V]")
+    low, high = float(np.min(record["control"])), float(np.max(record["control"]))
+    twin.set_ylim(low - 0.05 * (high - low), high + 0.3 * (high - low))  # room for the legend
+    shaded = Patch(color="0.92", label=_SKIPPED)
+    ax.legend(handles=[rod, control, shaded], loc="upper right", fontsize=7, ncol=3,
+              framealpha=0.9)
+    ax.set_zorder(twin.get_zorder() + 1)  # the rod's line above the control trace
+    ax.patch.set_visible(False)
+
+    ax = axes[1]
+    # cavities underneath, wide and pale; the pump chamber on top, thin and dark: an open
+    # valve ties the chamber to a cavity (V1: big, V3: small), and both stay visible
+    ax.plot(t, record["p_big"] / 1e6, color="tab:orange", lw=3.5, alpha=0.45,
+            label="big (cap) cavity B")
+    ax.plot(t, record["p_small"] / 1e6, color="tab:green", lw=3.5, alpha=0.45,
+            label="small (rod) cavity S")
+    ax.plot(t, record["p_accumulator"] / 1e6, color="tab:purple", lw=1.0, ls="--",
+            label="accumulator A")
+    ax.plot(t, record["p_pump"] / 1e6, color="black", lw=0.9, label="pump chamber P")
+    ax.set_ylabel("pressure [MPa]")
+    ax.legend(loc="lower right", fontsize=7, ncol=4, framealpha=0.9)
+
+    ax = axes[2]
+    ax.step(t, record["valves_compressing"], where="post", color="black", lw=1.0)
+    ax.set_yticks([0, 1], ["expanding", "compressing"], fontsize=7)
+    ax.set_ylim(-0.2, 1.2)
+    ax.set_ylabel("valves", fontsize=8)
+
+    ax = axes[3]
+    ax.plot(t, record["volume_into_big"] * 1e9, color="black", lw=1.2,
+            label="net volume into the big cavity (V1 - V2)")
+    ax.set_ylabel("volume [mm^3]")
+    ax.set_xlabel("time [ms]")
+    ax.legend(loc="upper left", fontsize=7)
+    fig.suptitle(f"{row['mode']}, {row['frequency_Hz']:g} Hz, {row['circuit']} circuit, "
+                 f"load {row['load_N']:g} N: q = {row['flow_sim_m3_s']:.3e} m^3/s, "
+                 f"f A_d dy ({_eq(row['mode'])}) = {row['flow_eq_m3_s']:.3e} m^3/s, "
+                 f"dy = {row['dy_um']:.1f} um", fontsize=10)
+    fig.tight_layout()
+    return fig
 
 
 def plot_run(record, row, path):
-    """Rod displacement, pressures, valve phase and pumped volume of one run (PNG)."""
-    t = record["time"] * 1e3
-    fig, axes = plt.subplots(4, 1, figsize=(9, 9), sharex=True)
-    axes[0].plot(t, record["rod_displacement"] * 1e6, label="rod y")
-    axes[0].set_ylabel("rod displacement [um]")
-    ax = axes[0].twinx()
-    ax.plot(t, record["control"], color="tab:gray", lw=0.8, label="control u")
-    ax.set_ylabel("control u [V]")
-    for name, label in (("p_pump", "pump chamber"), ("p_big", "big cavity"),
-                        ("p_small", "small cavity"), ("p_accumulator", "accumulator")):
-        axes[1].plot(t, record[name] / 1e6, label=label)
-    axes[1].set_ylabel("pressure [MPa]")
-    axes[1].legend(loc="upper right", fontsize=8, ncol=2)
-    axes[2].step(t, record["compressing"], where="post", color="tab:purple")
-    axes[2].set_yticks([0, 1], ["expanding", "compressing"])
-    axes[2].set_ylabel("pump phase")
-    axes[3].plot(t, record["volume_into_big"] * 1e9, label="into the big cavity (V1 - V2)")
-    axes[3].set_ylabel("volume [mm^3]")
-    axes[3].set_xlabel("time [ms]")
-    axes[3].legend(loc="upper left", fontsize=8)
-    fig.suptitle(f"{row['mode']}, {row['frequency_Hz']:g} Hz, {row['circuit']} circuit, "
-                 f"load {row['load_N']:g} N: q = {row['flow_sim_m3_s']:.3e} m^3/s, "
-                 f"f A_d dy = {row['flow_eq_m3_s']:.3e} m^3/s")
-    for a in axes:
-        a.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    """:func:`run_figure` as a PNG."""
+    _save(run_figure(record, row), path)
 
 
-def plot_flow(rows, path):
-    """Flow against frequency for both modes with eqs 40/41 and Table 3 (Figure 12 analogue).
+def flow_figure(rows):
+    """Flow against frequency for both modes, with eqs 40/41 and Table 3 (Figure 12 analogue).
 
-    With several loads in ``rows``, a second panel draws the load lines.
+    Rows of a model variant (``row["model"] != "paper"``) are drawn next to the
+    paper's model. With several loads in ``rows``, a second panel draws the
+    load lines of each model.
     """
-    loads = sorted({r["load_N"] for r in rows})
-    base = min(loads, key=lambda v: abs(v - rows[0]["load_N"]))
-    table = [r for r in rows if r["load_N"] == base]
+    paper = [r for r in rows if r.get("model", "paper") == "paper"]
+    variants = [r for r in rows if r.get("model", "paper") != "paper"]
+    loads = sorted({r["load_N"] for r in paper})
+    base = paper[0]["load_N"]
     ncols = 2 if len(loads) > 1 else 1
-    fig, axes = plt.subplots(1, ncols, figsize=(6.5 * ncols, 4.8), squeeze=False)
+    fig, axes = plt.subplots(1, ncols, figsize=(6.8 * ncols, 6.0), squeeze=False)
     ax = axes[0, 0]
-    colours = {"uncompensated": "tab:blue", "compensated": "tab:red"}
-    for mode, colour in colours.items():
-        rs = sorted((r for r in table if r["mode"] == mode), key=lambda r: r["frequency_Hz"])
+    simulated = _simulated_label(rows)
+    variant_name = variants[0]["model"] if variants else None
+    for mode, colour in MODE_COLOURS.items():
+        rs = sorted((r for r in paper if r["mode"] == mode and r["load_N"] == base),
+                    key=lambda r: r["frequency_Hz"])
         if not rs:
             continue
         f = [r["frequency_Hz"] for r in rs]
-        ax.plot(f, [r["flow_sim_m3_s"] * 1e6 for r in rs], "o-", color=colour,
-                label=f"{mode}: co-simulation")
-        ax.plot(f, [r["flow_eq_m3_s"] * 1e6 for r in rs], "s--", color=colour, mfc="none",
-                label=f"{mode}: f A_d dy (eq {'41' if mode == 'compensated' else '40'})")
-        pf = [(r["frequency_Hz"], r["flow_paper_m3_s"]) for r in rs if r["flow_paper_m3_s"]]
+        ax.plot(f, [r["flow_sim_m3_s"] * 1e6 for r in rs], "o-", color=colour)
+        ax.plot(f, [r["flow_eq_m3_s"] * 1e6 for r in rs], "s--", color=colour, mfc="none")
+        pf = [(r["frequency_Hz"], r["flow_paper_m3_s"] * 1e6) for r in rs
+              if r["flow_paper_m3_s"]]
         if pf:
-            ax.plot(*zip(*[(a, b * 1e6) for a, b in pf]), "^:", color=colour, alpha=0.6,
-                    label=f"{mode}: paper, Table 3")
-    ax.set_xlabel("pumping frequency f [Hz]")
-    ax.set_ylabel("mean cylinder flow [cm^3/s]")
-    ax.set_title(f"Flow against frequency ({table[0]['circuit']} circuit, load {base:g} N)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+            ax.plot(*zip(*pf), "^:", color=colour, alpha=0.7)
+        vs = sorted((r for r in variants if r["mode"] == mode and r["load_N"] == base),
+                    key=lambda r: r["frequency_Hz"])
+        if vs:
+            ax.plot([r["frequency_Hz"] for r in vs], [r["flow_sim_m3_s"] * 1e6 for r in vs],
+                    "D-.", color=colour, mfc="white", lw=1.6)
+    styles = [Line2D([], [], color="k", marker="o", ls="-",
+                     label=f"{simulated}, the paper's model"),
+              Line2D([], [], color="k", marker="s", ls="--", mfc="none",
+                     label="f A_d dy of this run (eqs 40/41)"),
+              Line2D([], [], color="k", marker="^", ls=":", alpha=0.7,
+                     label="paper: f A_d dy from Table 3's measured dy\n(eqs 40/41; "
+                           "computed, not a measured flow)")]
+    if variant_name:
+        styles.append(Line2D([], [], color="k", marker="D", ls="-.", mfc="white",
+                             label=f"{simulated}, extended model\n{variant_name}"))
+    _finish_flow_axes(ax, styles, 2, "pumping frequency f [Hz]",
+                      f"Flow against frequency ({paper[0]['circuit']} circuit, load {base:g} N)")
     if ncols == 2:
-        ax = axes[0, 1]
-        for (f, mode) in sorted({(r["frequency_Hz"], r["mode"]) for r in rows}):
-            rs = sorted((r for r in rows if r["frequency_Hz"] == f and r["mode"] == mode),
-                        key=lambda r: r["load_N"])
-            ax.plot([r["load_pressure_Pa"] / 1e6 for r in rs],
-                    [r["flow_sim_m3_s"] * 1e6 for r in rs], marker="o",
-                    ls="-" if mode == "compensated" else "--",
-                    label=f"{f:g} Hz {mode}")
-        ax.axhline(0.0, color="k", lw=0.6)
-        ax.set_xlabel("load pressure p_B - p_S [MPa]")
-        ax.set_ylabel("mean cylinder flow [cm^3/s]")
-        ax.set_title("Load lines")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
+        _load_lines(axes[0, 1], paper, variants, simulated)
     fig.tight_layout()
+    return fig
+
+
+def _load_lines(ax, paper, variants, simulated):
+    """Flow against load pressure: colour = mode, marker = frequency, dash-dot = variant."""
+    frequencies = sorted({r["frequency_Hz"] for r in paper})
+    marker = {f: FREQUENCY_MARKERS[k % len(FREQUENCY_MARKERS)]
+              for k, f in enumerate(frequencies)}
+    for rows, style in ((paper, "-"), (variants, "-.")):
+        for f in frequencies:
+            for mode, colour in MODE_COLOURS.items():
+                rs = sorted((r for r in rows if r["frequency_Hz"] == f and r["mode"] == mode),
+                            key=lambda r: r["load_N"])
+                if len(rs) < 2:
+                    continue
+                ax.plot([r["load_pressure_Pa"] / 1e6 for r in rs],
+                        [r["flow_sim_m3_s"] * 1e6 for r in rs], ls=style, color=colour,
+                        marker=marker[f], mfc="white" if style == "-." else colour)
+    ax.axhline(0.0, color="k", lw=0.6)
+    freqs = [Line2D([], [], color="0.3", marker=marker[f], ls="none", label=f"{f:g} Hz")
+             for f in frequencies]
+    if variants:
+        freqs.append(Line2D([], [], color="0.3", ls="-.", mfc="white", marker="o",
+                            label=f"extended model {variants[0]['model']}"))
+    _finish_flow_axes(ax, freqs, 3, "load pressure p_B - p_S [MPa]", f"Load lines: {simulated}")
+
+
+def _finish_flow_axes(ax, handles, ncol, xlabel, title):
+    """Labels, grid and a legend below the panel: the modes' colours, then ``handles``."""
+    modes = [Line2D([], [], color=c, lw=2, label=m) for m, c in MODE_COLOURS.items()]
+    ax.legend(handles=modes + handles, loc="upper center", bbox_to_anchor=(0.5, -0.13),
+              fontsize=7, ncol=ncol, frameon=False)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("mean cylinder flow [cm^3/s]")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+
+
+def plot_flow(rows, path):
+    """:func:`flow_figure` as a PNG."""
+    _save(flow_figure(rows), path)
+
+
+def _save(fig, path):
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -1,0 +1,141 @@
+"""The figures of ``smeha flow --plot`` and ``smeha simulate --plot`` say what they show.
+
+Built from small hand-made rows and records (no co-simulation), and checked through the
+matplotlib artists: what a reader must be able to tell apart is drawn, each colour keeps
+one meaning across panels (issue 14), and the rod displacement has a stated reference.
+The PNGs themselves were looked at; these tests keep what was fixed from coming back.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from smeha import flowplots
+from system_models.cosim import RESULT_FIELDS
+
+MODES = ("uncompensated", "compensated")
+
+
+def _row(f, mode, load, model="paper", backend="direct"):
+    flow = (2.0 if mode == "compensated" else 1.5) * f / 100 - load * 1e-3 \
+        + (0.3 if model != "paper" else 0.0)
+    return {"frequency_Hz": f, "mode": mode, "model": model, "load_N": load,
+            "circuit": "realistic", "flow_sim_m3_s": flow * 1e-6, "flow_eq_m3_s": flow * 1.01e-6,
+            "flow_paper_m3_s": (2.5e-6 if f == 50.0 else None), "load_pressure_Pa": load * 1e3,
+            "backend": backend}
+
+
+def _rows(models=("paper",), loads=(150.0,)):
+    return [_row(f, m, ld, model) for model in models for f in (50.0, 100.0) for m in MODES
+            for ld in loads]
+
+
+def _mode_of(colour):
+    (mode,) = [m for m, c in flowplots.MODE_COLOURS.items()
+               if np.allclose(matplotlib_rgba(c), matplotlib_rgba(colour))]
+    return mode
+
+
+def matplotlib_rgba(colour):
+    from matplotlib.colors import to_rgba
+    return to_rgba(colour)
+
+
+def _data_lines(ax):
+    return [ln for ln in ax.get_lines() if len(ln.get_xdata()) > 1
+            and ln.get_color() not in ("k", "black")]
+
+
+def test_one_colour_per_mode_in_both_panels():
+    # issue 14: blue and red meant modes in one panel and frequency/mode pairs in the other
+    fig = flowplots.flow_figure(_rows(loads=(150.0, 0.0, 300.0)))
+    left, right = fig.axes
+    for ax in (left, right):
+        for line in _data_lines(ax):
+            mode = _mode_of(line.get_color())
+            flows = np.asarray(line.get_ydata())
+            rows = [r for r in _rows(loads=(150.0, 0.0, 300.0)) if r["mode"] == mode]
+            candidates = {round(r["flow_sim_m3_s"] * 1e6, 9) for r in rows} | \
+                {round(r["flow_eq_m3_s"] * 1e6, 9) for r in rows} | {2.5}
+            assert {round(v, 9) for v in flows} <= candidates, (mode, flows)
+    # the load lines: one per frequency and mode, told apart by marker, coloured by mode
+    markers = {(ln.get_marker(), _mode_of(ln.get_color())) for ln in _data_lines(right)}
+    assert markers == {(flowplots.FREQUENCY_MARKERS[k], m) for k in (0, 1) for m in MODES}
+
+
+def test_variant_is_drawn_next_to_the_paper_model():
+    # issue 14: flow --variant FILE --plot drew only the paper's model
+    rows = _rows(models=("paper", "mechanical_resonance"))
+    fig = flowplots.flow_figure(rows)
+    (ax,) = fig.axes
+    drawn = {tuple(np.round(ln.get_ydata(), 9)) for ln in ax.get_lines()}
+    for mode in MODES:
+        variant = [r["flow_sim_m3_s"] * 1e6 for r in rows
+                   if r["model"] != "paper" and r["mode"] == mode]
+        assert tuple(np.round(variant, 9)) in drawn
+    labels = " ".join(t.get_text() for t in ax.get_legend().get_texts())
+    assert "extended model" in labels and "mechanical_resonance" in labels
+
+
+def test_paper_flow_is_labelled_as_computed_from_table_3():
+    fig = flowplots.flow_figure(_rows())
+    labels = " ".join(t.get_text() for t in fig.axes[0].get_legend().get_texts())
+    assert "Table 3" in labels and "eqs 40/41" in labels and "not a measured flow" in labels
+
+
+def _record(frequency=100.0, cycles=4, n_cycle=200):
+    """A run's record: y = bias + compression + a 30 um stroke; pump chamber equal to the big
+    cavity while compressing (V1 open), to the small one while expanding (V3 open)."""
+    n = cycles * n_cycle + 1
+    rec = np.zeros(n, dtype=[(name, float) for name in RESULT_FIELDS])
+    t = np.arange(n) / (frequency * n_cycle)
+    phase = 2 * math.pi * frequency * t
+    rec["time"] = t
+    rec["control"] = 1.5 + 1.5 * np.cos(phase)
+    rec["rod_displacement"] = -40e-6 + 15e-6 * (1 - np.cos(phase))
+    compressing = (np.sin(phase) < 0).astype(float)
+    rec["valves_compressing"] = compressing
+    rec["p_big"] = 1.6e6 + 0.1e6 * np.sin(phase)
+    rec["p_small"] = rec["p_accumulator"] = 1.5e6
+    rec["p_pump"] = np.where(compressing == 1, rec["p_big"], rec["p_small"])
+    rec["volume_into_big"] = 1e-9 * t * frequency
+    return rec
+
+
+ROW = {"mode": "compensated", "frequency_Hz": 100.0, "circuit": "realistic", "load_N": 150.0,
+       "flow_sim_m3_s": 3.1e-6, "flow_eq_m3_s": 3.2e-6, "dy_um": 25.0}
+
+
+def test_run_figure_names_the_control_trace_and_states_the_rod_reference():
+    fig = flowplots.run_figure(_record(), ROW, skip_cycles=2)
+    rod_axis = fig.axes[0]
+    labels = [t.get_text() for t in rod_axis.get_legend().get_texts()]
+    assert any("control signal u" in label for label in labels)
+    (rod,) = [ln for ln in rod_axis.get_lines() if ln.get_label() == "rod displacement y"]
+    # Table 3's reference: zero at the lowest point of the cycles the flow check averages
+    assert min(rod.get_ydata()) == pytest.approx(0.0, abs=1e-9)
+    assert "0 at its lowest point" in rod_axis.get_ylabel()
+    assert "-40.0 um" in rod_axis.get_ylabel()  # where that zero sits in the model's y
+
+
+def test_pump_chamber_pressure_is_drawn_on_top():
+    # issue 14: the pump chamber hid under the cavity traces it equals while a valve is open
+    fig = flowplots.run_figure(_record(), ROW, skip_cycles=2)
+    pressure = fig.axes[1] if "pressure" in fig.axes[1].get_ylabel() else None
+    assert pressure is not None
+    lines = {ln.get_label(): ln for ln in pressure.get_lines()}
+    pump = lines["pump chamber P"]
+    for name in ("big (cap) cavity B", "small (rod) cavity S"):
+        cavity = lines[name]
+        # drawn after (above) the cavities, narrower than them: both stay visible
+        assert pressure.get_lines().index(pump) > pressure.get_lines().index(cavity)
+        assert pump.get_linewidth() < cavity.get_linewidth()
+
+
+def test_plots_write_png(tmp_path):
+    flowplots.plot_flow(_rows(loads=(150.0, 0.0)), tmp_path / "flow.png")
+    flowplots.plot_run(_record(), ROW, tmp_path / "run.png")
+    for name in ("flow.png", "run.png"):
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
