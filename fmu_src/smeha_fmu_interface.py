@@ -192,7 +192,6 @@ VARIABLES: tuple[Variable, ...] = (
     _par(_T, "sense_area", "m2", "Sensing-coil cross-section A_c, eq 21 (Table 2)", 380e-6),
     _par(_T, "leakage_coefficient", "1", "Flux leakage coefficient k_f >= 1, eq 1 "
          "(Table 2)", 1.1),
-    _par(_T, "piston_area", "m2", "Pump piston area A_d, eq 39 (Table 2)", 1256e-6),
     _par(_T, "low_field_hysteresis_coefficient", "W.s/(m3.(A/m)3)", "Low-field "
          "(Rayleigh) hysteresis coefficient K'_h of eq 6; 0 = not identified", 0.0),
     # -- Excitation: the operating point of the complex permeability -------------

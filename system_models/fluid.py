@@ -59,18 +59,6 @@ class FluidParameters:
 MINIMUM_PRESSURE = 1.0e3
 
 
-def air_fraction_at(fluid: FluidParameters, pressure):
-    """Volume fraction of entrained air at a pressure, [-].
-
-    The air mass is fixed; its volume follows p V^n = const, the oil's
-    volume change is neglected against the air's.
-    """
-    p = np.maximum(pressure, MINIMUM_PRESSURE)
-    a0 = fluid.air_fraction
-    air = a0 * (fluid.reference_pressure / p) ** (1.0 / fluid.air_polytropic_index)
-    return air / (1.0 - a0 + air)
-
-
 def effective_bulk_modulus(fluid: FluidParameters, pressure):
     """Effective bulk modulus of the oil-air mixture, [Pa].
 

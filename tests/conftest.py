@@ -35,7 +35,6 @@ TABLE_2 = SimpleNamespace(
     sense_turns=150.0,  # N_c
     sense_area=380.0e-6,  # A_c = 380 mm^2
     leakage_coefficient=1.1,  # k_f
-    piston_area=1256.0e-6,  # A_d = 1256 mm^2
 )
 
 #: Paper, Table 1 (clean form in NOTES.md): (f [Hz], I_m [A], E_m [V], B_m [T]).

@@ -1,14 +1,31 @@
-"""The project's front door: README commands, CI script and packaging agree."""
+"""The project's front door: what the README promises is what the repository does.
+
+The developers' brief sets the rules these check: the README's two commands (one runs the
+main job, one is exactly what CI runs), every command and option the README shows exists,
+every file it points to exists, and the benchmarks it lists are the ones ``run_all.py`` runs.
+"""
 import re
 import tomllib
 from pathlib import Path
 
+import pytest
+
+from smeha import cli
+
 ROOT = Path(__file__).resolve().parents[1]
+README = (ROOT / "README.md").read_text()
 
 
 def _readme_commands():
-    text = (ROOT / "README.md").read_text()
-    return re.findall(r"```bash\n(.+?)\n```", text)
+    return re.findall(r"```bash\n(.+?)\n```", README)
+
+
+def _subparsers():
+    import argparse
+
+    parser = cli.build_parser()
+    (action,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    return action.choices
 
 
 def test_ci_runs_exactly_the_readme_test_command():
@@ -18,18 +35,80 @@ def test_ci_runs_exactly_the_readme_test_command():
     assert len(test_cmd) == 1, commands
     ci_lines = [ln.strip() for ln in (ROOT / ".ci" / "run").read_text().splitlines()]
     assert test_cmd[0].strip() in ci_lines
+    # a fresh environment each time, and the test extra that holds pytest
+    assert "rm -rf .venv" in ci_lines and '".[test]"' in test_cmd[0]
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert any(d.startswith("pytest") for d in meta["project"]["optional-dependencies"]["test"])
 
 
-def test_readme_main_job_uses_the_console_script():
+def test_readme_main_job_is_the_flow_study_through_the_console_script():
     commands = _readme_commands()
-    main_cmd = [c for c in commands if "pytest" not in c]
-    assert main_cmd and "smeha " in main_cmd[0]
+    (main_cmd,) = [c for c in commands if "pytest" not in c]
+    assert main_cmd.startswith("python3 -m venv .venv") and "pip install -e ." in main_cmd
+    assert main_cmd.endswith(".venv/bin/smeha flow")
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
     assert meta["project"]["scripts"]["smeha"] == "smeha.cli:main"
-    assert meta["project"]["requires-python"].startswith(">=3.11")
+    assert meta["project"]["requires-python"] == ">=3.11,<3.12"  # the brief: Python 3.11
 
 
-def test_required_top_level_exists():
-    for name in ("pyproject.toml", "fmu_src", "build_fmu.py", "tests", "system_models",
-                 "README.md", "benchmarks", "data", "smeha"):
-        assert (ROOT / name).exists(), name
+def test_packages_and_test_configuration():
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    setup = meta["tool"]["setuptools"]
+    for package in setup["packages"]:
+        folder = ROOT / setup.get("package-dir", {}).get(package, package)
+        assert (folder / "__init__.py").is_file(), package
+    pytest_cfg = meta["tool"]["pytest"]["ini_options"]
+    assert any(m.startswith("integration:") for m in pytest_cfg["markers"])
+    assert "--strict-markers" in pytest_cfg["addopts"]  # a mistyped marker fails, not skips
+    for path in pytest_cfg["testpaths"]:
+        assert (ROOT / path).is_dir(), path
+
+
+def _readme_command_rows():
+    """(command, options) of each row of the README's command table."""
+    rows = re.findall(r"^\| `smeha (\w+)([^`]*)`", README, flags=re.M)
+    return [(name, set(re.findall(r"--[a-z][a-z-]*", rest))) for name, rest in rows]
+
+
+def test_readme_command_table_matches_the_parser():
+    rows = _readme_command_rows()
+    commands = _subparsers()
+    assert {name for name, _ in rows} == set(commands)  # every command listed, none extra
+    for name, options in rows:
+        known = {o for a in commands[name]._actions for o in a.option_strings}
+        assert options <= known, (name, options - known)
+
+
+@pytest.mark.parametrize("doc", ["README.md", "data/README.md", "benchmarks/README.md",
+                                 *sorted(str(p.relative_to(ROOT))
+                                         for p in (ROOT / "docs").glob("*.md"))])
+def test_relative_links_resolve(doc):
+    text = (ROOT / doc).read_text()
+    for target in re.findall(r"\]\(([^)#\s]+)\)", text):
+        if "://" in target:
+            continue
+        assert (ROOT / doc).parent.joinpath(target).exists(), f"{doc}: {target}"
+
+
+def test_readme_tree_names_what_exists():
+    tree = re.search(r"## What is here\n\n```\n(.+?)```", README, flags=re.S).group(1)
+    for line in tree.splitlines():
+        name = line.split()[0] if line.strip() and not line.startswith(" ") else None
+        if name:
+            assert (ROOT / name).exists(), name
+
+
+def test_every_benchmark_script_is_run_and_listed():
+    # benchmarks/run_all.py runs each script; benchmarks/README.md says what each measures
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("run_all", ROOT / "benchmarks" / "run_all.py")
+    run_all = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(run_all)
+    scripts = {p.stem for p in (ROOT / "benchmarks").glob("*.py")} - {"run_all"}
+    helpers = {"fmu_memory"}  # run by fmu_step_cost.py, not on its own
+    assert set(run_all.BENCHMARKS) == scripts - helpers
+    listed = (ROOT / "benchmarks" / "README.md").read_text()
+    for name in scripts:
+        assert f"`{name}.py`" in listed, name
+

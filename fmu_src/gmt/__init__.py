@@ -7,12 +7,12 @@ actuator"), eqs 1-37 and Figure 9, one module per physical concern:
 =====================  ==============================================
 module                 equations
 =====================  ==============================================
-``field``              applied field from current, eqs 1-2
+``field``              applied field from current, eq 1
 ``permeability``       complex permeability, B and M, eqs 3-5, 17-20
 ``losses``             loss separation and mu'', eqs 6-16
 ``sensing``            sensing coil, eqs 21-22
 ``calibration``        B_m at unmeasured points (Table 1)
-``magnetostriction``   strain about the bias and force, eqs 23-26, 28
+``magnetostriction``   strain about the bias and force, eqs 25, 28
 ``mechanics``          mass-spring-damper, eqs 27, 29 (python-control)
 ``forward``            composed model, eq 30 (stepper and steady state)
 ``inverse``            inverse model and compensator, eqs 31-37, Fig. 9

@@ -1,8 +1,6 @@
 """Applied magnetic field of the excitation coil, eqs 1-2."""
 from __future__ import annotations
 
-import numpy as np
-
 
 def applied_field(current, coil_turns, leakage_coefficient, rod_length):
     """Applied field H = N i / (k_f L), eq 1.
@@ -29,23 +27,3 @@ def applied_field(current, coil_turns, leakage_coefficient, rod_length):
     14772.7
     """
     return coil_turns * current / (leakage_coefficient * rod_length)
-
-
-def field_phasor(field_amplitude, angular_frequency, time):
-    """Complex applied field H~ = H_m exp(j w t), eq 2.
-
-    Parameters
-    ----------
-    field_amplitude : float
-        H_m, [A/m].
-    angular_frequency : float
-        w, [rad/s].
-    time : float or array
-        t, [s].
-
-    Returns
-    -------
-    complex or array
-        H~, [A/m]; its real part is the applied field of eq 1.
-    """
-    return field_amplitude * np.exp(1j * angular_frequency * np.asarray(time, dtype=float))[()]

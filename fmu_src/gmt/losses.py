@@ -121,18 +121,3 @@ def separate_losses(params, frequency, field_amplitude, flux_density_amplitude,
     pe = eddy_current_loss(params.eddy_coefficient, flux_density_amplitude, frequency, V)
     px = excess_loss(params.excess_coefficient, flux_density_amplitude, frequency, V)
     return LossBreakdown(hysteresis=ph, eddy=pe, excess=px)
-
-
-def imaginary_permeability_from_losses(params, frequency, field_amplitude,
-                                       flux_density_amplitude, regime="intermediate"):
-    """mu'' from the separated losses, eq 15 (low field) or eq 16 (intermediate).
-
-    Returns
-    -------
-    float
-        mu'', [-].
-    """
-    losses = separate_losses(params, frequency, field_amplitude,
-                             flux_density_amplitude, regime)
-    return imaginary_permeability(losses.total, field_amplitude, frequency,
-                                  params.rod_volume)

@@ -1,27 +1,9 @@
-"""Magnetostriction about the bias and the magnetostrictive force, eqs 23-26 and 28."""
+"""Magnetostriction about the bias and the magnetostrictive force, eqs 25 and 28.
+
+K_lambda, the coefficient of eq 25 (eqs 24, 26), is Table 2's
+``TransducerParameters.magnetostriction_coefficient``.
+"""
 from __future__ import annotations
-
-
-
-def quadratic_magnetostriction(magnetization, saturation_magnetostriction,
-                               saturation_magnetization):
-    """Quadratic domain-rotation law lambda = 3/2 (lambda_s / M_s^2) M^2, eq 23, [-].
-
-    Parameters
-    ----------
-    magnetization : float or array
-        Total magnetisation M, [A/m].
-    saturation_magnetostriction : float
-        lambda_s, [-].
-    saturation_magnetization : float
-        M_s, [A/m].
-    """
-    return 1.5 * saturation_magnetostriction / saturation_magnetization ** 2 * magnetization ** 2
-
-
-def magnetostriction_coefficient(reference_strain, reference_magnetization):
-    """K_lambda = lambda_0 / M_0^2 from one measured point, eqs 24 and 26, [m^2/A^2]."""
-    return reference_strain / reference_magnetization ** 2
 
 
 def magnetostriction(magnetization, bias_magnetization, coefficient):

@@ -66,8 +66,6 @@ class TransducerParameters:
         Sensing-coil cross-section A_c, [m^2] (eq 21): a 22 mm coil, 380 mm^2.
     leakage_coefficient : float
         Flux leakage coefficient k_f, [-] (eq 1), at least 1.
-    piston_area : float
-        Pump piston area A_d, [m^2] (eq 39).
     low_field_hysteresis_coefficient : float
         K'_h of eq 6 for the low-field (Rayleigh) loss law of eq 15,
         [W s/(m^3 (A/m)^3)]. The paper gives no value; 0 (the default) means
@@ -95,14 +93,13 @@ class TransducerParameters:
     sense_turns: float = 150.0
     sense_area: float = 380e-6
     leakage_coefficient: float = 1.1
-    piston_area: float = 1256e-6
     low_field_hysteresis_coefficient: float = 0.0
 
     def __post_init__(self):
         positive = {
             "rod_diameter": "m", "rod_length": "m", "mass": "kg",
             "stiffness": "N/m", "coil_turns": "-", "sense_turns": "-",
-            "sense_area": "m^2", "piston_area": "m^2",
+            "sense_area": "m^2",
             "magnetostriction_coefficient": "m^2/A^2",
         }
         for name, unit in positive.items():
