@@ -1,9 +1,9 @@
 """Shared fixtures for the physics tests.
 
 The reference data below are typed in from the source paper (Tables 1-3 and the
-text, in SI as ``shared/paper/NOTES.md`` gives them), never read from ``gmt``,
-so that the tests compare the package against the paper and against the
-paper's equations evaluated independently here (:class:`PaperModel`).
+text, converted to SI), never read from ``gmt``, so that the tests compare the
+package against the paper and against the paper's equations evaluated
+independently here (:class:`PaperModel`).
 """
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ import gmt
 #: before the 2019 SI revision (the difference, 5e-10 relative, is immaterial).
 MU_0 = 4e-7 * math.pi
 
-#: Paper, Table 2, converted to SI (NOTES.md): mm -> m, mm^2 -> m^2, kA/m -> A/m.
+#: Paper, Table 2, converted to SI: mm -> m, mm^2 -> m^2, kA/m -> A/m.
 TABLE_2 = SimpleNamespace(
     rod_diameter=0.010,  # d = 10 mm
     rod_length=0.080,  # L = 80 mm
@@ -37,7 +37,7 @@ TABLE_2 = SimpleNamespace(
     leakage_coefficient=1.1,  # k_f
 )
 
-#: Paper, Table 1 (clean form in NOTES.md): (f [Hz], I_m [A], E_m [V], B_m [T]).
+#: Paper, Table 1: (f [Hz], I_m [A], E_m [V], B_m [T]).
 TABLE_1 = (
     (5.0, 0.5, 0.053, 0.0300),
     (5.0, 0.7, 0.095, 0.0530),
@@ -66,7 +66,7 @@ class PaperModel:
         self.t2 = t2
         self.rod_area = math.pi * t2.rod_diameter ** 2 / 4.0  # A_r, eq 28
         self.volume = self.rod_area * t2.rod_length  # V, eqs 6-14
-        self.youngs_modulus = t2.stiffness * t2.rod_length / self.rod_area  # NOTES.md
+        self.youngs_modulus = t2.stiffness * t2.rod_length / self.rod_area  # not in Table 2
 
     def field_amplitude(self, current_amplitude):
         """H_m = N I_m / (k_f L), eq 1, [A/m]."""

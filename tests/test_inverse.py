@@ -39,7 +39,7 @@ def test_eq33_corrected_has_the_forward_current_as_root():
         a, b, c = inverse.quadratic_coefficients(mu_r[k], mu_i[k], phi0[k], i_m[k])
         scale = max(abs(a * i[k] ** 2), abs(b * i[k]), abs(c))
         worst_corrected = max(worst_corrected, abs(a * i[k] ** 2 + b * i[k] + c) / scale)
-        # The paper prints the first coefficient as (mu'-1)^2 + mu'' (NOTES.md: typo).
+        # The paper prints the first coefficient of eq 33 as (mu'-1)^2 + mu'' (a typo).
         a_printed = (mu_r[k] - 1) ** 2 + mu_i[k]
         printed_residuals.append(abs(a_printed * i[k] ** 2 + b * i[k] + c) / scale)
     printed_residuals = np.array(printed_residuals)

@@ -67,7 +67,8 @@ def test_periodic_response_matches_direct_integration(params, paper, table2, f):
 
 def test_bias_displacement(params, table2):
     # Eq 30 at i = 0: y = A_r E^H K_lambda M_b^2 / K = L K_lambda M_b^2 (E^H = K L / A_r)
-    # = 0.08 * 1.4694e-14 * 250e3^2 = 73.47 um (NOTES.md "Displacement reference").
+    # = 0.08 * 1.4694e-14 * 250e3^2 = 73.47 um: the rod's elongation by the bias magnet
+    # alone, which the model's y includes and Table 3's relative displacements do not.
     expected = table2.rod_length * table2.magnetostriction_coefficient * 250e3 ** 2
     assert gmt.bias_displacement(params) == pytest.approx(expected, rel=1e-12)
     assert expected == pytest.approx(73.47e-6, rel=1e-4)

@@ -11,7 +11,7 @@ import gmt
 
 
 def test_defaults_are_table_2(params, table2):
-    # Reference: paper, Table 2, converted to SI in NOTES.md and typed in conftest.
+    # Reference: paper, Table 2, converted to SI (mm, mm^2, kA/m) and typed in conftest.
     # Same decimal literals on both sides, so equality is exact up to the last bit;
     # rel=1e-15 only absorbs a different spelling of the same number (10e-3 vs 0.010).
     for name, value in vars(table2).items():
@@ -19,7 +19,8 @@ def test_defaults_are_table_2(params, table2):
 
 
 def test_youngs_modulus_is_20_gpa(params, table2):
-    # NOTES.md: K = E^H A_r / L fits Table 2 to four digits with E^H = 20 GPa.
+    # Table 2 gives K, not E^H: K = E^H A_r / L fits Table 2 to four digits with
+    # E^H = 20 GPa.
     a_r = math.pi * table2.rod_diameter ** 2 / 4.0
     assert f"{20e9 * a_r / table2.rod_length:.3e}" == "1.963e+07"  # Table 2's K, 4 digits
     # The package derives E^H = K L / A_r (same formula, by hand here):

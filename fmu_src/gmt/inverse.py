@@ -13,7 +13,7 @@ amperes). Moving i (mu' - 1) across and squaring removes s:
 
     [(mu' - 1)^2 + mu''^2] i^2 - 2 (mu' - 1) phi_0 i + phi_0^2 - (I_m mu'')^2 = 0   (33)
 
-The paper prints the first coefficient as (mu' - 1)^2 + mu'' (NOTES.md); the
+The paper prints the first coefficient as (mu' - 1)^2 + mu'' (a typo); the
 square is what the algebra gives and what its roots (35)-(37) use. With
 D = (mu' - 1)^2 + mu''^2 the roots are
 

@@ -1,7 +1,7 @@
 """Parameters of the giant magnetostrictive transducer (GMT) and its drive.
 
-All fields are SI. Defaults are the paper's Table 2 (converted to SI in
-``shared/paper/NOTES.md``); field names are the FMU's variable names, so a
+All fields are SI. Defaults are the paper's Table 2 (its mm, mm^2 and kA/m
+converted to SI); field names are the FMU's variable names, so a
 parameter set can be handed to the FMU as start values unchanged.
 
 Three frozen dataclasses, each validated on construction:
@@ -74,8 +74,8 @@ class TransducerParameters:
     Notes
     -----
     The paper does not give Young's modulus E^H. It is derived from the rod's
-    stiffness, E^H = K L / A_r, which reproduces Table 2's K to four digits with
-    E^H = 20 GPa (NOTES.md).
+    stiffness, E^H = K L / A_r: E^H = 20 GPa reproduces Table 2's K from its rod
+    (d = 10 mm, L = 80 mm) to four digits.
     """
 
     rod_diameter: float = 10e-3
@@ -132,7 +132,7 @@ class TransducerParameters:
 
     @property
     def youngs_modulus(self) -> float:
-        """Young's modulus at constant field E^H = K L / A_r, [Pa] (eq 28; NOTES.md)."""
+        """Young's modulus at constant field E^H = K L / A_r, [Pa] (eq 28; not in Table 2)."""
         return self.stiffness * self.rod_length / self.rod_area
 
     @property

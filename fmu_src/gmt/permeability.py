@@ -68,8 +68,9 @@ def lag_angle(mu_real, mu_imag):
 def flux_density(field, quadrature_field, mu_real, mu_imag):
     """Flux density B = mu_0 (mu' H + mu'' H_q), eqs 4 and 17.
 
-    ``quadrature_field`` is the paper's H tan(w t): the quadrature part
-    H_m sin(w t) of a sinusoidal field H = H_m cos(w t) (NOTES.md).
+    ``quadrature_field`` is the paper's H tan(w t): for the sinusoidal field
+    H = H_m cos(w t) the model is defined for, H tan(w t) = H_m sin(w t), the
+    field's quadrature part.
 
     Parameters
     ----------
