@@ -1,0 +1,215 @@
+"""Datasets of runs as a lab records them, and their CSV form."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import lti
+from .acquisition import Acquisition, record
+from .constants import LabsimError, Transducer
+from .effects import EFFECTS, EffectSet
+from .transducer import DECAY_CONSTANTS, simulate
+
+DEFAULT_FREQUENCIES = (5.0, 20.0, 50.0, 70.0, 80.0, 100.0, 150.0, 200.0)
+DEFAULT_AMPLITUDES = (0.6, 1.0)
+#: Parameters jittered per seed when ``jitter`` > 0 (relative standard deviation).
+JITTERED = ("magnetostriction_coefficient", "bias_magnetization", "mass", "damping", "stiffness")
+#: The displacement sensor's zero is drawn uniformly from +-this, once per dataset, [m].
+SENSOR_OFFSET_RANGE = 20e-6
+
+
+@dataclass(frozen=True)
+class Run:
+    """One recorded run (SI). ``displacement`` is relative: the sensor's arbitrary zero, no
+    knowledge of the bias; ``sense_voltage`` is None without a sensing coil."""
+
+    label: str
+    frequency: float  # [Hz]
+    current_amplitude: float  # nominal I_m, [A]
+    time: np.ndarray  # from the first sample, [s]
+    current: np.ndarray  # [A]
+    displacement: np.ndarray  # [m]
+    sense_voltage: np.ndarray | None  # [V]
+    drive_phase: float  # phase of the drive current at its switch-on, [rad]
+    record_start: float  # first sample, after the switch-on, [s]
+    sample_rate: float  # [Hz]
+    full_scale: dict = field(default_factory=dict)  # ADC ranges used (SI)
+
+    @property
+    def phase_at_start(self) -> float:
+        """Phase of the drive current at the first sample, [rad]."""
+        return (self.drive_phase + 2 * math.pi * self.frequency * self.record_start) % (2 * math.pi)
+
+
+@dataclass(frozen=True)
+class Dataset:
+    """Runs plus the truth they were made from."""
+
+    runs: list
+    truth: dict
+
+    def write_csv(self, path) -> Path:
+        """Write the measured-data CSV (long form: run, frequency_Hz, time_s, current_A,
+        displacement_um and, with a sensing coil, sense_voltage_V)."""
+        path = Path(path)
+        sense = all(r.sense_voltage is not None for r in self.runs)
+        header = ["run", "frequency_Hz", "time_s", "current_A", "displacement_um"]
+        if sense:
+            header.append("sense_voltage_V")
+        lines = [
+            "# synthetic lab measurements from labsim (independent generator, tests/labsim)",
+            f"# seed = {self.truth['seed']}; effects = {self.truth['strengths'] or 'none'}",
+            ",".join(header),
+        ]
+        for run in self.runs:
+            cols = [run.time, run.current, run.displacement * 1e6]
+            if sense:
+                cols.append(run.sense_voltage)
+            prefix = f"{run.label},{run.frequency:g},"
+            body = np.column_stack(cols)
+            lines.extend(prefix + ",".join(f"{v:.10g}" for v in row) for row in body)
+        path.write_text("\n".join(lines) + "\n")
+        return path
+
+
+def make_dataset(
+    effects=None,
+    seed: int = 0,
+    *,
+    frequencies=DEFAULT_FREQUENCIES,
+    amplitudes=DEFAULT_AMPLITUDES,
+    samples_per_cycle: int | None = None,
+    sample_rate: float | None = None,
+    cycles: float = 6,
+    low_frequency_cycles: float | None = None,
+    start_in_transient: bool = False,
+    noise_um: float = 0.05,
+    noise_current_A: float = 1e-3,
+    noise_voltage_V: float = 0.5e-3,
+    sense_coil: bool = True,
+    adc_bits: int = 16,
+    full_scale: dict | None = None,
+    anti_alias_order: int = 4,
+    anti_alias_cutoff: float | None = None,
+    jitter: float = 0.0,
+    transducer: Transducer | None = None,
+) -> Dataset:
+    """Make a dataset of runs (frequencies x amplitudes) with the given effects.
+
+    Parameters
+    ----------
+    effects : dict {name: strength} or iterable of names (strength 1) or None
+        Effects from ``EFFECTS``; strength 0 = absent, 1 = the reference magnitude.
+    seed : int
+        Controls everything random: drive phases, record starts, sensor offset, noise, jitter.
+    samples_per_cycle, sample_rate : int, float
+        Either per-run samples per drive period, or one fixed sample rate [Hz]; neither:
+        800 samples per cycle.
+    cycles, low_frequency_cycles : float
+        Record length in drive periods; runs below 10 Hz hold ``low_frequency_cycles``.
+    start_in_transient : bool
+        True: the record starts at the drive's switch-on. False: after all transients have
+        decayed (>= 2 periods), at a random phase.
+    noise_um, noise_current_A, noise_voltage_V : float
+        Gaussian noise at the ADC input: displacement [um], current [A], sense voltage [V].
+    sense_coil : bool
+        Record the sensing-coil voltage (eq 21).
+    adc_bits, full_scale : int, dict
+        ADC resolution and per-channel full scale (SI; missing channels auto-range).
+    anti_alias_order, anti_alias_cutoff : int, float
+        Butterworth order and cutoff [Hz] (default 0.2 x the sample rate).
+    jitter : float
+        Relative standard deviation of per-seed jitter of K_lambda, M_b, m, c, K and of the
+        B_m law's scale (0 = nominal Table 2 values).
+    """
+    effect_set = EffectSet.from_strengths(effects)
+    settings = Acquisition(
+        samples_per_cycle=samples_per_cycle, sample_rate=sample_rate, cycles=cycles,
+        low_frequency_cycles=low_frequency_cycles, start_in_transient=start_in_transient,
+        anti_alias_order=anti_alias_order, anti_alias_cutoff=anti_alias_cutoff,
+        adc_bits=adc_bits, full_scale=dict(full_scale or {}), noise_displacement=noise_um * 1e-6,
+        noise_current=noise_current_A, noise_voltage=noise_voltage_V, sense_coil=sense_coil,
+    )
+    grid = _grid(frequencies, amplitudes)
+    if not (math.isfinite(jitter) and 0.0 <= jitter <= 0.2):
+        raise LabsimError(f"jitter = {jitter!r}: must be from 0 to 0.2")
+    seeds = np.random.SeedSequence(seed).spawn(len(grid) + 1)
+    common = np.random.default_rng(seeds[0])
+    offset = common.uniform(-SENSOR_OFFSET_RANGE, SENSOR_OFFSET_RANGE)
+    factors = {name: 1.0 + jitter * float(np.clip(common.standard_normal(), -3, 3))
+               for name in JITTERED + ("bm_scale",)}
+    device = (transducer or Transducer()).jittered(
+        {k: v for k, v in factors.items() if k != "bm_scale"})
+    runs = [
+        _run(device, f, amp, effect_set, settings, np.random.default_rng(s), offset,
+             factors["bm_scale"])
+        for (f, amp), s in zip(grid, seeds[1:])
+    ]
+    truth = {
+        "seed": seed,
+        "effects": effect_set.truth(),
+        "strengths": {name: s for name, s in effect_set.strengths},
+        "sensor_offset_m": offset,
+        "jitter_factors": factors,
+        "transducer": device,
+        "acquisition": settings,
+    }
+    return Dataset(runs, truth)
+
+
+def _grid(frequencies, amplitudes):
+    freqs = [float(f) for f in np.atleast_1d(frequencies)]
+    amps = [float(a) for a in np.atleast_1d(amplitudes)]
+    for f in freqs:
+        if not (math.isfinite(f) and 0.1 <= f <= 2000.0):
+            raise LabsimError(f"frequency = {f!r} Hz: must be from 0.1 to 2000 Hz")
+    for a in amps:
+        if not (math.isfinite(a) and 0.01 <= a <= 3.0):
+            raise LabsimError(f"amplitude = {a!r} A: must be from 0.01 to 3 A")
+    if not freqs or not amps:
+        raise LabsimError("frequencies and amplitudes must not be empty")
+    return [(f, a) for a in amps for f in freqs]
+
+
+def _run(device, frequency, amplitude, effects, settings, rng, offset, bm_scale) -> Run:
+    phase = rng.uniform(0.0, 2.0 * math.pi)
+    period = 1.0 / frequency
+    rate = settings.rate(frequency)
+    anti_alias = settings.anti_alias(rate)
+    continuous = simulate(device, frequency, amplitude, phase, effects,
+                          transient=settings.start_in_transient, bm_scale=bm_scale)
+    if settings.start_in_transient:
+        start = 0.0
+    else:
+        # whole periods until every transient has decayed, then a random fraction of one:
+        # the phase at the first sample depends on the seed only, not on the effects
+        filter_rate = lti.modal(anti_alias).slowest_rate
+        settle = max(continuous.settle_time, DECAY_CONSTANTS / filter_rate)
+        start = (math.ceil(settle / period) + rng.uniform(0.0, 1.0)) * period
+    count = int(round(settings.record_cycles(frequency) * rate / frequency))
+    t = start + np.arange(count) / rate
+    signals = {
+        "current": continuous.current_signal(t, anti_alias),
+        "displacement": continuous.displacement(t, anti_alias) + offset,
+    }
+    if settings.sense_coil:
+        signals["sense_voltage"] = continuous.sense_voltage(t, anti_alias)
+    recorded, ranges = {}, {}
+    for channel, values in signals.items():
+        recorded[channel], ranges[channel] = record(values, channel, settings, rng)
+    return Run(
+        label=f"{frequency:g}Hz_{amplitude:g}A",
+        frequency=frequency,
+        current_amplitude=amplitude,
+        time=t - start,
+        current=recorded["current"],
+        displacement=recorded["displacement"],
+        sense_voltage=recorded.get("sense_voltage"),
+        drive_phase=phase,
+        record_start=start,
+        sample_rate=rate,
+        full_scale=ranges,
+    )

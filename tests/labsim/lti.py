@@ -1,0 +1,155 @@
+"""Continuous-time linear systems in modal (pole-residue) form.
+
+A strictly proper rational transfer function with simple poles is
+G(s) = D + sum_k r_k / (s - p_k). Its response to a switched exponential a exp(lam t) u(t)
+from rest is exactly
+
+    a [G(lam) exp(lam t) - sum_k r_k exp(p_k t) / (lam - p_k)]                     (*)
+
+(convolution of r exp(p t) with exp(lam t); Kailath, Linear Systems, 1980, ch. 2). labsim
+builds every continuous signal out of such terms, so mechanics, filters and diffusion act on
+them exactly, without time steps. Systems are given as zeros, poles and gain (zpk) and
+cascaded by concatenating them.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from scipy.special import ive, jn_zeros
+
+from .constants import LabsimError
+
+
+@dataclass(frozen=True)
+class Zpk:
+    """G(s) = gain * prod(s - z) / prod(s - p)."""
+
+    zeros: tuple[complex, ...]
+    poles: tuple[complex, ...]
+    gain: float
+
+    def __mul__(self, other: "Zpk") -> "Zpk":
+        return Zpk(self.zeros + other.zeros, self.poles + other.poles, self.gain * other.gain)
+
+    def __call__(self, s):
+        s = np.asarray(s, dtype=complex)
+        num = np.ones_like(s) * self.gain
+        for z in self.zeros:
+            num = num * (s - z)
+        for p in self.poles:
+            num = num / (s - p)
+        return num
+
+
+@dataclass(frozen=True)
+class Modal:
+    """G(s) = direct + sum_k residues[k] / (s - poles[k]); ``exact`` (optional) is the exact
+    transfer function used for steady states when the modal sum is a truncated series."""
+
+    poles: np.ndarray
+    residues: np.ndarray
+    direct: float = 0.0
+    exact: Callable | None = field(default=None, compare=False)
+
+    def transfer(self, s):
+        """G(s) for complex s (array or scalar)."""
+        s = np.asarray(s, dtype=complex)
+        if self.exact is not None:
+            return self.exact(s)
+        return self.direct + np.sum(
+            self.residues[:, None] / (s.reshape(1, -1) - self.poles[:, None]), axis=0
+        ).reshape(s.shape)
+
+    @property
+    def slowest_rate(self) -> float:
+        """Smallest decay rate -Re(p) of the modes, [1/s]."""
+        return float(np.min(-self.poles.real)) if self.poles.size else math.inf
+
+
+def modal(zpk: Zpk) -> Modal:
+    """Partial fractions of a strictly proper zpk with simple poles (Heaviside cover-up)."""
+    poles = np.asarray(zpk.poles, dtype=complex)
+    zeros = np.asarray(zpk.zeros, dtype=complex)
+    if zeros.size >= poles.size:
+        raise LabsimError("modal(): the transfer function must be strictly proper")
+    residues = np.empty_like(poles)
+    for k, p in enumerate(poles):
+        others = np.delete(poles, k)
+        gap = np.min(np.abs(others - p)) if others.size else math.inf
+        if gap <= 1e-9 * max(abs(p), 1.0):
+            raise LabsimError(f"modal(): repeated pole near {p:.6g}")
+        residues[k] = zpk.gain * np.prod(p - zeros) / np.prod(p - others)
+    return Modal(poles, residues, 0.0)
+
+
+def butterworth(order: int, cutoff: float) -> Zpk:
+    """Analog Butterworth low-pass, |G(j w)|^2 = 1 / (1 + (w / w_c)^(2 n)), unit DC gain.
+
+    Poles w_c exp(j pi (2k + n - 1) / (2n)), k = 1..n (Butterworth 1930; e.g. Oppenheim and
+    Schafer, Discrete-Time Signal Processing, 3rd ed., sec. 7.1).
+    """
+    if order < 1:
+        raise LabsimError(f"anti-alias filter order = {order}: must be >= 1")
+    if not cutoff > 0:
+        raise LabsimError(f"anti-alias cutoff = {cutoff} Hz: must be > 0")
+    w_c = 2.0 * math.pi * cutoff
+    k = np.arange(1, order + 1)
+    poles = w_c * np.exp(1j * math.pi * (2 * k + order - 1) / (2 * order))
+    return Zpk((), tuple(poles), w_c**order)
+
+
+def mass_spring_damper(mass: float, damping: float, stiffness: float) -> Zpk:
+    """y / F = 1 / (m s^2 + c s + K), eq 27, [m/N]."""
+    poles = np.roots([mass, damping, stiffness])
+    return Zpk((), tuple(poles.astype(complex)), 1.0 / mass)
+
+
+def two_mass(mass, damping, stiffness, out_mass, out_damping, out_stiffness) -> Zpk:
+    """Displacement of an output mass m2 coupled to the rod tip (m, c, K of eq 27) by a
+    spring k2 and damper c2, per force on the tip, [m/N].
+
+    m s^2 y1 = F - (c s + K) y1 - (c2 s + k2)(y1 - y2),  m2 s^2 y2 = (c2 s + k2)(y1 - y2)
+    => y2 / F = (c2 s + k2) / [(m s^2 + (c + c2) s + K + k2)(m2 s^2 + c2 s + k2) - (c2 s + k2)^2]
+    (a two-degree-of-freedom chain; e.g. Inman, Engineering Vibration, 4th ed., ch. 4).
+    """
+    a = np.array([mass, damping + out_damping, stiffness + out_stiffness])
+    b = np.array([out_mass, out_damping, out_stiffness])
+    coupling = np.array([out_damping, out_stiffness])
+    den = np.polysub(np.polymul(a, b), np.polymul(coupling, coupling))
+    poles = np.roots(den).astype(complex)
+    return Zpk((-out_stiffness / out_damping,), tuple(poles), out_damping / den[0])
+
+
+def derivative(gain: float) -> Zpk:
+    """G(s) = gain * s (a zero at the origin)."""
+    return Zpk((0.0,), (), gain)
+
+
+def cylinder_diffusion(diffusion_time: float, modes: int = 60) -> Modal:
+    """Mean flux over a solid conducting cylinder per surface field, 1-D radial diffusion.
+
+    With tau = mu sigma a^2 and q = sqrt(s tau), the exact transfer is
+    F(s) = 2 I_1(q) / (q I_0(q)) (Stoll, The Analysis of Eddy Currents, 1974, ch. 3;
+    Lammeraner and Stafl, Eddy Currents, 1964). Its Mittag-Leffler expansion over the zeros
+    j_{0,n} of J_0 is F(s) = sum_n 4 / (j_{0,n}^2 + s tau): first-order modes with poles
+    -j_{0,n}^2 / tau and residues 4 / tau. ``modes`` of them are kept; the rest, faster than
+    tau / j_{0,modes}^2, enter as an instantaneous term 1 - sum 4 / j_{0,n}^2.
+    """
+    if not diffusion_time > 0:
+        raise LabsimError(f"diffusion time = {diffusion_time} s: must be > 0")
+    zeros = jn_zeros(0, modes)
+    poles = -(zeros**2) / diffusion_time
+    residues = np.full(modes, 4.0 / diffusion_time)
+    direct = 1.0 - float(np.sum(4.0 / zeros**2))
+
+    def exact(s):
+        q = np.sqrt(np.asarray(s, dtype=complex) * diffusion_time)
+        small = np.abs(q) < 1e-4
+        q_safe = np.where(small, 1.0, q)
+        value = 2.0 * ive(1, q_safe) / (q_safe * ive(0, q_safe))
+        return np.where(small, 1.0 - q**2 / 8.0, value)
+
+    return Modal(poles.astype(complex), residues.astype(complex), direct, exact)

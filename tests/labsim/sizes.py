@@ -1,0 +1,57 @@
+"""How much each effect changes the signals: the figures quoted in README.md.
+
+The change is the RMS over the record of the difference between the noiseless displacement
+(or flux density) with and without the effect, each with its mean removed (measured data are
+relative), at the same drive phases and times, after the transients.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .constants import Transducer
+from .effects import EFFECTS, EffectSet
+from .transducer import simulate
+
+
+def effect_size(effects, frequency: float = 100.0, current_amplitude: float = 1.0,
+                cycles: float = 6, points_per_cycle: int = 400) -> dict:
+    """RMS change of y [m] and of B [T] caused by ``effects`` ({name: strength})."""
+    device = Transducer()
+    period = 1.0 / frequency
+    clean = simulate(device, frequency, current_amplitude, 0.0, EffectSet(), transient=False)
+    other = simulate(device, frequency, current_amplitude, 0.0,
+                     EffectSet.from_strengths(effects), transient=False)
+    start = max(clean.settle_time, other.settle_time)
+    start = math.ceil(start / period) * period
+    t = start + np.arange(int(cycles * points_per_cycle)) * period / points_per_cycle
+    y0, y1 = clean.displacement(t), other.displacement(t)
+    b0, b1 = clean.flux.evaluate(t), other.flux.evaluate(t)
+    return {
+        "displacement_rms": _rms(y1 - y0),
+        "flux_rms": _rms(b1 - b0),
+        "displacement_rms_clean": _rms(y0),
+        "flux_rms_clean": _rms(b0),
+    }
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean((x - x.mean()) ** 2)))
+
+
+def table(frequency: float = 100.0, current_amplitude: float = 1.0) -> str:
+    """A text table of the effect sizes at strength 1."""
+    rows = [f"effect at strength 1 ({frequency:g} Hz, {current_amplitude:g} A): "
+            "RMS change of y [um], of B [mT]"]
+    for name in EFFECTS:
+        size = effect_size({name: 1.0}, frequency, current_amplitude)
+        y_um, b_mt = size["displacement_rms"] * 1e6, size["flux_rms"] * 1e3
+        rows.append(f"{name:30s} {y_um:7.3f} {b_mt:8.4f}")
+    return "\n".join(rows)
+
+
+if __name__ == "__main__":
+    print(table())
+    print(table(5.0))
+    print(table(200.0, 0.6))

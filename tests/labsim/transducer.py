@@ -1,0 +1,244 @@
+"""One run of the transducer as continuous signals: the paper's model (eqs 1-30) plus the
+effects, from the drive's switch-on at t = 0 (rod at rest at its bias point before).
+
+Signal chain (each arrow exact unless marked):
+
+    i = I_m cos(w t + phi0) u(t)                                   (drive, eq 1 for H)
+    H -> [eddy diffusion F(s)] -> H_eff                            (``lti``, linear)
+    M_lin = F * M_paper,  M_paper = Re((mu_c - 1) H~)              (eqs 3-5, 16, 20)
+    M_P = Preisach(H_eff)                                          (``hysteresis``)
+    M_tot = S(M_b + M_lin + M_P)   (S = Langevin, or identity)     (``effects.Saturation``)
+    B - B_bias = mu_0 (H_eff + M_tot - S(M_b))                     (eq 5)
+    F - F_bias = A_r E^H [K_l(T) M_tot^2 - K_l(T0) S(M_b)^2] + thermal expansion  (eqs 25, 28)
+    y = G_mech(s) F  (eq 27, or the two-mass chain),  E = -N_c A_c dB/dt  (eq 21)
+
+Nonlinear stages act on the periodic steady state through a phase grid and FFT (smooth
+stages: exponentially convergent; the Preisach branches: coefficients ~ n^-3, 1024 kept), and
+on the transient through a fine time grid (``waveform`` first-order hold), computed only when
+the record starts before the transient has died out.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import lti, paper
+from .constants import MU_0, Transducer
+from .effects import EffectSet
+from .hysteresis import periodic_branches, play_sequence
+from .waveform import Waveform, evaluate_response, harmonic_sum, respond
+
+#: Phase-grid points per period for the nonlinear stages (smooth ones / with Preisach).
+PHASE_POINTS = 256
+PHASE_POINTS_HYSTERESIS = 8192
+#: Transient grid: at least this many steps per period.
+TRANSIENT_STEPS_PER_PERIOD = 2048
+#: A transient term is negligible after this many of its time constants (exp(-40) ~ 4e-18).
+DECAY_CONSTANTS = 40.0
+
+
+def langevin(x):
+    """L(x) = coth x - 1/x (series x/3 - x^3/45 + 2 x^5/945 for |x| < 1e-3), [-]."""
+    x = np.asarray(x, dtype=float)
+    small = np.abs(x) < 1e-3
+    xs = np.where(small, 1.0, x)
+    return np.where(small, x / 3 - x**3 / 45 + 2 * x**5 / 945, 1.0 / np.tanh(xs) - 1.0 / xs)
+
+
+@dataclass(frozen=True)
+class ContinuousRun:
+    """Noiseless continuous signals of one run; t = 0 is the drive's switch-on."""
+
+    frequency: float
+    current: Waveform  # i(t), [A]
+    flux: Waveform  # B(t) - B(0-), [T]
+    force: Waveform  # F(t) - F(0-), [N]
+    mechanics: lti.Zpk  # displacement per force, [m/N]
+    delay: float  # sensor-chain delay of the displacement, [s]
+    sense_gain: float  # -N_c A_c, [m^2]
+    settle_time: float  # after it, transients are below 1e-15 of the signal, [s]
+    permeability: paper.Permeability
+
+    def displacement(self, t, anti_alias: lti.Zpk | None = None) -> np.ndarray:
+        """y(t) - y(0-) at the sensor, after the optional filter, [m]."""
+        system = self.mechanics if anti_alias is None else anti_alias * self.mechanics
+        return evaluate_response(lti.modal(system), self.force, np.asarray(t) - self.delay)
+
+    def sense_voltage(self, t, anti_alias: lti.Zpk) -> np.ndarray:
+        """E(t) = -N_c A_c dB/dt (eq 21) after the anti-alias filter, [V]."""
+        system = anti_alias * lti.derivative(self.sense_gain)
+        return evaluate_response(lti.modal(system), self.flux, t)
+
+    def current_signal(self, t, anti_alias: lti.Zpk | None = None) -> np.ndarray:
+        """i(t) after the optional filter, [A]."""
+        if anti_alias is None:
+            return self.current.evaluate(t)
+        return evaluate_response(lti.modal(anti_alias), self.current, t)
+
+
+def simulate(
+    transducer: Transducer,
+    frequency: float,
+    current_amplitude: float,
+    phase: float,
+    effects: EffectSet,
+    transient: bool = True,
+    bm_scale: float = 1.0,
+) -> ContinuousRun:
+    """The continuous run for i = I_m cos(2 pi f t + phase), t >= 0."""
+    omega = 2.0 * math.pi * frequency
+    perm = paper.permeability(transducer, frequency, current_amplitude, bm_scale)
+    drive = np.exp(1j * phase)
+    current = Waveform.sinusoid(omega, current_amplitude * drive)
+    field = Waveform.sinusoid(omega, perm.field_amplitude * drive)
+    magnetization = Waveform.sinusoid(omega, (perm.complex - 1.0) * perm.field_amplitude * drive)
+    slowest = math.inf
+    if effects.eddy is not None:
+        diffusion = lti.cylinder_diffusion(effects.eddy.diffusion_time)
+        field = respond(diffusion, field)
+        magnetization = respond(diffusion, magnetization)
+        slowest = diffusion.slowest_rate
+    stage = _NonlinearStage(transducer, effects, omega)
+    extra_m, square, window = stage.run(field, magnetization, transient)
+    flux = (field + magnetization + extra_m).scaled(MU_0)
+    force = _force(transducer, effects, current_amplitude, square, stage.bias_total)
+    if effects.resonance is not None:
+        r = effects.resonance
+        mechanics = lti.two_mass(transducer.mass, transducer.damping, transducer.stiffness,
+                                 r.out_mass, r.out_damping, r.out_stiffness)
+    else:
+        mechanics = lti.mass_spring_damper(transducer.mass, transducer.damping,
+                                           transducer.stiffness)
+    rates = [slowest, lti.modal(mechanics).slowest_rate]
+    settle = max(2.0 * 2.0 * math.pi / omega, window + DECAY_CONSTANTS / min(rates))
+    delay = effects.delay.delay if effects.delay is not None else 0.0
+    sense_gain = -transducer.sense_turns * transducer.sense_area
+    return ContinuousRun(frequency, current, flux, force, mechanics, delay, sense_gain,
+                         settle, perm)
+
+
+class _NonlinearStage:
+    """Preisach, saturation and the square of eq 25, on the periodic state and transient."""
+
+    def __init__(self, transducer: Transducer, effects: EffectSet, omega: float) -> None:
+        self.bias = transducer.bias_magnetization
+        self.effects = effects
+        self.omega = omega
+        self.bias_total = float(self._saturate(np.array(self.bias)))
+
+    def _saturate(self, m):
+        sat = self.effects.saturation
+        if sat is None:
+            return m
+        m_s = sat.saturation_magnetization
+        return m_s * langevin(3.0 * m / m_s)
+
+    def _outputs(self, h, m_lin, m_p):
+        """(M_tot - S(M_b) - M_lin, M_tot^2 - S(M_b)^2) pointwise."""
+        total = self._saturate(self.bias + m_lin + m_p)
+        return total - self.bias_total - m_lin, total**2 - self.bias_total**2
+
+    def _preisach_periodic(self, field: Waveform, phase):
+        hyst = self.effects.hysteresis
+        if hyst is None:
+            return np.zeros(np.shape(phase))
+        a1 = field.steady()[1]
+        return periodic_branches(abs(a1), phase + np.angle(a1), hyst.susceptibility,
+                                 hyst.threshold_scale)
+
+    def run(self, field: Waveform, magnetization: Waveform, transient: bool):
+        """Waveforms of the extra magnetisation and of M_tot^2 - S(M_b)^2; transient length."""
+        points = PHASE_POINTS_HYSTERESIS if self.effects.hysteresis else PHASE_POINTS
+        phase = 2.0 * math.pi * np.arange(points) / points
+        t = phase / self.omega
+        h_per = harmonic_sum(field.steady(), self.omega, t)
+        m_per = harmonic_sum(magnetization.steady(), self.omega, t)
+        extra, square = self._outputs(h_per, m_per, self._preisach_periodic(field, phase))
+        extra_w = Waveform.periodic(self.omega, _harmonics(extra))
+        square_w = Waveform.periodic(self.omega, _harmonics(square))
+        needs_grid = field.has_transient_deviation or self.effects.hysteresis is not None
+        if not (transient and needs_grid):
+            return extra_w, square_w, _transient_window(field, self.effects, self.omega)
+        step, times = _transient_grid(field, self.effects, self.omega)
+        h_full, m_full = field.evaluate(times), magnetization.evaluate(times)
+        h_steady = harmonic_sum(field.steady(), self.omega, times)
+        m_steady = harmonic_sum(magnetization.steady(), self.omega, times)
+        hyst = self.effects.hysteresis
+        p_full = (play_sequence(h_full, hyst.susceptibility, hyst.threshold_scale)
+                  if hyst else 0.0)
+        p_steady = self._preisach_periodic(field, self.omega * times)
+        extra_f, square_f = self._outputs(h_full, m_full, p_full)
+        extra_s, square_s = self._outputs(h_steady, m_steady, p_steady)
+        extra_w = _with_grid(extra_w, step, extra_f - extra_s)
+        square_w = _with_grid(square_w, step, square_f - square_s)
+        return extra_w, square_w, times[-1]
+
+
+def _harmonics(values: np.ndarray, tolerance: float = 1e-14) -> np.ndarray:
+    """Coefficients a_n (x = Re sum a_n exp(j n theta)) of one period sampled at P points,
+    cut after the last harmonic above ``tolerance`` times the largest."""
+    spectrum = np.fft.rfft(values) / values.size
+    coef = 2.0 * spectrum
+    coef[0] = spectrum[0].real
+    coef = coef[: values.size // 2]  # drop the Nyquist bin
+    big = np.nonzero(np.abs(coef) > tolerance * max(np.max(np.abs(coef)), 1e-300))[0]
+    return coef[: (big[-1] + 1) if big.size else 1]
+
+
+def _with_grid(w: Waveform, step: float, deviation: np.ndarray) -> Waveform:
+    return Waveform(w.omega, w.decays, w.harmonics, w.exponents, w.amplitudes, step, deviation)
+
+
+def _transient_window(field: Waveform, effects: EffectSet, omega: float) -> float:
+    """Time after the switch-on beyond which the magnetic state is periodic, [s]."""
+    window = 0.0
+    if field.exponents.size:
+        window = DECAY_CONSTANTS / float(np.min(-field.exponents.real))
+    if effects.hysteresis is not None:
+        window += 1.25 * 2.0 * math.pi / omega  # both extremes of the field swept once
+    return window
+
+
+def _transient_grid(field: Waveform, effects: EffectSet, omega: float):
+    period = 2.0 * math.pi / omega
+    step = period / TRANSIENT_STEPS_PER_PERIOD
+    if field.exponents.size:
+        step = min(step, 1.0 / (25.0 * float(np.min(-field.exponents.real))))
+    window = _transient_window(field, effects, omega)
+    count = int(math.ceil(window / step)) + 1
+    return step, np.arange(count) * step
+
+
+def _force(transducer, effects, current_amplitude, square: Waveform, bias_total) -> Waveform:
+    """F - F_bias from M_tot^2 - S(M_b)^2 (eqs 25, 28), with the thermal drift if present."""
+    per_strain = transducer.force_per_strain
+    kappa = per_strain * transducer.magnetostriction_coefficient
+    thermal = effects.thermal
+    if thermal is None:
+        return square.scaled(kappa)
+    alpha = thermal.strain_coefficient
+    rise_inf = thermal.final_rise(current_amplitude)
+    change = rise_inf - thermal.initial_rise
+    constant = (kappa * alpha * bias_total**2 + per_strain * thermal.expansion_coefficient) * change
+    steady = square.steady() * kappa * (1.0 + alpha * rise_inf)
+    steady = steady.copy()
+    steady[0] += constant
+    drift = -square.steady() * kappa * alpha * change
+    drift = drift.copy()
+    drift[0] -= constant
+    grid = square.grid
+    if grid.size:
+        times = np.arange(grid.size) * square.grid_step
+        rise = rise_inf - change * np.exp(-times / thermal.time_constant)
+        grid = grid * kappa * (1.0 + alpha * rise)
+    return Waveform(
+        square.omega,
+        (0.0, 1.0 / thermal.time_constant),
+        (steady, drift),
+        square.exponents,
+        square.amplitudes * kappa,
+        square.grid_step,
+        grid,
+    )
