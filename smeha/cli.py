@@ -54,7 +54,7 @@ import gmt  # cheap: its names load on first use (gmt/__init__.py)
 
 from . import __version__
 from .cliargs import (Parser, UsageError, count, input_file, join_negative_values, number,
-                      number_list, output_dir, output_file, warn)
+                      number_list, output_dir, output_file, scheduler_address, warn)
 
 #: Frequencies the study accepts, (0, 1000] Hz (gmt.Excitation's range).
 FREQUENCY = number(0.0, 1000.0, unit="Hz")
@@ -232,6 +232,9 @@ def _case_from(args, frequency, mode, load=None, variant=None):
 def _fmu_for(args, cases):
     from . import flowstudy
     if all(c.backend != "fmu" for c in cases):
+        if args.fmu:
+            raise UsageError(f"--fmu {args.fmu} has no use: every case runs gmt in-process "
+                             "(backend 'direct'); drop --fmu or the direct backend")
         return None
     if args.fmu:
         return args.fmu
@@ -468,7 +471,7 @@ def _add_sweep(subparsers):
                     "into one CSV table; a rerun runs only the points missing or failed there.")
     p.add_argument("spec", metavar="SPEC", type=input_file,
                    help="sweep spec (TOML: [grid], [settings])")
-    p.add_argument("--scheduler", metavar="ADDRESS",
+    p.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
                    help="Dask scheduler, e.g. tcp://host:8786 (default: local processes)")
     p.add_argument("--workers", type=count(1), metavar="N",
                    help="local worker processes, at least 1 (default 2; not with --scheduler)")
@@ -492,7 +495,7 @@ def default_sweep_table(spec: Path) -> Path:
 
 
 def _run_sweep(args) -> int:
-    from . import flowstudy, sweep
+    from . import sweep
 
     if args.scheduler and args.workers is not None:
         raise UsageError("--workers sets local processes; with --scheduler the Dask "
@@ -510,9 +513,7 @@ def _run_sweep(args) -> int:
         highest[key] = max(highest.get(key, 0.0), q.frequency)
     for (step, period), frequency in highest.items():
         _check_step("sweep", step, frequency, period)
-    fmu = None
-    if any(p.backend == "fmu" for p in points):
-        fmu = args.fmu or flowstudy.ensure_fmu(quiet=args.json)
+    fmu = _fmu_for(args, points)
     try:
         result = sweep.run_sweep(points, out, fmu, workers=_workers(args),
                                  scheduler=args.scheduler, quiet=args.json)

@@ -73,9 +73,15 @@ def join_negative_values(argv):
 
 
 # -- files --------------------------------------------------------------------------------
+def _path(text: str) -> Path:
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path")
+    return Path(text)
+
+
 def input_file(text: str) -> Path:
     """An existing, readable file (argparse type)."""
-    path = Path(text)
+    path = _path(text)
     if path.is_dir():
         raise argparse.ArgumentTypeError(f"{text} is a directory, not a file")
     if not path.exists():
@@ -102,7 +108,7 @@ def _make_folder(folder: Path, text: str) -> None:
 
 def output_file(text: str) -> Path:
     """A file to write; its folder is created now (argparse type)."""
-    path = Path(text)
+    path = _path(text)
     if path.is_dir():
         raise argparse.ArgumentTypeError(f"{text} is a directory; give a file name")
     _make_folder(path.parent, text)
@@ -118,7 +124,7 @@ def output_file(text: str) -> Path:
 
 def output_dir(text: str) -> Path:
     """A folder to write files into, created now with its parents (argparse type)."""
-    path = Path(text)
+    path = _path(text)
     if path.exists() and not path.is_dir():
         raise argparse.ArgumentTypeError(f"{text} is a file, not a folder")
     _make_folder(path, text)
@@ -191,6 +197,18 @@ def count(low=1, high=None):
 
     convert.numeric = True
     return convert
+
+
+#: A Dask scheduler address: [protocol://]host:port.
+_ADDRESS = re.compile(r"([a-z]+://)?[^\s:/]+:\d+")
+
+
+def scheduler_address(text: str) -> str:
+    """A Dask scheduler address such as tcp://host:8786 (argparse type; not connected here)."""
+    if not _ADDRESS.fullmatch(text.strip()):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a scheduler address "
+                                         "[protocol://]host:port, e.g. tcp://10.0.0.5:8786")
+    return text.strip()
 
 
 def warn(command: str, message: str) -> None:

@@ -18,8 +18,9 @@ from matplotlib.patches import Patch  # noqa: E402
 
 #: Colour of each drive mode, the same in every panel.
 MODE_COLOURS = {"uncompensated": "tab:blue", "compensated": "tab:red"}
-#: Marker of each pumping frequency in the load-line panel (cycled).
-FREQUENCY_MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
+#: Markers for the curves a colour does not tell apart (frequencies of the load lines,
+#: loads of a sweep), in order, cycled.
+MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
 _SKIPPED = "first cycles, discarded by the flow check"
 
 
@@ -58,8 +59,10 @@ def run_figure(record, row, skip_cycles: int | None = None):
     for a in axes:
         a.grid(alpha=0.3)
     rod, = ax.plot(t, y - bottom, color="tab:blue", lw=1.4, label="rod displacement y")
-    ax.set_ylabel(f"rod y [um], 0 at its lowest point after the first\ncycles (there y = "
-                  f"{bottom:.1f} um from the free, unmagnetised rod)", fontsize=7)
+    ax.set_ylabel("rod displacement y [um]")
+    ax.set_title(f"rod y: 0 at its lowest point after the first cycles, as Table 3 measures; "
+                 f"there the model's y (from the free, unmagnetised rod) is {bottom:.1f} um",
+                 fontsize=8, loc="left")
     control, = twin.plot(t, record["control"], color="0.45", lw=0.8,
                          label="control signal u (right axis)")
     twin.set_ylabel("control u [V]")
@@ -163,7 +166,7 @@ def flow_figure(rows):
 def _load_lines(ax, paper, variants, simulated):
     """Flow against load pressure: colour = mode, marker = frequency, dash-dot = variant."""
     frequencies = sorted({r["frequency_Hz"] for r in paper})
-    marker = {f: FREQUENCY_MARKERS[k % len(FREQUENCY_MARKERS)]
+    marker = {f: MARKERS[k % len(MARKERS)]
               for k, f in enumerate(frequencies)}
     for rows, style in ((paper, "-"), (variants, "-.")):
         for f in frequencies:

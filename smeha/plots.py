@@ -144,9 +144,9 @@ def linearity_figure(params: gmt.TransducerParameters, runs, path) -> Path:
                 _closed(paper.normalise(cyc["displacement"])),
                 color="C0", lw=1.5, label="uncompensated, U from i = I_m cos(2\u03c0ft)")
         ax.plot(_closed(paper.normalise(run.control)), _closed(paper.normalise(run.displacement)),
-                color="C3", lw=1.5,
+                color="C3", lw=3.5, alpha=0.55,
                 label=f"compensated (Figure 9, rule '{run.branch_rule}'), U from u")
-        ax.plot([0, 1], [0, 1], color="k", lw=1, ls=":", label="ideal, Y = U")
+        ax.plot([0, 1], [0, 1], color="k", lw=1, ls=":", label="ideal, Y = U")  # above it
         dev_c, corr_c = paper.linearity(run.control, run.displacement)
         dev_u, corr_u = paper.linearity(cyc["current"], cyc["displacement"])
         ax.text(0.97, 0.03, f"max|Y-U|, r\ncompensated:    {dev_c:.3f}, {corr_c:.4f}\n"

@@ -474,14 +474,20 @@ def plot_sweep(rows, path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from .flowplots import MARKERS, MODE_COLOURS
+
     ok = [r for r in rows if r["status"] == "ok"]
     fig, ax = plt.subplots(figsize=(6.5, 4.8))
     groups = sorted({(r["mode"], r["load_N"], r["ideal"]) for r in ok})
+    # colour = mode, as in every flow figure (smeha.flowplots); marker and line = load, circuit
+    cases = sorted({(load, ideal) for _, load, ideal in groups})
     for mode, load, ideal in groups:
         rs = sorted((r for r in ok if (r["mode"], r["load_N"], r["ideal"]) == (mode, load, ideal)),
                     key=lambda r: r["frequency"])
+        k = cases.index((load, ideal))
         ax.plot([r["frequency"] for r in rs], [r["flow_sim_m3_s"] * 1e6 for r in rs],
-                "o-" if mode == "compensated" else "s--",
+                color=MODE_COLOURS[mode], marker=MARKERS[k % len(MARKERS)],
+                ls=("-", "--", "-.", ":")[k % 4],
                 label=f"{mode}, {load:g} N, {'ideal' if ideal else 'realistic'}")
     ax.set_xlabel("pumping frequency f [Hz]")
     ax.set_ylabel("mean cylinder flow [cm^3/s]")

@@ -16,10 +16,15 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 import pytest
 
 from smeha import cli, cliargs
+
+
+#: A file that exists in every checkout (its content does not matter where it is used).
+VARIANT = str(Path(__file__).resolve().parents[1] / "data" / "paper_variant.json")
 
 
 class WorkStarted(BaseException):
@@ -157,6 +162,14 @@ def test_output_folders_are_created_before_the_work(command, option, action, tmp
     assert [c for c, _ in calls] == [command]
 
 
+@pytest.mark.parametrize("command, option, action", INPUTS + OUTPUTS,
+                         ids=_ids(INPUTS + OUTPUTS))
+def test_empty_path(command, option, action, calls, valid, capsys):
+    # an empty path would silently mean the current folder
+    _refused(capsys, _with(valid(command, action), option, action, ""), "an empty path")
+    assert calls == []
+
+
 @pytest.mark.parametrize("option", ["--csv", "--plot"])
 def test_directory_as_output_file(option, tmp_path, calls, valid, capsys):
     err = _refused(capsys, [*valid("simulate"), option, str(tmp_path)], option)
@@ -213,6 +226,15 @@ def test_one_rule_per_option(argv, option, tmp_path, calls, capsys):
     assert calls == []
 
 
+@pytest.mark.parametrize("address", ["bogus", "tcp://host", "tcp://host:port", ""])
+def test_scheduler_address(address, tmp_path, calls, capsys):
+    spec = tmp_path / "s.toml"
+    spec.write_text("")
+    _refused(capsys, ["sweep", str(spec), "--scheduler", address], "argument --scheduler")
+    assert cli.main(["sweep", str(spec), "--scheduler", "tcp://10.0.0.5:8786"]) == 0
+    assert calls[0][1].scheduler == "tcp://10.0.0.5:8786"
+
+
 def test_an_option_without_a_value_refuses_a_number(calls, capsys):
     _refused(capsys, ["flow", "--ideal", "-5"], "--ideal")
 
@@ -243,10 +265,13 @@ def tripwire(monkeypatch):
     (["flow", "--fast", "--cycles", "5"], ["--fast does not take --cycles"]),
     (["flow", "--fast", "--workers", "2"], ["--fast does not take --workers"]),
     (["flow", "--fast", "--backend", "direct"], ["--fast does not take --backend"]),
-    (["flow", "--fast", "--variant", "data/paper_variant.json"],
+    (["flow", "--fast", "--variant", VARIANT],
      ["--fast does not take --variant"]),
     (["flow", "--fast", "--controller-period", "1e-5"], ["--fast does not take "
                                                          "--controller-period"]),
+    (["simulate", "--frequency", "50", "--mode", "compensated", "--backend", "direct",
+      "--fmu", VARIANT], [f"--fmu {VARIANT} has no use"]),
+    (["flow", "--backend", "direct", "--fmu", VARIANT], ["has no use"]),
 ])
 def test_rules_between_options(argv, words, tripwire, capsys):
     err = _refused(capsys, argv, words[0])
