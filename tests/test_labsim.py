@@ -174,6 +174,28 @@ def test_fixed_rate_few_cycles_and_transient_start():
     assert abs(slow.current[0]) <= 2 * slow.full_scale["current"] / 2**16
 
 
+def test_switch_on_spike_of_the_sense_voltage_saturates_the_adc():
+    # the paper's phasor model switches B on with a step: E = -N_c A_c dB/dt (eq 21) has an
+    # impulse, spread by the filter over a few samples; the ADC is ranged on the running
+    # signal, so those samples sit on the end codes and are counted
+    ds = labsim.make_dataset(seed=6, frequencies=[50.0], amplitudes=[1.0],
+                             start_in_transient=True)
+    run = ds.runs[0]
+    assert 0 < run.saturated["sense_voltage"] < 40  # of 4800 samples, all in the first ms
+    top = run.full_scale["sense_voltage"] * (1 - 2.0**-15)
+    assert np.all(np.abs(run.sense_voltage[int(1e-3 * run.sample_rate):]) < top)
+    assert run.saturated["displacement"] == 0
+
+
+def test_jitter_is_seeded_and_recorded():
+    a = labsim.make_dataset(seed=12, frequencies=[50.0], amplitudes=[1.0], jitter=0.03)
+    b = labsim.make_dataset(seed=12, frequencies=[50.0], amplitudes=[1.0], jitter=0.03)
+    factors = a.truth["jitter_factors"]
+    assert factors == b.truth["jitter_factors"] and len(set(factors.values())) == 6
+    assert all(abs(k - 1) <= 0.09 for k in factors.values())  # clipped at 3 sigma
+    assert a.truth["transducer"].mass == pytest.approx(0.02 * factors["mass"])
+
+
 def test_record_start_phase_is_random_and_reproducible():
     a = labsim.make_dataset(seed=7, frequencies=[50.0, 100.0], amplitudes=[1.0])
     b = labsim.make_dataset(seed=7, frequencies=[50.0, 100.0], amplitudes=[1.0])

@@ -112,25 +112,35 @@ def auto_range(peak: float) -> float:
     return 10.0 * decade
 
 
-def digitise(values: np.ndarray, full_scale: float, bits: int, channel: str) -> np.ndarray:
-    """Bipolar mid-tread ADC: multiples of 2 FS / 2^bits, codes -2^(b-1) .. 2^(b-1) - 1."""
+def digitise(values: np.ndarray, full_scale: float, bits: int) -> tuple[np.ndarray, int]:
+    """Bipolar mid-tread ADC: multiples of 2 FS / 2^bits, codes -2^(b-1) .. 2^(b-1) - 1;
+    values beyond the range saturate at the end codes, as a real converter's do.
+    Returns the samples and the number of saturated ones."""
     step = 2.0 * full_scale / 2**bits
     codes = np.round(values / step)
     low, high = -(2 ** (bits - 1)), 2 ** (bits - 1) - 1
-    if codes.min() < low or codes.max() > high:
-        raise LabsimError(
-            f"{channel}: signal peak {np.max(np.abs(values)):.4g} exceeds the ADC full scale "
-            f"{full_scale:.4g} (SI); raise full_scale[{channel!r}] or leave it to auto-range"
-        )
-    return codes * step
+    clipped = int(np.count_nonzero((codes < low) | (codes > high)))
+    return np.clip(codes, low, high) * step, clipped
 
 
-def record(signal: np.ndarray, channel: str, settings: Acquisition,
-           rng) -> tuple[np.ndarray, float]:
-    """Add noise and digitise one channel; returns (samples, full scale used)."""
+def record(signal: np.ndarray, channel: str, settings: Acquisition, rng,
+           steady_peak: float) -> tuple[np.ndarray, float, int]:
+    """Add noise and digitise one channel; returns (samples, full scale, saturated samples).
+
+    ``steady_peak`` is the channel's peak once the transients are over: auto-ranging uses it
+    (an operator sets the range on the running signal), so a switch-on spike of the sense
+    voltage may saturate the converter for a few samples of a record started in the transient.
+    A given full scale below the steady peak is refused.
+    """
     sigma = settings.noise(channel)
     noisy = signal + sigma * rng.standard_normal(signal.size) if sigma > 0 else signal
     fs = settings.full_scale.get(channel)
     if fs is None:
-        fs = auto_range(float(np.max(np.abs(signal))) + 5.0 * sigma)
-    return digitise(noisy, fs, settings.adc_bits, channel), fs
+        fs = auto_range(steady_peak + 5.0 * sigma)
+    elif steady_peak > fs:
+        raise LabsimError(
+            f"full_scale[{channel!r}] = {fs:.4g} (SI) is below the signal's peak "
+            f"{steady_peak:.4g}; raise it or leave the channel to auto-range"
+        )
+    samples, clipped = digitise(noisy, fs, settings.adc_bits)
+    return samples, fs, clipped

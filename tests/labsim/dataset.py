@@ -37,6 +37,7 @@ class Run:
     record_start: float  # first sample, after the switch-on, [s]
     sample_rate: float  # [Hz]
     full_scale: dict = field(default_factory=dict)  # ADC ranges used (SI)
+    saturated: dict = field(default_factory=dict)  # samples at the ADC's end codes, per channel
 
     @property
     def phase_at_start(self) -> float:
@@ -181,25 +182,24 @@ def _run(device, frequency, amplitude, effects, settings, rng, offset, bm_scale)
     anti_alias = settings.anti_alias(rate)
     continuous = simulate(device, frequency, amplitude, phase, effects,
                           transient=settings.start_in_transient, bm_scale=bm_scale)
+    # whole periods until every transient has decayed, then a random fraction of one: the
+    # phase at the first sample depends on the seed only, not on the effects
+    filter_rate = lti.modal(anti_alias).slowest_rate
+    settle = math.ceil(max(continuous.settle_time, DECAY_CONSTANTS / filter_rate) / period)
     if settings.start_in_transient:
         start = 0.0
     else:
-        # whole periods until every transient has decayed, then a random fraction of one:
-        # the phase at the first sample depends on the seed only, not on the effects
-        filter_rate = lti.modal(anti_alias).slowest_rate
-        settle = max(continuous.settle_time, DECAY_CONSTANTS / filter_rate)
-        start = (math.ceil(settle / period) + rng.uniform(0.0, 1.0)) * period
+        start = (settle + rng.uniform(0.0, 1.0)) * period
     count = int(round(settings.record_cycles(frequency) * rate / frequency))
     t = start + np.arange(count) / rate
-    signals = {
-        "current": continuous.current_signal(t, anti_alias),
-        "displacement": continuous.displacement(t, anti_alias) + offset,
-    }
-    if settings.sense_coil:
-        signals["sense_voltage"] = continuous.sense_voltage(t, anti_alias)
-    recorded, ranges = {}, {}
+    signals = _channels(continuous, t, anti_alias, offset, settings.sense_coil)
+    steady = signals if start > 0.0 else _channels(continuous, t + settle * period, anti_alias,
+                                                   offset, settings.sense_coil)
+    recorded, ranges, clipped = {}, {}, {}
     for channel, values in signals.items():
-        recorded[channel], ranges[channel] = record(values, channel, settings, rng)
+        peak = float(np.max(np.abs(steady[channel])))
+        recorded[channel], ranges[channel], clipped[channel] = record(
+            values, channel, settings, rng, peak)
     return Run(
         label=f"{frequency:g}Hz_{amplitude:g}A",
         frequency=frequency,
@@ -212,4 +212,16 @@ def _run(device, frequency, amplitude, effects, settings, rng, offset, bm_scale)
         record_start=start,
         sample_rate=rate,
         full_scale=ranges,
+        saturated=clipped,
     )
+
+
+def _channels(continuous, t, anti_alias, offset, sense_coil) -> dict:
+    """The filtered, noiseless channels at times t (SI; displacement with the sensor zero)."""
+    signals = {
+        "current": continuous.current_signal(t, anti_alias),
+        "displacement": continuous.displacement(t, anti_alias) + offset,
+    }
+    if sense_coil:
+        signals["sense_voltage"] = continuous.sense_voltage(t, anti_alias)
+    return signals
