@@ -74,8 +74,9 @@ class Acquisition:
         """Sample rate of a run at this frequency, [Hz]."""
         if self.sample_rate is not None:
             return float(self.sample_rate)
-        spc = 800 if self.samples_per_cycle is None else self.samples_per_cycle
-        return spc * frequency
+        if self.samples_per_cycle is None:
+            raise LabsimError("give samples_per_cycle or sample_rate")
+        return self.samples_per_cycle * frequency
 
     def record_cycles(self, frequency: float) -> float:
         """Number of drive periods the record spans."""

@@ -127,6 +127,8 @@ def make_dataset(
         B_m law's scale (0 = nominal Table 2 values).
     """
     effect_set = EffectSet.from_strengths(effects)
+    if samples_per_cycle is None and sample_rate is None:
+        samples_per_cycle = 800
     settings = Acquisition(
         samples_per_cycle=samples_per_cycle, sample_rate=sample_rate, cycles=cycles,
         low_frequency_cycles=low_frequency_cycles, start_in_transient=start_in_transient,

@@ -141,9 +141,24 @@ def _grid_sum(a: Waveform, b: Waveform) -> tuple[float, np.ndarray]:
 
 
 def _exponential_sum(exponents, amplitudes, t) -> np.ndarray:
+    """Re sum c exp(lam t); each term is evaluated only while it is above 1e-18 of the largest
+    coefficient (decayed transients cost nothing)."""
     out = np.zeros(t.shape)
-    for lam, amp in zip(exponents, amplitudes):
-        out += (amp * np.exp(lam * np.clip(t, 0.0, None))).real
+    if not t.size or not exponents.size:
+        return out
+    t = np.clip(t, 0.0, None)
+    floor = 1e-18 * np.max(np.abs(amplitudes))
+    rate = -exponents.real
+    with np.errstate(divide="ignore"):
+        room = np.log(np.abs(amplitudes) / floor)  # e-folds until the term is negligible
+    until = np.where(rate > 0, room / np.where(rate > 0, rate, 1.0), np.inf)
+    ordered = bool(np.all(np.diff(t) >= 0))
+    for lam, amp, stop in zip(exponents, amplitudes, until):
+        if ordered:
+            part = slice(0, int(np.searchsorted(t, stop, side="right")))
+        else:
+            part = t <= stop
+        out[part] += (amp * np.exp(lam * t[part])).real
     return out
 
 
