@@ -10,7 +10,7 @@ import numpy as np
 from . import lti
 from .acquisition import Acquisition, record
 from .constants import LabsimError, Transducer
-from .effects import EFFECTS, EffectSet
+from .effects import EffectSet
 from .transducer import DECAY_CONSTANTS, simulate
 
 DEFAULT_FREQUENCIES = (5.0, 20.0, 50.0, 70.0, 80.0, 100.0, 150.0, 200.0)
