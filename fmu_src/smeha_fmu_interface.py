@@ -112,14 +112,15 @@ class Variable:
         Variable name (a field name of the gmt dataclasses for parameters).
     kind : {"Real", "Integer", "Boolean", "String"}
         FMI 2.0 type (FMI 3.0: Float64, Int32, Boolean, String).
-    causality : {"input", "parameter", "output"}
+    causality : {"input", "parameter", "calculatedParameter", "output"}
     unit : str or None
         Key of :data:`UNITS` (every Real has one; "1" for dimensionless).
     description : str
     start : float, int, bool, str or None
         Start value (inputs and parameters); outputs start at :attr:`initial_value`.
-    group : {"input", "transducer", "excitation", "drive", "model", "output"}
-        Which gmt object a parameter goes to.
+    group : {"input", "transducer", "excitation", "drive", "model", "mechanics", "output"}
+        Which gmt object a parameter goes to ("mechanics": the calculated
+        parameters, :meth:`gmt.Transducer.rod_mechanics`).
     """
 
     name: str
@@ -133,7 +134,7 @@ class Variable:
     @property
     def variability(self) -> str:
         """FMI variability: fixed parameters, continuous Reals, discrete others."""
-        if self.causality == "parameter":
+        if self.causality in ("parameter", "calculatedParameter"):
             return "fixed"
         return "continuous" if self.kind == "Real" else "discrete"
 
@@ -152,6 +153,10 @@ def _in(name, unit, description, start=0.0):
 def _par(group, name, unit, description, start, kind="Real"):
     return Variable(name, kind, "parameter", unit if kind == "Real" else None,
                     description, start, group)
+
+
+def _calc(name, unit, description):
+    return Variable(name, "Real", "calculatedParameter", unit, description, None, "mechanics")
 
 
 def _out(name, unit, description, kind="Real"):
@@ -215,6 +220,10 @@ VARIABLES: tuple[Variable, ...] = (
     _par(_D, "branch_rule", None, "Compensated drive: root of eq 33 chosen by the sign "
          "of u(n)-u(n-1), \"control\" (Figure 9), or of the demanded magnetisation, "
          "\"demand\"", "control", kind="String"),
+    _par(_D, "compensator_period", "s", "Compensated drive: sample period T_c of the "
+         "digital compensator, in [0, 1] s. It samples u at t = n*T_c from the start and "
+         "holds its current until the next sample (a step that crosses a sample is split "
+         "there); 0 = a sample at the start of every step. Default 1e-4 s (10 kHz)", 1e-4),
     # -- model selection ----------------------------------------------------------
     _par(_M, "model_variant", None, "Transducer model: \"paper\" (eqs 1-37 of the source "
          "paper), or the paper's plus the extension for the cause smeha diagnose names: "
@@ -227,6 +236,19 @@ VARIABLES: tuple[Variable, ...] = (
     _par(_M, "variant_parameters", None, "JSON object of the extension's SI parameters, "
          "keyed as the candidate's \"parameters\" in smeha diagnose --json, e.g. "
          "{\"delay_s\": 0.0005}; {} for \"paper\"", "{}", kind="String"),
+    # -- calculated parameters: the mechanics the force drives, for a host that
+    #    integrates the rod with its load (e.g. a pump chamber fed the output `force`)
+    _calc("equivalent_mass", "kg", "Mass m of eq 27 in effect: Table 2's mass, the "
+          "re-identified one of model_variant \"mechanical_resonance\", or the rod's m_1 of "
+          "\"mechanical_resonance:two_dof\""),
+    _calc("equivalent_damping", "N.s/m", "Damping c of eq 27 in effect"),
+    _calc("equivalent_stiffness", "N/m", "Stiffness K of eq 27 in effect"),
+    _calc("output_mass", "kg", "Output mass m_2 on the joint (two_dof variant): it carries "
+          "external_force and the output displacement; 0 = the output is the rod (one mass)"),
+    _calc("joint_stiffness", "N/m", "Joint stiffness k_j between rod and output mass "
+          "(two_dof variant; 0 otherwise)"),
+    _calc("joint_damping", "N.s/m", "Joint damping c_j between rod and output mass "
+          "(two_dof variant; 0 otherwise)"),
     # -- outputs ------------------------------------------------------------------
     _out("current", "A", "Coil current i delivered over the last step"),
     _out("displacement", "m", "Rod displacement y at the end of the last step, including "
@@ -255,6 +277,8 @@ OUTPUTS = tuple(v.name for v in VARIABLES if v.causality == "output")
 TRANSDUCER_PARAMETERS = tuple(v.name for v in VARIABLES if v.group == _T)
 EXCITATION_PARAMETERS = tuple(v.name for v in VARIABLES if v.group == _E)
 DRIVE_PARAMETERS = tuple(v.name for v in VARIABLES if v.group == _D)
+#: Calculated parameters, in the order of :class:`gmt.RodMechanics`' fields.
+MECHANICS = tuple(v.name for v in VARIABLES if v.group == "mechanics")
 #: Real outputs copied from a gmt.TransducerOutput, in :data:`OUTPUTS` order.
 REAL_OUTPUTS = tuple(v.name for v in VARIABLES if v.causality == "output" and v.kind == "Real")
 #: Every variable's name, in VARIABLES order, and one C-level getter of all their values:
@@ -376,6 +400,11 @@ def check_against_gmt() -> None:
         problems.append(f"branch rules {BRANCH_RULES} != gmt {gmt.parameters.BRANCH_RULES}")
     if tuple(MODEL_VARIANTS) != tuple(gmt.VARIANTS):
         problems.append(f"model variants {MODEL_VARIANTS} != gmt {gmt.VARIANTS}")
+    if MECHANICS != ("equivalent_mass", "equivalent_damping", "equivalent_stiffness",
+                     "output_mass", "joint_stiffness", "joint_damping") \
+            or len(MECHANICS) != len(gmt.RodMechanics._fields):
+        problems.append(f"calculated parameters {MECHANICS} do not follow gmt.RodMechanics "
+                        f"{gmt.RodMechanics._fields}")
     if REAL_OUTPUTS != ("current", "displacement", "velocity", "sensed_displacement", "field",
                         "flux_density", "magnetization", "strain", "force"):
         problems.append(f"Real outputs {REAL_OUTPUTS} are not in output_values' order")
@@ -462,6 +491,8 @@ class TransducerSlave:
         forward = self._transducer.forward
         self.displacement, self.velocity = float(forward.displacement), float(forward.velocity)
         self.sensed_displacement = float(self._transducer.sensed_displacement)
+        for name, value in zip(MECHANICS, self._transducer.rod_mechanics()):
+            setattr(self, name, float(value))
 
     def exit_initialization_mode(self):
         from pathlib import Path

@@ -32,6 +32,7 @@ gmt, _IMPORT_PROBLEM = iface.load_physics()  # resources/smeha_fmu_gmt: the FMU'
 
 _TYPES = {"Real": Real, "Integer": Integer, "Boolean": Boolean, "String": String}
 _CAUSALITY = {"input": Fmi2Causality.input, "parameter": Fmi2Causality.parameter,
+              "calculatedParameter": Fmi2Causality.calculatedParameter,
               "output": Fmi2Causality.output}
 _VARIABILITY = {"fixed": Fmi2Variability.fixed, "continuous": Fmi2Variability.continuous,
                 "discrete": Fmi2Variability.discrete}

@@ -24,6 +24,7 @@ gmt, _IMPORT_PROBLEM = iface.load_physics()  # resources/smeha_fmu_gmt: the FMU'
 
 _TYPES = {"Real": Float64, "Integer": Int32, "Boolean": Boolean, "String": String}
 _CAUSALITY = {"input": Fmi3Causality.input, "parameter": Fmi3Causality.parameter,
+              "calculatedParameter": Fmi3Causality.calculatedParameter,
               "output": Fmi3Causality.output}
 _VARIABILITY = {"fixed": Fmi3Variability.fixed, "continuous": Fmi3Variability.continuous,
                 "discrete": Fmi3Variability.discrete}

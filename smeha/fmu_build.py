@@ -103,8 +103,8 @@ def patch_fmi2(root: ET.Element) -> ET.Element:
     * ``UnitDefinitions`` with the units the variables use, each with its SI
       ``BaseUnit`` exponents (none for a unit integer exponents cannot express);
     * ``unit`` on every ``Real`` (from :data:`iface.VARIABLES`);
-    * ``ModelStructure/InitialUnknowns``: every output (initial calculated),
-      by 1-based index in ModelVariables (pythonfmu issue #193).
+    * ``ModelStructure/InitialUnknowns``: every output (initial calculated) and
+      calculated parameter, by 1-based index in ModelVariables (pythonfmu issue #193).
     """
     for old in root.findall("UnitDefinitions"):
         root.remove(old)
@@ -126,8 +126,9 @@ def patch_fmi2(root: ET.Element) -> ET.Element:
     for old in structure.findall("InitialUnknowns"):
         structure.remove(old)
     unknown = [i + 1 for i, sv in enumerate(svs)
-               if sv.get("causality") == "output"
-               and sv.get("initial", "calculated") in ("approx", "calculated")]
+               if (sv.get("causality") == "output"
+                   and sv.get("initial", "calculated") in ("approx", "calculated"))
+               or sv.get("causality") == "calculatedParameter"]
     if unknown:
         initial = ET.Element("InitialUnknowns")
         for i in unknown:

@@ -96,8 +96,13 @@ def test_interface_names_causality_and_types(fmu_dist):
     expected = (set(gmt.TransducerParameters.field_names())
                 | {"frequency", "current_amplitude", "flux_density_amplitude",
                    "amplifier_gain", "current_limit", "compensated", "displacement_per_volt",
-                   "control_offset", "branch_rule", "model_variant", "variant_parameters"})
+                   "control_offset", "branch_rule", "compensator_period", "model_variant",
+                   "variant_parameters"})
     assert params == expected
+    # the mechanics the force drives, for a host that integrates the rod (issue 12)
+    assert {n for n, (c, _) in got.items() if c == "calculatedParameter"} == {
+        "equivalent_mass", "equivalent_damping", "equivalent_stiffness", "output_mass",
+        "joint_stiffness", "joint_damping"}
     assert got["compensated"][1] == "Boolean"
     assert got["branch_rule"][1] == got["model_variant"][1] == "String"
     assert got["variant_parameters"][1] == "String"
@@ -138,12 +143,17 @@ def test_every_variable_has_description_and_every_real_a_defined_unit(fmu_dist):
 
 
 def test_initial_unknowns_list_every_output(fmu_dist):
+    # FMI 2.0.x, section 2.2.8: InitialUnknowns lists the outputs and the calculated
+    # parameters (initial "calculated")
     root = model_description(fmu_dist["2"])
     svs = root.find("ModelVariables").findall("ScalarVariable")
     outputs = [i + 1 for i, sv in enumerate(svs) if sv.get("causality") == "output"]
+    calculated = [i + 1 for i, sv in enumerate(svs)
+                  if sv.get("causality") == "calculatedParameter"]
     structure = root.find("ModelStructure")
     assert [int(u.get("index")) for u in structure.find("Outputs")] == outputs
-    assert [int(u.get("index")) for u in structure.find("InitialUnknowns")] == outputs
+    assert [int(u.get("index")) for u in structure.find("InitialUnknowns")] == sorted(
+        outputs + calculated)
 
 
 def test_default_experiment_is_the_50_hz_case(fmu_dist):

@@ -145,8 +145,11 @@ def _run(f, a, rule, compensated=True):
     h = 1.0 / (f * PER_CYCLE)
     t = h * np.arange(CYCLES * PER_CYCLE + 1)
     u = a + a * np.cos(2 * np.pi * f * t) if compensated else np.cos(2 * np.pi * f * t)
+    # compensator_period 0: Figure 9 sampled at every step of the run (its continuous-time
+    # limit); the digital compensator's own period is tested further down
     tr = gmt.Transducer(params, gmt.Excitation(f, 1.0),
-                        gmt.DriveParameters(compensated=compensated, branch_rule=rule))
+                        gmt.DriveParameters(compensated=compensated, branch_rule=rule,
+                                            compensator_period=0.0))
     outs = [tr.step(float(x), h) for x in u]
     return {"u": u, "out": outs, "y": np.array([o.displacement for o in outs]),
                 "demand": np.array([o.demand for o in outs]),
@@ -308,3 +311,104 @@ def test_transducer_state_round_trip():
     replay = [tr.step(x, h) for x in u[333:]]
     assert [(o.current, o.displacement, o.saturation_count) for o in first] == \
         [(o.current, o.displacement, o.saturation_count) for o in replay]
+
+
+# ---------------------------------------------------------------- the digital compensator
+# A sampled controller with a zero-order-hold DAC (Franklin, Powell & Workman, Digital
+# Control of Dynamic Systems, 3rd ed. 1998, ch. 4): it reads u at t_n = n T and holds
+# its output until t_n+1, whatever the host's steps.
+
+
+def _compensated(period, rule="control"):
+    return gmt.Transducer(gmt.TransducerParameters(), gmt.Excitation(100.0, 1.0),
+                          gmt.DriveParameters(compensated=True, branch_rule=rule,
+                                              compensator_period=period))
+
+
+def _u(t):
+    return 1.5 + 1.5 * math.cos(2.0 * math.pi * 100.0 * t)
+
+
+def test_sampled_compensator_holds_its_current_between_samples():
+    """T_c = 100 us stepped at 10 us: the current changes only at t = n T_c, and there it is
+    the current of the same compensator stepped once per sample (T_c = 0 at h = T_c)."""
+    fine, coarse = _compensated(1e-4), _compensated(0.0)
+    h, n = 1e-5, 10
+    currents = [fine.step(_u(k * h), h).current for k in range(40 * n)]
+    for k, i in enumerate(currents):
+        assert i == currents[k - k % n], k  # held from the last sample
+    reference = [coarse.step(_u(j * 1e-4), 1e-4).current for j in range(40)]
+    assert currents[::n] == reference
+
+
+def test_sampled_compensator_does_not_depend_on_the_host_step():
+    """Hosts stepping on the samples (100 us, 25 us) get the same samples and the same held
+    force bit for bit; the rod (eq 27's exact ZOH over the pieces) agrees to round-off."""
+    runs = {}
+    for h in (1e-4, 2.5e-5):
+        tr, out = _compensated(1e-4), {}
+        for k in range(int(round(20e-3 / h))):
+            o = tr.step(_u(k * h), h)
+            out[int(round((k + 1) * h * 1e9))] = (o.current, o.magnetics.force, o.displacement)
+        runs[h] = out
+    common = sorted(set(runs[1e-4]) & set(runs[2.5e-5]))
+    assert len(common) == 200
+    for t in common:
+        ref, got = runs[1e-4][t], runs[2.5e-5][t]
+        assert got[:2] == ref[:2]
+        assert got[2] == pytest.approx(ref[2], rel=1e-12)
+
+
+def test_a_step_across_a_sample_is_split_there():
+    """70 us steps cross the 100 us samples: each is the two pieces either side of the sample,
+    the compensator reading the input held over the step (FMI: inputs held over a step)."""
+    whole, split = _compensated(1e-4), _compensated(1e-4)
+    h, t = 7e-5, 0.0
+    for k in range(60):
+        u = _u(k * h)
+        a = whole.step(u, h)
+        boundary = math.ceil(t / 1e-4 - 1e-9) * 1e-4  # the next sample at or after t
+        if t + 1e-12 < boundary < t + h - 1e-12:
+            split.step(u, boundary - t)
+            b = split.step(u, t + h - boundary)
+        else:
+            b = split.step(u, h)
+        assert (a.current, a.magnetics.force) == (b.current, b.magnetics.force)
+        assert a.displacement == pytest.approx(b.displacement, rel=1e-12)
+        t += h
+
+
+def test_sampled_compensator_state_round_trip():
+    """Saved between two samples and restored: the replay is identical (the time to the
+    next sample and the held current are part of the state)."""
+    tr, h = _compensated(1e-4), 3e-5
+    for k in range(37):
+        tr.step(_u(k * h), h)
+    saved = tr.get_state()
+    first = [tr.step(_u(k * h), h) for k in range(37, 80)]
+    tr.set_state(saved)
+    replay = [tr.step(_u(k * h), h) for k in range(37, 80)]
+    assert [(o.current, o.displacement) for o in first] == \
+        [(o.current, o.displacement) for o in replay]
+
+
+def test_compensator_period_is_checked():
+    with pytest.raises(gmt.ParameterError, match="compensator_period"):
+        gmt.DriveParameters(compensated=True, compensator_period=-1e-4)
+
+
+def test_rod_mechanics_are_those_the_force_drives():
+    """Table 2's m, c, K; a re-identified eq 27's; the two masses' rod, joint and output."""
+    p = gmt.TransducerParameters()
+    assert tuple(gmt.Transducer(p).rod_mechanics()) == (0.02, 2945.0, 1.963e7, 0.0, 0.0, 0.0)
+    one = gmt.ModelVariant("mechanical_resonance",
+                           {"mass_kg": 4e-4, "damping_N_s_per_m": 58.9,
+                            "stiffness_N_per_m": 1.905e7})
+    assert tuple(gmt.Transducer(p, variant=one).rod_mechanics()) == (
+        4e-4, 58.9, 1.905e7, 0.0, 0.0, 0.0)
+    two = gmt.ModelVariant.from_name("mechanical_resonance:two_dof", {
+        "rod_mass_kg": 0.012, "output_mass_kg": 0.008, "joint_stiffness_N_per_m": 3e8,
+        "joint_damping_N_s_per_m": 120.0})
+    assert tuple(gmt.Transducer(p, variant=two).rod_mechanics()) == (
+        0.012, 2945.0, 1.963e7, 0.008, 3e8, 120.0)
+

@@ -43,7 +43,7 @@ _EXPORTS = {
     "InverseCompensator": "inverse", "current_roots": "inverse",
     "DriveParameters": "parameters", "Excitation": "parameters",
     "TransducerParameters": "parameters",
-    "Transducer": "transducer", "TransducerOutput": "transducer",
+    "Transducer": "transducer", "TransducerOutput": "transducer", "RodMechanics": "transducer",
     "VARIANTS": "variants", "ModelVariant": "variants",
 }
 _SUBMODULES = ("calibration", "constants", "errors", "extensions", "field", "forward",

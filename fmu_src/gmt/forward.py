@@ -279,8 +279,9 @@ class ForwardStepper:
 
     Notes
     -----
-    The state is (y, v, previous current, previous step); it starts at rest
-    at the bias displacement (:func:`bias_displacement`).
+    The state is (y, v, previous current, how long it has been held, the
+    quadrature's branch); it starts at rest at the bias displacement
+    (:func:`bias_displacement`).
     """
 
     def __init__(self, params: TransducerParameters, point: OperatingPoint):
@@ -306,10 +307,12 @@ class ForwardStepper:
         (self.displacement, self.velocity, self.previous_current,
          self.previous_step, self.branch) = (float(s) for s in state)
 
-    def _quadrature(self, current: float, step: float, external_force: float) -> float:
+    def _quadrature(self, current: float, step: float, external_force: float,
+                    held: bool = False) -> float:
         """Check one step's inputs; the quadrature current of eq 30 at ``current`` [A].
 
-        Updates the branch memory (the sign of the quadrature current).
+        Updates the branch memory (the sign of the quadrature current); a
+        ``held`` current keeps it.
         """
         if not step > 0.0 or not math.isfinite(step):
             raise ParameterError(f"step = {step!r} s is outside the allowed range (0, inf) s")
@@ -317,6 +320,9 @@ class ForwardStepper:
             raise ParameterError(f"current = {current!r} A is not finite")
         if not math.isfinite(external_force):
             raise ParameterError(f"external_force = {external_force!r} N is not finite")
+        if held:  # the same sample: the same branch, so the same quadrature part (eq 31)
+            amp = self.point.current_amplitude
+            return self.branch * math.sqrt(max(amp * amp - current * current, 0.0))
         first = not math.isfinite(self.previous_current)
         prev = current if first else self.previous_current
         h_prev = step if first else self.previous_step
@@ -325,17 +331,28 @@ class ForwardStepper:
         self.branch = float(branch)
         return float(q)
 
-    def _advance(self, force, current, step, external_force, mass, damping, stiffness):
+    def _advance(self, force, current, step, external_force, mass, damping, stiffness,
+                 held=False):
         """Eq 27 over one step by its exact ZOH, the net force F - F_ext held [N]."""
         a11, a12, a21, a22, b1, b2 = mechanics.zoh_matrices(mass, damping, stiffness, step)
         net = float(force) - external_force
         y, v = self.displacement, self.velocity
         self.displacement = a11 * y + a12 * v + b1 * net
         self.velocity = a21 * y + a22 * v + b2 * net
-        self.previous_current = current
-        self.previous_step = step
+        self._remember(current, step, held)
 
-    def step(self, current: float, step: float, external_force: float = 0.0) -> StepResult:
+    def _remember(self, current, step, held):
+        """Keep the current and how long it has been held: eq 31's sample interval.
+
+        The pieces of one held sample (a DAC between a digital controller's
+        samples) count as one step, so the next sample's quadrature rule sees
+        the time since the current was last set.
+        """
+        self.previous_step = self.previous_step + step if held else step
+        self.previous_current = current
+
+    def step(self, current: float, step: float, external_force: float = 0.0,
+             held: bool = False) -> StepResult:
         """Advance by ``step`` with ``current`` and ``external_force`` held.
 
         Parameters
@@ -346,11 +363,14 @@ class ForwardStepper:
             h, [s], > 0.
         external_force : float
             Axial force on the output rod opposing elongation, [N].
+        held : bool
+            The last step's current, still held (a further piece of one
+            sample of a digital controller): its branch of eq 31 is kept.
         """
-        q = self._quadrature(current, step, external_force)
+        q = self._quadrature(current, step, external_force, held)
         mag = magnetics(self.params, self.point, current, q)
         self._advance(mag.force, current, step, external_force, self.params.mass,
-                      self.params.damping, self.params.stiffness)
+                      self.params.damping, self.params.stiffness, held)
         return StepResult(mag, self.displacement, self.velocity)
 
 

@@ -29,6 +29,16 @@ STEINMETZ_RANGE = (1.0, 3.0)
 #: Root-selection rules of the inverse compensator (see gmt.inverse).
 BRANCH_RULES = ("control", "demand")
 
+#: Sample period of the digital inverse compensator, [s]: 10 kHz. Figure 9 works on
+#: samples u(n), u(n-1) but the paper gives no rate. Digital-control texts sample at 20 to
+#: 40 times the highest frequency the loop must reproduce (Franklin, Powell & Workman,
+#: *Digital Control of Dynamic Systems*, 3rd ed. 1998, ch. 11). The compensated current
+#: at the paper's fastest drive (100 Hz) carries harmonics falling to ~6 % of its
+#: fundamental by the fifth (500 Hz; measured on the model): 10 kHz is 20 samples a
+#: period of that harmonic and 100 of the fundamental. The zero-order hold delays the
+#: current by half a sample (50 us, 1.8 deg at 100 Hz).
+COMPENSATOR_PERIOD = 1e-4
+
 
 @dataclass(frozen=True)
 class TransducerParameters:
@@ -223,6 +233,12 @@ class DriveParameters:
         u(n) - u(n-1) as Figure 9 does (``"control"``, default), or by the
         direction of the magnetisation the demand needs (``"demand"``); see
         :mod:`gmt.inverse`.
+    compensator_period : float
+        Sample period T_c of the digital compensator, [s], in [0, 1]: it samples u
+        at t_n = n T_c from the start and its DAC holds the current until the
+        next sample (:class:`gmt.Transducer`). Default :data:`COMPENSATOR_PERIOD`
+        (10 kHz). 0 samples at the start of every step instead (each step is one
+        sample, the idealised limit as the step shrinks).
     """
 
     amplifier_gain: float = 1.0
@@ -231,6 +247,7 @@ class DriveParameters:
     displacement_per_volt: float = 10e-6
     control_offset: float = 0.0
     branch_rule: str = "control"
+    compensator_period: float = COMPENSATOR_PERIOD
 
     def __post_init__(self):
         check_range("amplifier_gain", self.amplifier_gain, 0.0, 1000.0, unit="A/V")
@@ -240,6 +257,8 @@ class DriveParameters:
                     1e-3, unit="m/V")
         check_range("control_offset", self.control_offset, -1000.0, 1000.0,
                     unit="V", low_open=False, high_open=False)
+        check_range("compensator_period", self.compensator_period, 0.0, 1.0, unit="s",
+                    low_open=False, high_open=False)
         if self.branch_rule not in BRANCH_RULES:
             raise ParameterError(
                 f"branch_rule = {self.branch_rule!r} is not one of {BRANCH_RULES}")

@@ -10,6 +10,13 @@ The transducer model is the paper's (eq 30) unless a
 ``smeha diagnose`` names); the compensator always inverts the paper's model,
 as the product's compensator is designed on it, so with a variant it drives a
 transducer it does not model exactly.
+
+The compensator is a digital controller (Figure 9 works on samples u(n),
+u(n-1)): with ``DriveParameters.compensator_period`` T_c > 0 it samples u at
+t_n = n T_c from the start (the control signal held over a step is its value
+at every sample the step reaches) and its DAC holds the current until the
+next sample; a step that crosses a sample instant is split there. The
+uncompensated amplifier follows u continuously: i = K_a u over each step.
 """
 from __future__ import annotations
 
@@ -37,6 +44,23 @@ class TransducerOutput(NamedTuple):
     #: what a displacement sensor on the rod reads at the end of the step, [m]: the
     #: displacement, except with a sensor delay (variant ``transport_delay``)
     sensed_displacement: float
+
+
+class RodMechanics(NamedTuple):
+    """The mechanics the magnetostrictive force drives (eq 27, or a variant's), SI.
+
+    One mass (``output_mass`` 0): m y'' + c y' + K y = F - F_ext (eq 27). Two
+    masses (a ``mechanical_resonance:two_dof`` variant): F drives the rod m on
+    c and K, the output mass m_2 hangs on the joint k_j, c_j and carries F_ext
+    and the output y (:class:`gmt.extensions.TwoMassMechanics`).
+    """
+
+    mass: float  #: m of eq 27, or the rod's m_1 with two masses, [kg]
+    damping: float  #: c, [N s/m]
+    stiffness: float  #: K, [N/m]
+    output_mass: float = 0.0  #: m_2, [kg]; 0: one mass
+    joint_stiffness: float = 0.0  #: k_j, [N/m]
+    joint_damping: float = 0.0  #: c_j, [N s/m]
 
 
 class Transducer:
@@ -75,6 +99,10 @@ class Transducer:
         # compensator's), taken once: set_state runs at every retried co-simulation step
         self._nf = len(ForwardStepper.get_state(self.forward))
         self._nc = len(self.compensator.get_state()) if self.compensator is not None else 0
+        #: sample period of the compensator, [s]; 0: a sample at every step
+        self.sample_period = (self.drive.compensator_period if self.compensator is not None
+                              else 0.0)
+        self._ns = 4 if self.sample_period > 0.0 else 0
         self.reset()
 
     def reset(self):
@@ -84,25 +112,32 @@ class Transducer:
             self.compensator.reset()
         self.saturation_count = 0
         self.previous_step = math.nan
+        # the sampled compensator: time to its next sample [s] (the first is at 0), and
+        # what its DAC holds: current [A], demand [m], saturated (1/0)
+        self._to_sample = 0.0
+        self._held = (math.nan, math.nan, 0.0)
 
     def get_state(self) -> tuple:
         """Every piece of state as a flat tuple of floats.
 
         The paper stepper's values, the compensator's, the saturation count and
-        the previous step, then the variant's (none for the paper's model; for
-        a sensor delay their number varies with the delay line).
+        the previous step, the sampled compensator's time to its next sample and
+        held current, demand and saturation flag (with ``compensator_period`` > 0
+        only), then the variant's (none for the paper's model; for a sensor
+        delay their number varies with the delay line).
         """
         comp = self.compensator.get_state() if self.compensator is not None else ()
         forward = self.forward.get_state()
         nf = self._nf
+        sampler = (self._to_sample,) + self._held if self._ns else ()
         return (forward[:nf] + comp + (float(self.saturation_count), self.previous_step)
-                + forward[nf:])
+                + sampler + forward[nf:])
 
     def set_state(self, state) -> None:
         """Restore a state from :meth:`get_state`."""
         state = tuple(map(float, state))
-        nf, nc = self._nf, self._nc
-        fixed = nf + nc + 2
+        nf, nc, ns = self._nf, self._nc, self._ns
+        fixed = nf + nc + 2 + ns
         if self.variant.is_paper:
             bad, need = len(state) != fixed, f"{fixed}"
         else:  # the variant's elapsed time and sensed displacement, then its memory
@@ -115,6 +150,26 @@ class Transducer:
             self.compensator.set_state(state[nf:nf + nc])
         self.saturation_count = int(state[nf + nc])
         self.previous_step = state[nf + nc + 1]
+        if ns:
+            self._to_sample = state[nf + nc + 2]
+            self._held = state[nf + nc + 3:fixed]
+
+    def rod_mechanics(self) -> RodMechanics:
+        """What the magnetostrictive force drives: eq 27's m, c, K or the variant's masses.
+
+        A co-simulation that integrates the rod outside the transducer (the force
+        port of :mod:`system_models.cosim`) takes its mechanics from here (through
+        the FMU's calculated parameters), so that one set of values drives both.
+        """
+        form = getattr(self.forward, "form", None)
+        system = getattr(form, "system", None)  # the two-mass variant's
+        if system is not None:
+            return RodMechanics(system.rod_mass, system.damping, system.stiffness,
+                                system.output_mass, system.joint_stiffness,
+                                system.joint_damping)
+        m, c, k = (form.mechanics if form is not None
+                   else (self.params.mass, self.params.damping, self.params.stiffness))
+        return RodMechanics(float(m), float(c), float(k))
 
     def coil_current(self, control: float, elapsed: float):
         """Current the amplifier delivers for u, and the compensator's demand and saturation."""
@@ -128,9 +183,15 @@ class Transducer:
         return min(max(i, -limit), limit), math.nan, abs(i) > limit
 
     def step(self, control: float, step: float, external_force: float = 0.0) -> TransducerOutput:
-        """Advance by ``step`` [s] with the control signal u [V] and F_ext [N] held."""
+        """Advance by ``step`` [s] with the control signal u [V] and F_ext [N] held.
+
+        With a sampled compensator the outputs' current and magnetics are those
+        of the last sample the step reached (held over the step's end).
+        """
         if not (step > 0.0 and math.isfinite(step)):
             raise ParameterError(f"step = {step!r} s is outside the allowed range (0, inf) s")
+        if self._ns:
+            return self._sampled_step(control, step, external_force)
         elapsed = self.previous_step
         current, demand, saturated = self.coil_current(control, elapsed)
         res = self.forward.step(current, step, external_force)
@@ -140,6 +201,41 @@ class Transducer:
         sensed = getattr(res, "sensed_displacement", res.displacement)
         return TransducerOutput(current, res.magnetics, res.displacement, res.velocity,
                                 demand, saturated, self.saturation_count, sensed)
+
+    def _sampled_step(self, control, step, external_force):
+        """One step with the compensator sampled every T_c and its current held between.
+
+        The step is split at every sample instant it crosses; a sample instant
+        within 1e-6 T_c of the step's end counts as the end (host clocks that
+        add up steps in floating point).
+        """
+        period = self.sample_period
+        tol = 1e-6 * period
+        if not math.isfinite(control):
+            raise ParameterError(f"control = {control!r} V is not finite")
+        if not math.isfinite(external_force):
+            raise ParameterError(f"external_force = {external_force!r} N is not finite")
+        left = step
+        while True:
+            held = self._to_sample > tol  # else a sample instant: the compensator samples u
+            if not held:
+                first = math.isnan(self._held[0])
+                out = self.compensator.step(control, math.nan if first else period)
+                self._held = (out.current, out.demand, 1.0 if out.saturated else 0.0)
+                if out.saturated:
+                    self.saturation_count += 1
+                self._to_sample += period
+            piece = left if left - self._to_sample <= tol else self._to_sample
+            res = self.forward.step(self._held[0], piece, external_force, held=held)
+            self._to_sample -= piece
+            left -= piece
+            if left <= 0.0:
+                break
+        self.previous_step = step
+        sensed = getattr(res, "sensed_displacement", res.displacement)
+        return TransducerOutput(self._held[0], res.magnetics, res.displacement, res.velocity,
+                                self._held[1], bool(self._held[2]), self.saturation_count,
+                                sensed)
 
     @property
     def sensed_displacement(self) -> float:

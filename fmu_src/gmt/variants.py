@@ -1362,15 +1362,17 @@ class ExtendedStepper(ForwardStepper):
         """Restore :meth:`_memory` (raising before changing anything if it does not fit)."""
         self.form.set_state(values)
 
-    def _mechanics(self, force, current, step, external_force) -> None:
+    def _mechanics(self, force, current, step, external_force, held=False) -> None:
         """Eq 27 over the step with the form's m, c, K (ZOH), F and F_ext held."""
-        self._advance(force, current, step, external_force, *self.form.mechanics)
+        self._advance(force, current, step, external_force, *self.form.mechanics, held)
 
-    def step(self, current: float, step: float, external_force: float = 0.0):
-        """Advance by ``step`` [s] with ``current`` [A] and ``external_force`` [N] held."""
-        q = self._quadrature(current, step, external_force)
+    def step(self, current: float, step: float, external_force: float = 0.0,
+             held: bool = False):
+        """Advance by ``step`` [s] with ``current`` [A] and ``external_force`` [N] held
+        (``held``: as :meth:`gmt.forward.ForwardStepper.step`)."""
+        q = self._quadrature(current, step, external_force, held)
         mag = self.form.magnetics(current, q, step, self.elapsed)
-        self._mechanics(mag.force, current, step, external_force)
+        self._mechanics(mag.force, current, step, external_force, held)
         self.elapsed += step
         self.sensed_displacement = float(self.form.sensed(self.displacement, self.elapsed))
         return VariantStepResult(mag, self.displacement, self.velocity,
@@ -1407,15 +1409,14 @@ class TwoMassStepper(ExtendedStepper):
         self.form.set_state(values[2:])
         self.rod_displacement, self.rod_velocity = values[0], values[1]
 
-    def _mechanics(self, force, current, step, external_force) -> None:
+    def _mechanics(self, force, current, step, external_force, held=False) -> None:
         ad, bd = self.form.zoh(step)
         x = np.array((self.rod_displacement, self.rod_velocity, self.displacement,
                       self.velocity))
         x = ad @ x + bd @ np.array((float(force), external_force))
         (self.rod_displacement, self.rod_velocity, self.displacement,
          self.velocity) = (float(v) for v in x)
-        self.previous_current = current
-        self.previous_step = step
+        self._remember(current, step, held)
 
 
 def make_stepper(params: TransducerParameters, point: OperatingPoint,
