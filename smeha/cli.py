@@ -7,7 +7,8 @@ Subcommands
     (:mod:`smeha.paper`); optionally write the figures (:mod:`smeha.plots`).
 ``smeha simulate --frequency HZ --mode {uncompensated,compensated} [...]``
     One co-simulation of the EHA (transducer FMU + hydraulics) with the flow
-    check of eqs 40/41 (:mod:`smeha.flowstudy`).
+    check of eqs 40/41 (:mod:`smeha.flowstudy`). ``simulate``, ``flow`` and
+    ``sweep`` live in :mod:`smeha.flowcommands`.
 ``smeha flow [--frequencies 50,70,80,100] [--ideal] [--variant FILE] [--fast] [--json] [--plot FILE]``
     The flow study: both modes at each frequency, against eqs 40/41 and the
     paper's Table 3; ``--loads`` adds the load lines; ``--variant`` runs every
@@ -26,9 +27,10 @@ Subcommands
     Build the FMU(s) (:mod:`smeha.fmu_build`) into the source tree's ``dist/``,
     where ``simulate``, ``flow`` and ``sweep`` look for the FMU.
 
-Adding a subcommand: write ``_add_<name>(subparsers)`` that registers its
-parser with ``set_defaults(run=_run_<name>)``, and append it to
-:data:`SUBCOMMANDS`. Build its options from the types of
+Adding a subcommand: write ``_add_<name>(subparsers)`` (here, or
+``add_<name>`` in a module of its own, as :mod:`smeha.flowcommands`) that
+registers its parser with ``set_defaults(run=<its run function>)``, and append
+it to :data:`SUBCOMMANDS`. Build its options from the types of
 :mod:`smeha.cliargs` (files, folders, numbers), so bad input is refused while
 the command line is parsed; ``tests/test_cli_input.py`` drives every command
 with bad input on that basis.
@@ -44,20 +46,16 @@ once (``benchmarks/cli_startup.py``).
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
-from pathlib import Path
 
 import gmt  # cheap: its names load on first use (gmt/__init__.py)
 
 from . import __version__
-from .cliargs import (Parser, UsageError, count, input_file, join_negative_values, number,
-                      number_list, output_dir, output_file, scheduler_address, warn)
-
-#: Frequencies the study accepts, (0, 1000] Hz (gmt.Excitation's range).
-FREQUENCY = number(0.0, 1000.0, unit="Hz")
+from .cliargs import (Parser, UsageError, add_branch_rule, count, input_file,
+                      join_negative_values, output_dir)
+from .flowcommands import add_flow, add_simulate, add_sweep
 
 
 def _add_paper(subparsers):
@@ -69,14 +67,8 @@ def _add_paper(subparsers):
                    help="print only a JSON object {rows, compensated, diagnosis} on stdout")
     p.add_argument("--plots", metavar="DIR", type=output_dir,
                    help="write the figures (PNG) into DIR (created if missing)")
-    _add_branch_rule(p)
+    add_branch_rule(p)
     p.set_defaults(run=_run_paper)
-
-
-def _add_branch_rule(p):
-    p.add_argument("--branch-rule", choices=gmt.parameters.BRANCH_RULES, default="control",
-                   help="compensator root rule: 'control' (Figure 9, default) or 'demand' "
-                        "(the direction of the demanded magnetisation)")
 
 
 def _run_paper(args) -> int:
@@ -123,412 +115,6 @@ def _run_build(args) -> int:
 
     return fmu_build.build_all(args.fmi, args.out or fmu_build.DIST,
                                validate=not args.no_validate)
-
-
-#: Steps a pumping cycle at and above which the flow's convergence was measured:
-#: valves on the step grid, 40 us at 100 Hz (flow within 0.5 % uncompensated, 2.6 %
-#: compensated of the step halved; benchmarks/README.md, Convergence); with a controller
-#: period, 100 us at 100 Hz (within 0.5 % of a 2.5 us reference; tests/test_cosim_streaming.py).
-CONVERGED_STEPS_PER_CYCLE = 250
-CONVERGED_STEPS_PER_CYCLE_TIMED_VALVES = 100
-
-
-def _check_step(command, step, frequency, controller_period) -> None:
-    """Warn (stderr) when the communication step is coarser than any measured to converge."""
-    need = (CONVERGED_STEPS_PER_CYCLE if controller_period is None
-            else CONVERGED_STEPS_PER_CYCLE_TIMED_VALVES)
-    per_cycle = 1.0 / (frequency * step)
-    if per_cycle < need:
-        warn(command, f"--step {step:g} s is {per_cycle:.0f} steps a cycle at {frequency:g} Hz; "
-                      f"the flow was measured to converge from {need} steps a cycle "
-                      f"(--step {1.0 / (need * frequency):.2g} s) on (benchmarks/README.md): "
-                      "expect a larger error")
-
-
-def _cycles(text):
-    """--cycles: at least system_models.flowcheck.MINIMUM_CYCLES (the flow check's need)."""
-    from system_models.flowcheck import MINIMUM_CYCLES
-    return number(MINIMUM_CYCLES, low_open=False, unit="cycles")(text)
-
-
-_cycles.numeric = True
-
-#: Defaults of the co-simulation options, shown in --help (flowstudy.Case's own defaults).
-DEFAULT_STEP, DEFAULT_CYCLES = 20e-6, 8.0
-
-
-def _add_cosim_options(p):
-    p.add_argument("--ideal", action="store_true",
-                   help="ideal limit: stiff oil, fast wide valves, no load (eqs 40/41 hold)")
-    p.add_argument("--step", type=number(0.0, unit="s"), default=DEFAULT_STEP, metavar="S",
-                   help=f"communication step [s] (default {DEFAULT_STEP:g}; a warning below "
-                        f"{CONVERGED_STEPS_PER_CYCLE} steps a cycle)")
-    p.add_argument("--cycles", type=_cycles, metavar="N",
-                   help=f"simulated pumping cycles, at least 4: the flow check discards the "
-                        f"first 2 and averages the rest (default {DEFAULT_CYCLES:g})")
-    p.add_argument("--backend", choices=("fmu", "direct"),
-                   help="transducer through the FMU and fmpy (default) or gmt in-process")
-    p.add_argument("--fmu", metavar="FILE", type=input_file,
-                   help="transducer FMU (default dist/SmehaGmt.fmu of the source tree, built "
-                        "if missing or out of date; see 'smeha build')")
-    _add_branch_rule(p)
-    p.add_argument("--controller-period", type=number(0.0, unit="s"), metavar="S",
-                   help="sample the valve controller every S seconds, act after the valves' "
-                        "exact dead times and put a communication point at each valve action "
-                        "(e.g. 1e-5; default: valves switch on the communication grid)")
-    p.add_argument("--hydraulic-step", type=number(0.0, unit="s"), metavar="S",
-                   help="longest hydraulic substep [s] (e.g. 1e-5; default one per step)")
-
-
-def _add_load(p):
-    p.add_argument("--load", type=number(unit="N"), metavar="N",
-                   help="load on the cylinder [N]: positive opposes the pumped direction "
-                        "(oil into the big cavity), negative assists it (default 150 "
-                        "realistic, 0 ideal)")
-
-
-MODE_HELP = ("uncompensated: u = I_m/K_a cos(2 pi f t), the coil current i = I_m cos(2 pi f t), "
-             "valves switching at i = -+I_m (eq 40); compensated: u = a + a cos(2 pi f t) "
-             "through the inverse compensator (Figure 9), valves switching at u = 0 and 2a "
-             "(eq 41)")
-
-
-def _add_simulate(subparsers):
-    p = subparsers.add_parser(
-        "simulate", help="one co-simulation of the EHA: transducer FMU + hydraulics",
-        description="Co-simulate the transducer FMU with the pump chamber, valves V1-V4, "
-                    "cylinder and accumulator, and check the cylinder flow against eq 40 "
-                    "(uncompensated) or eq 41 (compensated).")
-    p.add_argument("--frequency", type=FREQUENCY, required=True, metavar="HZ",
-                   help="pumping frequency [Hz], in (0, 1000]")
-    p.add_argument("--mode", choices=("uncompensated", "compensated"), required=True,
-                   help=MODE_HELP)
-    p.add_argument("--duration", type=number(0.0, unit="s"), metavar="S",
-                   help="simulated time [s], at least 4 cycles (default: --cycles pumping "
-                        "cycles)")
-    _add_load(p)
-    _add_cosim_options(p)
-    p.add_argument("--csv", metavar="FILE", type=output_file,
-                   help="write the time series as CSV, SI units in the column names "
-                        "(time_s, rod_displacement_m, p_pump_Pa, ...), as the measurement "
-                        "files of 'smeha identify' name theirs")
-    p.add_argument("--plot", metavar="FILE", type=output_file, help="write a PNG of the run")
-    p.add_argument("--json", action="store_true", help="print only a JSON object")
-    p.set_defaults(run=_run_simulate)
-
-
-def _case_from(args, frequency, mode, load=None, variant=None):
-    from .flowstudy import Case
-    cycles = getattr(args, "cycles", None)
-    if getattr(args, "duration", None):
-        cycles = args.duration * frequency
-    optional = {"cycles": cycles, "backend": args.backend}
-    return Case(frequency=frequency, mode=mode, ideal=args.ideal, load=load, step=args.step,
-                branch_rule=args.branch_rule, variant=variant,
-                controller_period=args.controller_period, hydraulic_step=args.hydraulic_step,
-                **{k: v for k, v in optional.items() if v is not None})
-
-
-def _fmu_for(args, cases):
-    from . import flowstudy
-    if all(c.backend != "fmu" for c in cases):
-        if args.fmu:
-            raise UsageError(f"--fmu {args.fmu} has no use: every case runs gmt in-process "
-                             "(backend 'direct'); drop --fmu or the direct backend")
-        return None
-    if args.fmu:
-        return args.fmu
-    return flowstudy.ensure_fmu(quiet=getattr(args, "json", False))
-
-
-def _progress_bar(total_steps, label, quiet):
-    from tqdm import tqdm
-    bar = tqdm(total=total_steps, desc=label, unit="step", disable=quiet, leave=False,
-               file=sys.stderr, mininterval=0.5)
-
-    def update(done, n):
-        bar.n = done
-        bar.refresh() if done == n else None
-        if done % 200 == 0:
-            bar.update(0)
-    return bar, update
-
-
-def _check_simulate(args) -> None:
-    """The cross-option rules of simulate, in the options' own terms (before any work)."""
-    from system_models.flowcheck import MINIMUM_CYCLES
-    if args.duration is not None:
-        if args.cycles is not None:
-            raise UsageError(f"give --duration or --cycles, not both (--duration "
-                             f"{args.duration:g} s is {args.duration * args.frequency:g} "
-                             f"cycles at {args.frequency:g} Hz)")
-        if args.duration * args.frequency < MINIMUM_CYCLES:
-            raise UsageError(
-                f"--duration {args.duration:g} s is {args.duration * args.frequency:.3g} "
-                f"cycles at {args.frequency:g} Hz; the flow check discards the first 2 cycles "
-                f"and averages at least 2 more: give --duration "
-                f">= {MINIMUM_CYCLES / args.frequency:g} s")
-    _check_step("simulate", args.step, args.frequency, args.controller_period)
-
-
-def _write_record_csv(record, path) -> None:
-    """The co-simulation record as CSV, each column named with its SI unit (p_pump_Pa)."""
-    import numpy as np
-    from system_models.cosim import RESULT_UNITS
-
-    names = [f"{n}_{RESULT_UNITS[n]}" if RESULT_UNITS[n] else n for n in record.dtype.names]
-    np.savetxt(path, np.column_stack([record[n] for n in record.dtype.names]),
-               delimiter=",", header=",".join(names), comments="")
-
-
-def _run_simulate(args) -> int:
-    from . import flowstudy
-    _check_simulate(args)
-    case = _case_from(args, args.frequency, args.mode, args.load)
-    fmu = _fmu_for(args, [case])
-    n = int(round(case.cycles / case.frequency / case.step))
-    bar, update = _progress_bar(n, f"{case.mode} {case.frequency:g} Hz", args.json)
-    try:
-        record, check, row = flowstudy.run_case(case, fmu, progress=update)
-    finally:
-        bar.close()
-    if args.csv:
-        _write_record_csv(record, args.csv)
-    if args.plot:
-        from .flowplots import plot_run
-        plot_run(record, row, args.plot)
-    if args.json:
-        print(json.dumps(row))
-        return 0
-    print(f"{row['mode']} at {row['frequency_Hz']:g} Hz, {row['circuit']} circuit, load "
-          f"{row['load_N']:g} N, step {row['step_s']:g} s, backend {row['backend']}")
-    eq = "eq 41" if case.mode == "compensated" else "eq 40"
-    print(f"  mean cylinder flow   {row['flow_sim_m3_s']:.4e} m^3/s ({row['flow_sim_L_min']:.4f} L/min)")
-    print(f"  {eq} flow f A_d dy   {row['flow_eq_m3_s']:.4e} m^3/s (ratio {row['flow_ratio']:.4f})")
-    print(f"  dy                   {row['dy_um']:.3f} um between the valve switching instants")
-    if row["flow_paper_m3_s"] is not None:
-        print(f"  paper, Table 3       {row['flow_paper_m3_s']:.4e} m^3/s, f A_d dy computed "
-              f"from its measured dy {row['dy_paper_um']:g} um (eqs 40/41)")
-    print(f"  volume balance       {row['volume_imbalance_m3']:.2e} m^3 of "
-          f"{row['volume_pumped_m3']:.2e} m^3 pumped; wall {row['wall_s']:.1f} s")
-    for path in (args.csv, args.plot):
-        if path:
-            print(f"wrote {path}")
-    return 0
-
-
-WORKERS_HELP = "worker processes, at least 1 (default 2)"
-
-
-def _add_flow(subparsers):
-    p = subparsers.add_parser(
-        "flow", help="cylinder flow against frequency, both modes (the flow study)",
-        description="Co-simulate both modes at each frequency and compare the mean "
-                    "cylinder flow with eqs 40/41 and the paper's Table 3.")
-    p.add_argument("--frequencies", type=number_list(0.0, 1000.0, unit="Hz"),
-                   default=[50.0, 70.0, 80.0, 100.0], metavar="HZ,HZ,...",
-                   help="comma-separated frequencies [Hz], each in (0, 1000] "
-                        "(default 50,70,80,100)")
-    _add_load(p)
-    p.add_argument("--loads", metavar="N,N,...", type=number_list(unit="N"),
-                   help="also trace the load line: flow against load at each frequency "
-                        "(negative loads assist)")
-    p.add_argument("--workers", type=count(1), metavar="N", help=WORKERS_HELP)
-    _add_cosim_options(p)
-    p.add_argument("--variant", metavar="FILE", type=input_file,
-                   help="also run every case with the extended transducer model: FILE is the "
-                        "output of 'smeha diagnose --json' (its winning extension) or "
-                        "{\"cause\": ..., \"parameters\": {...}} (e.g. data/paper_variant.json); "
-                        "prints the flow of both models side by side")
-    p.add_argument("--fast", action="store_true",
-                   help="solve each case's periodic steady state directly (smeha.fastpath: "
-                        "the paper's model, gmt in-process; ~0.1 s a case) instead of "
-                        "time-stepping the co-simulation; refuses the options it has no use "
-                        "for")
-    p.add_argument("--json", action="store_true",
-                   help="print only a JSON object {rows: [...]} (with --variant also "
-                        "{variant, comparison})")
-    p.add_argument("--plot", metavar="FILE", type=output_file,
-                   help="write flow against frequency (PNG; with --variant both models, "
-                        "with --loads the load lines)")
-    p.set_defaults(run=_run_flow)
-
-
-def _read_variant(path):
-    """The gmt.ModelVariant of a diagnosis or variant JSON file (--variant FILE)."""
-    try:
-        text = Path(path).read_text()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UsageError(f"--variant {path}: cannot read it ({getattr(exc, 'strerror', exc)})"
-                         ) from None
-    try:
-        return gmt.ModelVariant.from_json(text)
-    except gmt.ParameterError as exc:
-        raise UsageError(f"--variant {path}: {exc}") from None
-
-
-#: Options the periodic-steady-state fast path has no use for, and why.
-FAST_REFUSES = {
-    "variant": "it solves the paper's model only",
-    "controller_period": "it solves the study's default discretisation (valves on the step "
-                         "grid)",
-    "hydraulic_step": "it solves the study's default discretisation (one hydraulic substep)",
-    "cycles": "it solves the periodic steady state, not a number of cycles",
-    "workers": "it runs in this process (~0.1 s a case)",
-    "backend": "it runs gmt in-process",
-    "fmu": "it runs gmt in-process",
-}
-
-
-def _run_fast_flow(args) -> int:
-    from . import fastpath, flowstudy
-    given = [k for k in FAST_REFUSES if getattr(args, k) is not None]
-    if given:
-        option = "--" + given[0].replace("_", "-")
-        raise UsageError(f"--fast does not take {option}: {FAST_REFUSES[given[0]]}; "
-                         f"drop --fast or {option}")
-    _check_step("flow", args.step, max(args.frequencies), None)
-    loads = [args.load] + (args.loads or [])
-    rows = fastpath.flow_table(args.frequencies, flowstudy.MODES, ideal=args.ideal,
-                               load=loads if len(loads) > 1 else args.load, step=args.step,
-                               branch_rule=args.branch_rule)
-    if args.plot:
-        from .flowplots import plot_flow
-        plot_flow(rows, args.plot)
-    if args.json:
-        print(json.dumps({"rows": rows}))
-        return 0
-    first = rows[0]["load_N"]
-    print(flowstudy.format_table([r for r in rows if r["load_N"] == first]))
-    if args.loads:
-        print()
-        print(flowstudy.format_load_lines(rows))
-    print(f"\n(periodic-steady-state fast path, {sum(r['wall_s'] for r in rows):.2f} s)")
-    if args.plot:
-        print(f"wrote {args.plot}")
-    return 0
-
-
-def _workers(args) -> int:
-    return args.workers if args.workers is not None else min(2, os.cpu_count() or 1)
-
-
-def _run_flow(args) -> int:
-    from . import flowstudy
-    if args.fast:
-        return _run_fast_flow(args)
-    variant = _read_variant(args.variant) if args.variant else None
-    no_extension = variant is not None and variant.is_paper
-    if no_extension:
-        note = (f"--variant {args.variant} names no extension (the diagnosis found nothing "
-                "the paper's model misses: cause 'none'), so there is no extended model to "
-                "compare: running the paper's model only")
-        warn("flow", note)
-        variant = None
-    _check_step("flow", args.step, max(args.frequencies), args.controller_period)
-    models = [None] if variant is None else [None, variant]
-    cases = [_case_from(args, f, m, args.load, v) for v in models for f in args.frequencies
-             for m in flowstudy.MODES]
-    cases += [_case_from(args, f, m, load, v) for v in models for f in args.frequencies
-              for m in flowstudy.MODES for load in (args.loads or [])]
-    fmu = _fmu_for(args, cases)
-    rows = flowstudy.run_cases(cases, fmu, workers=_workers(args), quiet=args.json)
-    paper_rows = [r for r in rows if r["model"] == "paper"]
-    table = [r for r in paper_rows if r["load_N"] == cases[0].load_force]
-    pairs = flowstudy.compare_variant(rows) if variant is not None else None
-    if args.plot:
-        from .flowplots import plot_flow
-        plot_flow(rows, args.plot)
-    if args.json:
-        out = {"rows": rows}
-        if variant is not None:
-            out["variant"] = {**variant.as_dict(), "source": str(args.variant)}
-            out["comparison"] = pairs
-        elif no_extension:
-            out["variant"] = {"cause": "none", "source": str(args.variant), "note": note}
-            out["comparison"] = []
-        print(json.dumps(out))
-        return 0
-    print(flowstudy.format_table(table))
-    if args.loads:
-        print()
-        print(flowstudy.format_load_lines(paper_rows))
-    if variant is not None:
-        print()
-        print(flowstudy.format_comparison(pairs, variant, str(args.variant)))
-    if no_extension:
-        print(f"\n{note}")
-    if args.plot:
-        print(f"wrote {args.plot}")
-    return 0
-
-
-def _add_sweep(subparsers):
-    p = subparsers.add_parser(
-        "sweep", help="a grid of co-simulations from a TOML spec, locally or on Dask",
-        description="Run every point of the spec's grid (docs/SWEEP.md) as a flow-study "
-                    "co-simulation on local worker processes or a Dask distributed cluster, "
-                    "into one CSV table; a rerun runs only the points missing or failed there.")
-    p.add_argument("spec", metavar="SPEC", type=input_file,
-                   help="sweep spec (TOML: [grid], [settings])")
-    p.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
-                   help="Dask scheduler, e.g. tcp://host:8786 (default: local processes)")
-    p.add_argument("--workers", type=count(1), metavar="N",
-                   help="local worker processes, at least 1 (default 2; not with --scheduler)")
-    p.add_argument("--out", metavar="FILE", type=output_file,
-                   help="result table (CSV; default: the spec's name with .csv, beside it: "
-                        "grid.toml -> grid.csv)")
-    p.add_argument("--fmu", metavar="FILE", type=input_file,
-                   help="transducer FMU (default dist/SmehaGmt.fmu of the source tree, built "
-                        "if missing or out of date; see 'smeha build')")
-    p.add_argument("--json", action="store_true",
-                   help="print only a JSON object {rows, skipped, failed, ran}")
-    p.add_argument("--plot", metavar="FILE", type=output_file,
-                   help="write flow against frequency (PNG)")
-    p.set_defaults(run=_run_sweep)
-
-
-def default_sweep_table(spec: Path) -> Path:
-    """The sweep's table when --out is not given: the spec's name with .csv, beside it."""
-    out = spec.with_suffix(".csv")
-    return out if out != spec else spec.with_name(spec.name + ".csv")
-
-
-def _run_sweep(args) -> int:
-    from . import sweep
-
-    if args.scheduler and args.workers is not None:
-        raise UsageError("--workers sets local processes; with --scheduler the Dask "
-                         "cluster's workers run the points: drop one of them")
-    points = sweep.read_spec(args.spec)  # SpecError (a ValueError): exit 2
-    out = args.out
-    if out is None:
-        try:
-            out = output_file(str(default_sweep_table(args.spec)))
-        except argparse.ArgumentTypeError as exc:
-            raise UsageError(f"the default table (--out) {exc}") from None
-    highest = {}  # (step, controller period) -> the highest frequency swept with it
-    for q in points:
-        key = (q.step, q.controller_period)
-        highest[key] = max(highest.get(key, 0.0), q.frequency)
-    for (step, period), frequency in highest.items():
-        _check_step("sweep", step, frequency, period)
-    fmu = _fmu_for(args, points)
-    try:
-        result = sweep.run_sweep(points, out, fmu, workers=_workers(args),
-                                 scheduler=args.scheduler, quiet=args.json)
-    except sweep.SweepError as exc:
-        print(f"smeha sweep: error: {exc}", file=sys.stderr)
-        return 1
-    if args.plot:
-        sweep.plot_sweep(result.rows, args.plot)
-    if args.json:
-        print(json.dumps(result.as_dict()))
-    else:
-        print(sweep.format_summary(result, out))
-        if args.plot:
-            print(f"wrote {args.plot}")
-    return 1 if result.failed else 0
 
 
 def _add_identify(subparsers):
@@ -609,7 +195,7 @@ def _run_diagnose(args) -> int:
 
 
 #: Registration functions of the subcommands, in the order ``--help`` lists them.
-SUBCOMMANDS = (_add_paper, _add_simulate, _add_flow, _add_sweep, _add_identify,
+SUBCOMMANDS = (_add_paper, add_simulate, add_flow, add_sweep, _add_identify,
                _add_diagnose, _add_build)
 
 

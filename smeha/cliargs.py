@@ -211,6 +211,15 @@ def scheduler_address(text: str) -> str:
     return text.strip()
 
 
+def add_branch_rule(parser) -> None:
+    """--branch-rule, the compensator's root rule (gmt.parameters.BRANCH_RULES)."""
+    import gmt.parameters
+
+    parser.add_argument("--branch-rule", choices=gmt.parameters.BRANCH_RULES, default="control",
+                        help="compensator root rule: 'control' (Figure 9, default) or 'demand' "
+                             "(the direction of the demanded magnetisation)")
+
+
 def warn(command: str, message: str) -> None:
     """A warning on stderr, one line, in the form of the errors."""
     print(f"smeha {command}: warning: {message}", file=sys.stderr)
