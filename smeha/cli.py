@@ -17,7 +17,7 @@ Subcommands
 ``smeha sweep SPEC.toml [--scheduler ADDRESS] [--workers N] [--out FILE] [--json] [--plot FILE]``
     A grid of flow-study cases from a TOML spec on local processes or a
     Dask cluster, resumable, into one CSV table (:mod:`smeha.sweep`).
-``smeha identify DATA.csv [--oversample K] [--json]``
+``smeha identify DATA.csv [--json]``
     B_m, mu'' per measured run and the loss coefficients of eq 16
     (:mod:`smeha.identify`; file format in :mod:`smeha.measured`).
 ``smeha diagnose DATA.csv [--holdout RUN,...] [--json] [--report DIR]``
@@ -53,7 +53,7 @@ import sys
 import gmt  # cheap: its names load on first use (gmt/__init__.py)
 
 from . import __version__
-from .cliargs import (Parser, UsageError, add_branch_rule, count, input_file,
+from .cliargs import (Parser, UsageError, add_branch_rule, input_file,
                       join_negative_values, output_dir)
 from .flowcommands import add_flow, add_simulate, add_sweep
 
@@ -126,10 +126,6 @@ def _add_identify(subparsers):
                     "eqs 16 with standard uncertainties.")
     p.add_argument("data", metavar="DATA.csv", type=input_file,
                    help="measurement file (CSV, long form)")
-    p.add_argument("--oversample", type=count(1, 1000), default=1, metavar="K",
-                   help="run the model on a K times finer step than the data (cubic-spline "
-                        "current), K in [1, 1000]; K >= 16 removes the half-step hold delay "
-                        "for data from the physical transducer (default 1: the data's step)")
     p.add_argument("--json", action="store_true",
                    help="print only a JSON object {runs, loss_coefficients, correlation, ...}")
     p.set_defaults(run=_run_identify)
@@ -139,7 +135,7 @@ def _run_identify(args) -> int:
     from . import identify, measured
 
     runs = measured.read_measurements(args.data)  # DataError (a ValueError): exit 2
-    result = identify.identify(runs, oversample=args.oversample)
+    result = identify.identify(runs)
     if args.json:
         report = {"file": str(args.data), **result.as_dict()}
         json.dump(report, sys.stdout, indent=2, allow_nan=False)

@@ -259,8 +259,10 @@ def _read_variant(path):
     except (OSError, UnicodeDecodeError) as exc:
         raise UsageError(f"--variant {path}: cannot read it ({getattr(exc, 'strerror', exc)})"
                          ) from None
+    from .diagnose import read_variant_json
+
     try:
-        return gmt.ModelVariant.from_json(text)
+        return read_variant_json(text)
     except gmt.ParameterError as exc:
         raise UsageError(f"--variant {path}: {exc}") from None
 

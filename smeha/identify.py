@@ -10,22 +10,22 @@ The paper's procedure ("Simulation and experiments"), with a few additions:
    displacement instead: the displacement's fundamental, as a complex
    amplitude relative to the current's fundamental, is
    A_r E^H G(jw) 2 K_lambda M_b H_m ((mu' - 1) - j mu'')
-   (:func:`gmt.forward.strain_harmonics`; G the mechanics of eq 29 at the
-   sampled model's step, Table 2), which gives mu' and mu'' and
+   (:func:`gmt.forward.strain_harmonics`; G the continuous mechanics of
+   eq 29, Table 2), which gives mu' and mu'' and
    B_m = mu_0 H_m |mu' - j mu''| (eq 19). Each run reports its source.
-2. **mu'' per run.** The model's prediction of the loop is
-   :func:`gmt.simulate` (the time-stepping eq 30) driven by the measured
-   current samples (resampled to a uniform step if they are not uniform) at
-   the operating point (f, I_m of the current's fundamental, the run's B_m,
-   mu'' imposed), with the first period discarded as transient and a constant
-   displacement offset fitted (measured displacements are relative). The field
-   and its quadrature part (eq 31) come from one :func:`gmt.simulate` run per
-   run; every evaluation then steps the mechanics of eq 27 as one linear
-   filter (:func:`zoh_displacement`; the same numbers to rounding). The
-   paper's scan of mu'' over [0, 10] (bounded above by |mu| = B_m/(mu_0 H_m),
-   where mu' of eq 20 stops being real) brackets the minimum of the sum of
-   squares; a bounded Brent search refines it, and one Gauss-Newton step
-   polishes it. The standard error comes from the curvature of the sum of
+2. **mu'' per run.** The model's prediction of the loop is eq 30 in
+   periodic steady state for the current's fundamental i = I_m cos(w t + phi)
+   (f, I_m and phi of the run's current by least squares): the strain
+   harmonics of eq 25 (:func:`gmt.forward.strain_harmonics`) through the
+   **continuous** mechanics of eq 27, Y_k = A_r E^H Lambda_k G(j k w), at the
+   operating point (the run's B_m, mu'' imposed), evaluated at the sample
+   times, with the first period discarded as transient and a constant
+   displacement offset fitted (measured displacements are relative). The
+   transducer is a continuous system, so the model does not depend on how
+   the data were sampled (uniform or not, at any rate). The paper's scan of
+   mu'' over [0, 10] (bounded above by |mu| = B_m/(mu_0 H_m), where mu' of
+   eq 20 stops being real) brackets the minimum of the sum of squares; a
+   bounded Brent search refines it, and one Gauss-Newton step polishes it. The standard error comes from the curvature of the sum of
    squares (Gauss-Newton, 2 J^T J) and the residual variance, with the
    uncertainty of B_m propagated through the sensitivity d mu''/d B_m of the
    fit.
@@ -51,18 +51,15 @@ from dataclasses import asdict, dataclass
 from types import SimpleNamespace
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 from scipy.optimize import least_squares, minimize_scalar
-from scipy.signal import lfilter
 
 import gmt
 from gmt import losses as gmt_losses
-from gmt import mechanics as gmt_mechanics
 from gmt.constants import MU_0
-from gmt.forward import bias_displacement, strain_harmonics
-from gmt.magnetostriction import magnetostriction, magnetostrictive_force
+from gmt.extensions.steady import mechanics_response
+from gmt.forward import strain_harmonics
 from gmt.parameters import STEINMETZ_RANGE
-from gmt.permeability import amplitude_permeability, lag_angle, magnetization
+from gmt.permeability import amplitude_permeability, lag_angle
 from gmt.sensing import flux_density_amplitude_from_voltage
 
 from .measured import DataError, Run, harmonic_basis
@@ -187,6 +184,11 @@ class LossFit:
         degrees of freedom.
     note : str
         What limits the result, or "".
+    flags : tuple of str
+        Why the coefficients are not a physical result, when they are not
+        (:func:`physical_flags`): a negative loss coefficient, an uncertainty
+        larger than the value, a residual variance the per-run errors cannot
+        explain. Empty for a fit that makes physical sense.
     """
 
     values: tuple
@@ -195,6 +197,12 @@ class LossFit:
     runs: int
     residual_variance: float | None
     note: str = ""
+    flags: tuple = ()
+
+    @property
+    def physical(self) -> bool:
+        """True when no flag was raised (:attr:`flags`)."""
+        return not self.flags
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -243,6 +251,7 @@ class Identification:
             {"names": list(lf.names), "matrix": [list(row) for row in lf.correlation]},
             "loss_fit": None if lf is None else
             {"runs": lf.runs, "residual_variance": lf.residual_variance, "note": lf.note,
+             "physical": lf.physical, "flags": list(lf.flags),
              "method": "weighted least squares on the set of eqs 16 (weights 1/stderr(mu''))"},
             "note": self.note,
         }
@@ -289,14 +298,13 @@ def _current_phasor(time, current, frequency):
     return complex(coef[1], -coef[2])
 
 
-def flux_density_from_displacement(run: Run, params: gmt.TransducerParameters, mask,
-                                   step: float):
+def flux_density_from_displacement(run: Run, params: gmt.TransducerParameters, mask):
     """B_m (eq 19), mu' and mu'' from the displacement's fundamental, [T], [-], [-].
 
-    Y_1 / (I_1/|I_1|) = A_r E^H G_d(e^{jwh}) Lambda_1 with
+    Y_1 / (I_1/|I_1|) = A_r E^H G(jw) Lambda_1 with
     Lambda_1 = 2 K_lambda M_b H_m ((mu' - 1) - j mu'') (eq 25 about the bias,
-    :func:`gmt.forward.strain_harmonics`) and G_d the mechanics of eq 29 at
-    the model's step h (its sampled steady state, as :func:`gmt.simulate`).
+    :func:`gmt.forward.strain_harmonics`) and G the continuous mechanics of
+    eq 29 (:func:`gmt.extensions.steady.mechanics_response`).
 
     Returns
     -------
@@ -312,8 +320,7 @@ def flux_density_from_displacement(run: Run, params: gmt.TransducerParameters, m
     hm = params.field_per_ampere * im
     unit_m = SimpleNamespace(mu_real=2.0, mu_imag=0.0, field_amplitude=hm)  # m = 1
     lam1_per_m = strain_harmonics(params, unit_m)[1]
-    gy, _ = gmt_mechanics.frequency_response(params.mass, params.damping, params.stiffness,
-                                             [w], step=step)
+    gy = mechanics_response(params.mass, params.damping, params.stiffness, [w])
     scale = params.rod_area * params.youngs_modulus * gy[0] * lam1_per_m * (i1 / im)
     m = y1 / scale
     mu = 1.0 + m
@@ -329,107 +336,52 @@ def flux_density_from_displacement(run: Run, params: gmt.TransducerParameters, m
 
 # -- the loop fit -------------------------------------------------------------------------
 
-
-def zoh_displacement(params: gmt.TransducerParameters, force, step: float):
-    """y at t_k of eq 27 stepped by its ZOH matrices from rest at the bias, [m].
-
-    The recurrence of :func:`gmt.simulate`, x_{k+1} = A_d x_k + B_d F_k with
-    x = [y, v], x_0 = [y_b, 0] (y_b of :func:`gmt.forward.bias_displacement`)
-    and y_k the state before step k, written as one linear filter. Eliminating
-    the velocity (Cayley-Hamilton for the 2 x 2 A_d) gives
-
-        y_k = t_1 y_{k-1} - t_2 y_{k-2} + b_1 F_{k-1} + (a_12 b_2 - a_22 b_1) F_{k-2},
-
-    t_1 = tr A_d, t_2 = det A_d, i.e. Y(z)/F(z) = [1 0] (z I - A_d)^-1 B_d.
-    The rest state is the equilibrium under the bias force F_b = K y_b, so y
-    is y_b plus that filter driven by F - F_b from zero
-    (:func:`scipy.signal.lfilter`). Equal to ``gmt.simulate``'s displacement
-    to rounding.
-
-    Parameters
-    ----------
-    params : TransducerParameters
-        m, c, K (eq 27) and the bias.
-    force : array
-        F at t_k, [N], held over each step.
-    step : float
-        h, [s].
-    """
-    a11, a12, a21, a22, b1, b2 = gmt_mechanics.zoh_matrices(
-        params.mass, params.damping, params.stiffness, step)
-    y_b = bias_displacement(params)
-    num = [0.0, b1, a12 * b2 - a22 * b1]
-    den = [1.0, -(a11 + a22), a11 * a22 - a12 * a21]
-    return y_b + lfilter(num, den, np.asarray(force, dtype=float) - params.stiffness * y_b)
+def _slow_rate(params):
+    """Rate of the slower pole of eq 27, [1/s] (about 7.0e3 with Table 2, gmt.mechanics)."""
+    m, c, k = params.mass, params.damping, params.stiffness
+    disc = c * c - 4.0 * m * k
+    if disc <= 0.0:
+        return c / (2.0 * m)
+    return (c - math.sqrt(disc)) / (2.0 * m)
 
 
 class _LoopModel:
-    """Model displacement of a run for given (B_m, mu''), on the fitted samples."""
+    """Model displacement of a run for given (B_m, mu''), on the fitted samples.
 
-    def __init__(self, run: Run, params, transient_cycles: float, oversample: int = 1):
+    Eq 30 in periodic steady state for the current's fundamental, through the
+    continuous mechanics (module docstring, step 2): y = y_0 + Re(Y_1 e^{j theta})
+    + Re(Y_2 e^{2 j theta}), theta = w t + phi, at the run's own sample times.
+    """
+
+    def __init__(self, run: Run, params, transient_cycles: float):
         self.run, self.params = run, params
         t = run.time
-        n = t.size
         span = t[-1] - t[0]
-        h = span / (n - 1)
-        dt = np.diff(t)
-        if oversample == 1 and np.max(np.abs(dt - h)) <= 1e-6 * h:
-            self.step, self.grid, self.resampled = h, None, False
-            self.current = run.current
-        else:
-            if oversample == 1:
-                h = float(np.median(dt))
-            h = h / oversample
-            m = int(round(span / h)) + 1
-            h = span / (m - 1)
-            self.step, self.resampled = h, True
-            self.grid = t[0] + h * np.arange(m)
-            if oversample == 1:
-                self.current = np.interp(self.grid, t, run.current)
-            else:
-                self.current = CubicSpline(t, run.current)(self.grid)
-        self.current_amplitude = run.current_amplitude
+        i1 = _current_phasor(t, run.current, run.frequency)
+        self.current_amplitude = abs(i1)
+        self.current_phase = math.atan2(i1.imag, i1.real)
         if run.cycles >= transient_cycles + 1.0:
             discard = transient_cycles / run.frequency
         else:  # short run: discard 20 time constants of the slower mechanical pole
-            slow = float(np.min(np.abs(gmt_mechanics.poles(
-                params.mass, params.damping, params.stiffness).real)))
-            discard = min(20.0 / slow, 0.5 * span)
+            discard = min(20.0 / _slow_rate(params), 0.5 * span)
         self.discarded = discard
         self.mask = t >= t[0] + discard - 1e-12 * max(span, 1.0)
         self.data = run.displacement[self.mask]
-        self.excitation_f = run.frequency
-        self._fields = None  # (H, H tan(w t)) at the model's samples, set by predict
+        w = 2.0 * math.pi * run.frequency
+        theta = w * t[self.mask] + self.current_phase
+        self._waves = (np.exp(1j * theta), np.exp(2j * theta))
+        self._gain = params.rod_area * params.youngs_modulus * mechanics_response(
+            params.mass, params.damping, params.stiffness, [w, 2.0 * w])
 
     def point(self, bm, mu_imag):
-        exc = gmt.Excitation(self.excitation_f, self.current_amplitude, bm)
+        exc = gmt.Excitation(self.run.frequency, self.current_amplitude, bm)
         return gmt.operating_point(self.params, exc, mu_imag=mu_imag)
 
     def predict(self, bm, mu_imag):
-        """Model displacement on the fitted samples (no offset), [m].
-
-        The model of :func:`gmt.simulate` (eq 30, the mechanics of eq 27 by
-        their ZOH matrices), in two parts: the field H and its quadrature part
-        H tan(w t) (eq 31) depend on the current alone, so they come from one
-        :func:`gmt.simulate` run and are kept; for each (B_m, mu'') the force of
-        eqs 5, 25 and 28 then goes through the ZOH recurrence of eq 27 as one
-        linear filter (:func:`zoh_displacement`). The same numbers as
-        ``gmt.simulate(...)["displacement"]`` to rounding, a Python loop fewer.
-        """
-        point = self.point(bm, mu_imag)
-        if self._fields is None:
-            out = gmt.simulate(self.params, point, self.current, self.step)
-            self._fields = (out["field"], out["quadrature_field"])
-        field, quadrature = self._fields
-        p = self.params
-        m = magnetization(field, quadrature, point.mu_real, point.mu_imag)
-        force = magnetostrictive_force(
-            magnetostriction(m, p.bias_magnetization, p.magnetostriction_coefficient),
-            p.rod_area, p.youngs_modulus)
-        y = zoh_displacement(p, force, self.step)
-        if self.resampled:
-            y = np.interp(self.run.time, self.grid, y)
-        return y[self.mask]
+        """Model displacement on the fitted samples, about the bias (no offset), [m]."""
+        lam = strain_harmonics(self.params, self.point(bm, mu_imag))
+        e1, e2 = self._waves
+        return np.real(self._gain[0] * lam[1] * e1) + np.real(self._gain[1] * lam[2] * e2)
 
     def residual(self, bm, mu_imag):
         """Measured minus model with the best constant offset, [m]; and the offset."""
@@ -440,7 +392,7 @@ class _LoopModel:
 
 def identify_run(run: Run, params: gmt.TransducerParameters | None = None, *,
                  scan=SCAN_RANGE, scan_points: int = SCAN_POINTS,
-                 transient_cycles: float = 1.0, oversample: int = 1) -> RunIdentification:
+                 transient_cycles: float = 1.0) -> RunIdentification:
     """B_m and mu'' of one run (module docstring, steps 1-2).
 
     Parameters
@@ -455,15 +407,9 @@ def identify_run(run: Run, params: gmt.TransducerParameters | None = None, *,
     scan_points : int
         Points of the scan.
     transient_cycles : float
-        Periods discarded at the start (the model starts at rest); runs too
-        short for that plus one period discard 20 mechanical time constants.
-    oversample : int
-        1 (default): the model runs at the data's step, as the paper's
-        sampled model and the FMU do. K > 1: the current is interpolated
-        (cubic spline) onto a K times finer grid first. gmt.simulate holds each
-        current sample over its step, which delays the model by half a step;
-        for data from the physical (continuous) transducer that biases mu''
-        (about -3 % at 200 samples a period, 50 Hz), and K reduces it K-fold.
+        Periods discarded at the start (the transducer's mechanical transient);
+        runs too short for that plus one period discard 20 mechanical time
+        constants.
 
     Returns
     -------
@@ -475,7 +421,7 @@ def identify_run(run: Run, params: gmt.TransducerParameters | None = None, *,
         When the run cannot be fitted (no current, B_m not positive).
     """
     params = params or gmt.TransducerParameters()
-    model = _LoopModel(run, params, transient_cycles, int(oversample))
+    model = _LoopModel(run, params, transient_cycles)
     im = model.current_amplitude
     if not im > 0:
         raise DataError(f"{run.where()}: the current has no fundamental at "
@@ -485,7 +431,7 @@ def identify_run(run: Run, params: gmt.TransducerParameters | None = None, *,
         bm, se_b = flux_density_from_sense_voltage(run, params)
         source = "sense_voltage"
     else:
-        bm, se_b, _, _ = flux_density_from_displacement(run, params, model.mask, model.step)
+        bm, se_b, _, _ = flux_density_from_displacement(run, params, model.mask)
         source = "displacement"
     if not (bm > 0 and math.isfinite(bm)):
         raise DataError(f"{run.where()}: B_m = {bm:g} T from the {SOURCES[source]} is not "
@@ -652,8 +598,52 @@ def fit_losses(runs, params: gmt.TransducerParameters | None = None) -> LossFit 
                 stderrs = tuple(float(s) for s in sd)
                 c = cov / np.outer(sd, sd)
                 corr = tuple(tuple(float(v_) for v_ in row) for row in c)
-    return LossFit(values=tuple(float(v_) for v_ in x), stderrs=stderrs, correlation=corr,
-                   runs=len(runs), residual_variance=rv, note=note.strip().rstrip(";"))
+    values = tuple(float(v_) for v_ in x)
+    flags = physical_flags(values, stderrs, rv, dof)
+    if flags:
+        note = (note.strip().rstrip(";") + "; " if note.strip() else "") + (
+            "not a physical result (" + "; ".join(flags) + "): the paper's loss law does not "
+            "describe these runs; run smeha diagnose on the same file to see what the paper's "
+            "model misses")
+    return LossFit(values=values, stderrs=stderrs, correlation=corr, runs=len(runs),
+                   residual_variance=rv, note=note.strip().rstrip(";"), flags=flags)
+
+
+#: Probability of a residual variance above the flag's limit when the per-run errors are
+#: right (the chi^2 distribution's upper tail, :func:`physical_flags`).
+RESIDUAL_VARIANCE_TAIL = 1e-3
+
+
+def physical_flags(values, stderrs, residual_variance, dof) -> tuple:
+    """Why loss coefficients make no physical sense, as short texts (empty if they do).
+
+    * a negative K_h, K_e or K_ex: each is a loss per cycle (eqs 7, 9, 11), never
+      negative;
+    * a standard uncertainty larger than the value: the runs do not determine it;
+    * a residual variance (chi^2/dof of the weighted fit) beyond the upper
+      :data:`RESIDUAL_VARIANCE_TAIL` quantile of chi^2/dof: the mu'' of the runs
+      scatter about eq 16 far beyond their standard errors, so the law (or the
+      model that gave each mu'') does not hold.
+    """
+    from scipy.stats import chi2
+
+    flags = []
+    names = [n for n, _, _ in LOSS_COEFFICIENTS]
+    for k in (0, 2, 3):
+        if values[k] < 0.0:
+            flags.append(f"{names[k]} = {values[k]:.4g} < 0, and a loss coefficient cannot "
+                         "be negative")
+    if stderrs is not None:
+        for name, v, e in zip(names, values, stderrs):
+            if e > abs(v):
+                flags.append(f"{name} = {v:.4g} +- {e:.3g}, not determined (the uncertainty "
+                             "exceeds the value)")
+    if residual_variance is not None and dof > 0:
+        limit = float(chi2.isf(RESIDUAL_VARIANCE_TAIL, dof)) / dof
+        if residual_variance > limit:
+            flags.append(f"residual variance {residual_variance:.3g} where the per-run errors "
+                         f"allow at most {limit:.2g}")
+    return tuple(flags)
 
 
 def identify(runs, params: gmt.TransducerParameters | None = None, **kwargs) -> Identification:
@@ -728,6 +718,12 @@ def format_identification(ident: Identification, path: str = "") -> str:
         lines.append("        " + "".join(f"{n:>8}" for n in fit.names))
         for name, row in zip(fit.names, fit.correlation):
             lines.append(f"  {name:<5} " + "".join(f"{v:>8.3f}" for v in row))
-    if fit.note or ident.note:
+    if fit.flags:
+        lines.append("these coefficients make no physical sense:")
+        lines += [f"  - {flag}" for flag in fit.flags]
+        where = f" {path}" if path else ""
+        lines.append(f"the paper's model does not describe these runs; run `smeha diagnose"
+                     f"{where}` to see what it misses")
+    elif fit.note or ident.note:
         lines.append("note: " + "; ".join(x for x in (fit.note, ident.note) if x))
     return "\n".join(lines)

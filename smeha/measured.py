@@ -398,7 +398,7 @@ def _make_run(path, name, rec, disp_column, optional) -> Run:
                sense_voltage=signals.get("sense_voltage_V"),
                control=signals.get("control_V"),
                source=f"{path}:{lines[0]}", lines=lines,
-               meta={"frequency_estimate_Hz": f_est})
+               meta={"frequency_estimate_Hz": f_est, "displacement_column": disp_column})
 
 
 # -- writing -------------------------------------------------------------------------------

@@ -10,20 +10,26 @@ coefficients (Table 2) and Table 1's B_m stay as the paper has them; the
 extension's own parameters are the only ones fitted. Thermal drift is not
 among the candidates: Table 3 has no time axis.
 
+Every form of every cause is a candidate (:func:`smeha.diagnose.candidates`),
+evaluated as the diagnosis evaluates it: eq 30 in periodic steady state with
+the continuous mechanics of eq 27 (:func:`gmt.extensions.steady.steady_state`).
+
 Reading uncertainty: the values are read off figures to about 0.5 um
 (:data:`READING_UNCERTAINTY_UM`); with six training values a candidate with
 more than three parameters cannot be judged, so the hysteresis candidate is
-fitted with its play-operator weights tied to one scale.
+fitted with its play-operator weights tied to one scale. A winning candidate
+whose parameters end on the bounds of its fit is reported as a weak finding
+(``weak``, ``at_bounds``): it predicts the held-out values better, but its
+parameters are not a physical result.
 """
 from __future__ import annotations
 
 import math
-from types import SimpleNamespace
-
 import numpy as np
 from scipy.optimize import least_squares
 
 import gmt
+from gmt.extensions.steady import steady_state
 
 from . import diagnose, paperdata
 
@@ -31,8 +37,6 @@ from . import diagnose, paperdata
 READING_UNCERTAINTY_UM = 0.5
 TRAIN = (50.0, 100.0)
 HELDOUT = (70.0, 80.0)
-#: Model step for the ZOH mechanics of the evaluator: fine enough to be continuous.
-_STEP = 1e-7
 
 
 def _measured():
@@ -52,14 +56,13 @@ def _stated():
     return s["frequency"], [float(v) * 1e6 for v in s["peak_to_peak"]]
 
 
-def _loop_values(ev, params, f, cause, extra):
+def _loop_values(context, f, cand, extra):
     """y(+1), y(-1), pp above the minimum [um] of a candidate's steady loop at (f, 1 A)."""
+    params = context["params"]
     bm = gmt.DEFAULT_CALIBRATION.flux_density_amplitude(f, 1.0)
-    rf = SimpleNamespace(frequency=f, angular_frequency=2 * math.pi * f, current_amplitude=1.0,
-                         flux_density_amplitude=bm, step=_STEP)
     loss = (params.hysteresis_coefficient, params.steinmetz_exponent,
             params.eddy_coefficient, params.excess_coefficient)
-    y, *_ = ev.predict(rf, loss, cause, extra)
+    y = steady_state(params, f, 1.0, bm, loss, cand.components(extra, context)).displacement
     theta = 2 * math.pi * np.arange(4096) / 4096
     k = np.arange(1, y.size + 1)
     wave = np.real(np.exp(1j * np.outer(theta, k)) @ y)
@@ -67,10 +70,10 @@ def _loop_values(ev, params, f, cause, extra):
     return ((wave[0] - low) * 1e6, (wave[2048] - low) * 1e6, (wave.max() - low) * 1e6)
 
 
-def _residuals(ev, params, cause, extra, freqs, measured):
+def _residuals(context, cand, extra, freqs, measured):
     r = []
     for f in freqs:
-        yp, ym, pp = _loop_values(ev, params, f, cause, extra)
+        yp, ym, pp = _loop_values(context, f, cand, extra)
         mp, mm, mpp = measured[f]
         r += [yp - mp, ym - mm]
         if mpp is not None:
@@ -79,12 +82,12 @@ def _residuals(ev, params, cause, extra, freqs, measured):
 
 
 def _tied(cand):
-    """The candidate's parameter vector, with the hysteresis weights tied to one scale."""
+    """The candidate's unknowns, with the hysteresis weights tied to one scale."""
     if cand.cause == "rate_independent_hysteresis":
         n = len(cand.names)
         return (("scale",), ((0.5,), (2.0,)), (0.0,), (100.0,),
                 lambda x: tuple([x[0]] * n))
-    return (cand.names, cand.starts, cand.lower, cand.upper, lambda x: tuple(x))
+    return (cand.names, cand.starts(), cand.lower, cand.upper, lambda x: tuple(x))
 
 
 def paper_data_diagnosis(params: gmt.TransducerParameters | None = None) -> dict:
@@ -92,7 +95,7 @@ def paper_data_diagnosis(params: gmt.TransducerParameters | None = None) -> dict
     params = params or gmt.TransducerParameters()
     measured = _measured()
     hm = params.field_per_ampere
-    ev = diagnose._Evaluator(params, tuple(hm * t for t in diagnose.PLAY_THRESHOLDS))
+    context = {"params": params, "thresholds": tuple(hm * t for t in diagnose.PLAY_THRESHOLDS)}
     rows = []
     for cand in diagnose.candidates():
         if cand.cause == "thermal_drift":
@@ -102,29 +105,29 @@ def paper_data_diagnosis(params: gmt.TransducerParameters | None = None) -> dict
             best = None
             for x0 in starts:
                 fit = least_squares(
-                    lambda x: _residuals(ev, params, cand.cause, expand(x), TRAIN, measured),
+                    lambda x: _residuals(context, cand, expand(x), TRAIN, measured),
                     np.array(x0, float), bounds=(np.array(lower, float), np.array(upper, float)))
                 if best is None or fit.cost < best.cost:
                     best = fit
             extra = expand(best.x)
         else:
             extra = ()
-        rt = _residuals(ev, params, cand.cause, extra, TRAIN, measured)
-        rh = _residuals(ev, params, cand.cause, extra, HELDOUT, measured)
+        rt = _residuals(context, cand, extra, TRAIN, measured)
+        rh = _residuals(context, cand, extra, HELDOUT, measured)
         k = len(names)
         n = rt.size
         chi2 = float(rt @ rt) / READING_UNCERTAINTY_UM ** 2
         rows.append({
-            "cause": "none" if cand.cause == "none" else cand.cause,
-            "parameters": diagnose.physical_parameters(
-                cand.cause, extra, {"params": params, "thresholds": ev.thresholds}),
+            "cause": cand.cause, "form": cand.form, "label": cand.label,
+            "parameters": cand.parameters(extra, context) if cand.members else {},
+            "at_bounds": list(cand.at_bounds(extra)) if cand.members else [],
             "n_parameters": k,
             "train_rms_um": float(np.sqrt(np.mean(rt ** 2))),
             "heldout_rms_um": float(np.sqrt(np.mean(rh ** 2))),
             "aicc": float(chi2 + 2 * k + (2 * k * (k + 1) / (n - k - 1) if n - k - 1 > 0
                                           else math.inf)),
             "loops": {f"{f:g}": dict(zip(("y_plus1_um", "y_minus1_um", "pp_um"),
-                                         _loop_values(ev, params, f, cand.cause, extra)))
+                                         _loop_values(context, f, cand, extra)))
                       for f in TRAIN + HELDOUT},
         })
     paper = rows[0]
@@ -138,6 +141,9 @@ def paper_data_diagnosis(params: gmt.TransducerParameters | None = None) -> dict
         "paper_model": paper,
         "candidates": rows[1:],
         "cause": cause,
+        "form": best["form"] if better else "",
+        "weak": bool(better and best["at_bounds"]),
+        "at_bounds": best["at_bounds"] if better else [],
         "heldout_rms_um": {"paper": paper["heldout_rms_um"],
                            "extended": best["heldout_rms_um"] if better else paper["heldout_rms_um"]},
         "gain": paper["heldout_rms_um"] / (best["heldout_rms_um"] if better
@@ -153,7 +159,7 @@ def format_paper_diagnosis(d: dict) -> str:
              "100 Hz, check at 70 and 80 Hz)",
              f"{'model':<30} {'k':>2} {'train RMS [um]':>15} {'held-out RMS [um]':>18} {'AICc':>8}"]
     for r in [d["paper_model"]] + d["candidates"]:
-        name = "paper (eq 30)" if r is d["paper_model"] else r["cause"]
+        name = "paper (eq 30)" if r is d["paper_model"] else r["label"]
         lines.append(f"{name:<30} {r['n_parameters']:>2} {r['train_rms_um']:>15.2f} "
                      f"{r['heldout_rms_um']:>18.2f} {r['aicc']:>8.1f}")
     m = d["measured_um"]
@@ -161,7 +167,11 @@ def format_paper_diagnosis(d: dict) -> str:
     lines.append("measured vs paper model, y(+1) / y(-1) above the minimum [um]: " + "; ".join(
         f"{f} Hz {m[f]['y_plus1_um']:.1f}/{m[f]['y_minus1_um']:.1f} vs "
         f"{p[f]['y_plus1_um']:.1f}/{p[f]['y_minus1_um']:.1f}" for f in m))
-    lines.append(f"cause: {d['cause']}; held-out RMS {d['heldout_rms_um']['paper']:.2f} -> "
-                 f"{d['heldout_rms_um']['extended']:.2f} um (gain {d['gain']:.2f}); values read "
-                 f"off figures to ~{d['reading_uncertainty_um']} um")
+    form = f" ({d['form']})" if d.get("form") else ""
+    weak = (f" [weak finding: {', '.join(d['at_bounds'])} on the bounds of the fit, not a "
+            "physical result]" if d.get("weak") else "")
+    lines.append(f"cause: {d['cause']}{form}{weak}; held-out RMS "
+                 f"{d['heldout_rms_um']['paper']:.2f} -> {d['heldout_rms_um']['extended']:.2f} um "
+                 f"(gain {d['gain']:.2f}); values read off figures to "
+                 f"~{d['reading_uncertainty_um']} um")
     return "\n".join(lines)

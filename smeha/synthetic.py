@@ -3,7 +3,9 @@
 The diagnosis workflow (issue #5) must name the cause of a misfit from data
 alone. This module makes its test data: measured-like :class:`~smeha.measured.Run`
 objects at several frequencies and current amplitudes, from the paper's model
-(eq 30, through :func:`gmt.simulate`) with at most one physical effect added
+(eq 30: the magnetics of :mod:`gmt` at the samples, the mechanics of eq 27
+integrated as the continuous system, :func:`_continuous_mechanics`) with at
+most one physical effect added
 that the paper's model lacks. The caller (a test) chooses the effect; the runs
 carry it in ``Run.meta`` (the diagnosis must not read ``meta``; tests do).
 
@@ -588,8 +590,9 @@ def two_mass_response(force, step, params, truth, paper_displacement):
         y_2 = y_paper + [y_2 of the two-mass model - y of eq 27 with m = m_1 + m_2],
 
     both bracketed responses to the same interpolated force F - F_bias,
-    starting in static equilibrium with the first force: the paper's stepper
-    (``paper_displacement``) plus what the compliant joint changes. As k_j -> inf the bracket vanishes.
+    starting in static equilibrium with the first force: the continuous paper model
+    (``paper_displacement``) plus what the compliant joint changes. As k_j -> inf
+    the bracket vanishes.
     """
     m2 = truth["output_mass"]
     a2, b2 = two_mass_matrices(params.mass - m2, params.damping, params.stiffness, m2,
@@ -655,19 +658,40 @@ def _paper_force(params, magnetization):
 
 
 def _with_force(params, point, current, step, paper, force):
-    """Eq 27 (the paper's ZOH stepper) driven by ``force`` instead of the paper's.
+    """Eq 27 driven by ``force`` (F at the samples, linear between them), [m].
 
-    :func:`gmt.simulate` takes an external force opposing elongation; passing
-    F_paper - F makes its net force F, and F = F_paper gives the paper's run
-    bit for bit.
+    The continuous transducer: the mechanics integrated exactly for a force
+    linear between the samples (first-order hold, :func:`_foh_response`), from
+    rest at the bias displacement at t = 0, as :func:`gmt.simulate` starts. Not
+    the paper's zero-order-hold stepper, which would delay the response by
+    half a step (and more where the mechanics are fast against the step).
     """
-    return gmt.simulate(params, point, current, step,
-                        external_force=paper["force"] - force)["displacement"]
+    return _continuous_mechanics(params, force, step)
+
+
+def _continuous_mechanics(params, force, step):
+    """y of eq 27 for the force samples ``force`` [N], linear between samples, [m]."""
+    a = np.array([[0.0, 1.0], [-params.stiffness / params.mass,
+                               -params.damping / params.mass]])
+    b = np.array([0.0, 1.0 / params.mass])
+    y_b = bias_displacement(params)
+    u = np.asarray(force, dtype=float) - params.stiffness * y_b
+    return y_b + _foh_response(a, b, [1.0, 0.0], u, step, x0=[0.0, 0.0])
+
+
+#: Internal steps per sample of the generator's models: the force is taken linear between
+#: the internal samples (relative error about (w h / FINE)^2 / 12, 3e-6 at 256 samples a
+#: period) and the effects' own integrations run on the same grid.
+FINE = 4
 
 
 def true_response(effect, truth, params, frequency, current_amplitude, cycles=8,
                   samples_per_cycle=256) -> dict:
     """Noise-free record of one run with the hidden effect, SI.
+
+    The models run on a grid :data:`FINE` times finer than the samples
+    (the mechanics of eq 27 integrated exactly for a force linear between the
+    internal samples, :func:`_continuous_mechanics`) and are read at the samples.
 
     Returns
     -------
@@ -676,6 +700,15 @@ def true_response(effect, truth, params, frequency, current_amplitude, cycles=8,
         bias displacement), ``flux_density`` and ``flux_density_rate`` (dB/dt),
         and for some effects internals (``temperature_rise``, ...).
     """
+    out = _fine_response(effect, truth, params, frequency, current_amplitude, cycles,
+                         samples_per_cycle * FINE)
+    n = int(cycles * samples_per_cycle)
+    return {k: np.asarray(v)[::FINE][:n] for k, v in out.items()}
+
+
+def _fine_response(effect, truth, params, frequency, current_amplitude, cycles,
+                   samples_per_cycle) -> dict:
+    """:func:`true_response` on the fine grid."""
     f, im = float(frequency), float(current_amplitude)
     n = int(cycles * samples_per_cycle)
     h = 1.0 / (f * samples_per_cycle)
@@ -683,11 +716,12 @@ def true_response(effect, truth, params, frequency, current_amplitude, cycles=8,
     t = h * np.arange(n)
     i = im * np.cos(w * t)
     point = gmt.operating_point(params, gmt.Excitation(f, im))
-    paper = gmt.simulate(params, point, i, h)
+    paper = gmt.simulate(params, point, i, h)  # the magnetics of eq 30 at the samples
+    paper_y = _continuous_mechanics(params, paper["force"], h)
     # dB/dt of eq 4 exactly: dH/dt = -w H_q, dH_q/dt = w H
     dbdt = MU_0 * w * (point.mu_real * -paper["quadrature_field"]
                        + point.mu_imag * paper["field"])
-    out = {"time": t, "current": i, "displacement": paper["displacement"],
+    out = {"time": t, "current": i, "displacement": paper_y,
            "flux_density": paper["flux_density"], "flux_density_rate": dbdt}
     if effect is None:
         return out
@@ -733,12 +767,12 @@ def true_response(effect, truth, params, frequency, current_amplitude, cycles=8,
     elif effect == "transport_delay":
         tau = truth["delay"]
         if tau > 0.0:
-            out["displacement"] = _delayed(params, t, paper["displacement"], tau)
+            out["displacement"] = _delayed(params, t, paper_y, tau)
         return out
     elif effect == "mechanical_resonance":
         if not math.isinf(truth["joint_stiffness"]):
             out["displacement"] = two_mass_response(paper["force"], h, params, truth,
-                                                      paper["displacement"])
+                                                    paper_y)
         return out
     elif effect == "thermal_drift":
         dtemp = temperature_rise(t, im, f, truth)

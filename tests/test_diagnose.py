@@ -123,14 +123,17 @@ def test_delay_is_linear_phase_and_eddy_lag_saturates():
     assert math.degrees(-np.angle(g)) == pytest.approx(45.0, abs=0.1)
 
 
-def test_zoh_response_matches_gmt_mechanics():
+def test_mechanics_response_matches_python_control():
+    # eq 29 continuous, and its ZOH-sampled form, against python-control's evaluation of the
+    # same state space (gmt.mechanics.frequency_response)
     from gmt import mechanics
+    from gmt.extensions.steady import mechanics_response
 
     w = 2 * np.pi * np.array([5.0, 50.0, 400.0])
     for m, c, k in ((0.02, 2945.0, 1.963e7), (0.05, 40.0, 1e7)):
-        ref = mechanics.frequency_response(m, c, k, w, step=1 / 12800)[0]
-        assert np.allclose(ext.zoh_frequency_response(m, c, k, w, 1 / 12800), ref,
-                           rtol=1e-8)
+        for step in (None, 1 / 12800):
+            ref = mechanics.frequency_response(m, c, k, w, step=step)[0]
+            assert np.allclose(mechanics_response(m, c, k, w, step), ref, rtol=1e-8)
 
 
 def test_eddy_calibration_keeps_measured_flux_density():

@@ -29,6 +29,7 @@ from scipy.linalg import expm
 
 import gmt
 from gmt import extensions as ext
+from gmt.extensions.steady import mechanics_response, steady_state
 from smeha import diagnose
 
 P = gmt.TransducerParameters()
@@ -153,7 +154,7 @@ def test_two_mass_sampled_response_is_the_zoh_of_the_state_space_model():
 def test_stiff_joint_reduces_to_one_degree_of_freedom(step):
     # k_j -> inf: the output mass rides on the rod, eq 27 with m = m_1 + m_2
     w = 2 * math.pi * np.array([5.0, 50.0, 200.0, 400.0])
-    one = ext.zoh_frequency_response(P.mass, P.damping, P.stiffness, w, step)
+    one = mechanics_response(P.mass, P.damping, P.stiffness, w, step)
     assert np.allclose(_two_mass(1e6).response(w, step), one, rtol=1e-5)
     # a joint at 450 Hz does not: the output gains amplitude towards its resonance
     soft = _two_mass(450.0).response(w, step)
@@ -163,44 +164,50 @@ def test_stiff_joint_reduces_to_one_degree_of_freedom(step):
 # ------------------------------------------------------------------ in the diagnosis
 
 
-def _rf(f=100.0, step=1 / 25600):
-    return SimpleNamespace(frequency=f, angular_frequency=2 * math.pi * f, current_amplitude=1.0,
-                           step=step, flux_density_amplitude=0.06)
-
-
 LOSS = (P.hysteresis_coefficient, P.steinmetz_exponent, P.eddy_coefficient,
         P.excess_coefficient)
+CONTEXT = {"params": P, "thresholds": (1.0,)}
+
+
+def _steady(form, extra, f=100.0):
+    cls = next(e for e in ext.EXTENSIONS if e.form == form)
+    return steady_state(P, f, 1.0, 0.06, LOSS, ((cls, cls.from_fit(extra, CONTEXT)),))
 
 
 @pytest.mark.parametrize("form, extra", [("slab", (-9.0,)), ("cylinder", (-9.0,)),
                                          ("lag", (-9.0, 1.0)), ("one_dof", (1.0, 1.0, 1.0)),
                                          ("two_dof", (0.75, 6.0, 0.1))])
 def test_forms_reduce_to_the_paper_model(form, extra):
-    ev = diagnose._Evaluator(P, (1.0,))
-    cause = next(c for c, forms in diagnose.FORMS.items() if form in forms)
-    y0, b0, _, _ = ev.predict(_rf(), LOSS)
-    y1, b1, _, _ = ev.predict(_rf(), LOSS, cause, extra, form=form)
+    y0, b0 = steady_state(P, 100.0, 1.0, 0.06, LOSS)
+    y1, b1 = _steady(form, extra)
     assert np.allclose(y1, y0, rtol=0, atol=1e-6 * abs(y0[0]))
     assert np.allclose(b1, b0, rtol=0, atol=1e-6 * abs(b0[0]))
 
 
 @pytest.mark.parametrize("geometry", GEOMETRIES)
 def test_diffusion_form_keeps_the_measured_flux_density(geometry):
-    ev = diagnose._Evaluator(P, (1.0,))
-    _, b, _, _ = ev.predict(_rf(), LOSS, "eddy_current_diffusion", (-2.5,), form=geometry)
+    _, b = _steady(geometry, (-2.5,))
     assert abs(b[0]) == pytest.approx(0.06, rel=1e-12)  # B_m of the features (eq 22)
     assert np.allclose(b[1:], 0.0)
 
 
 def test_candidate_lists():
-    first = diagnose.candidates()
-    assert [c.cause for c in first] == ["none", *ext.CAUSES]  # one per cause, first forms
-    every = diagnose.candidates(all_forms=True)
-    assert every[:len(first)] == first
+    every = diagnose.candidates()
+    assert every[0].cause == "none" and every[0].n_params == 0
+    assert [c.members[0] for c in every[1:]] == list(ext.EXTENSIONS)  # every form of every cause
     for cause, forms in diagnose.FORMS.items():
         assert [c.form for c in every if c.cause == cause] == list(forms)
     assert {c.label for c in every} >= {"eddy_current_diffusion (slab)",
                                         "mechanical_resonance (two_dof)"}
+    # a combination takes one extension a stage (the magnetisation stage takes two)
+    hyst, sat, slab, lag = (ext.lookup("rate_independent_hysteresis"),
+                            ext.lookup("magnetization_saturation"),
+                            ext.lookup("eddy_current_diffusion", "slab"),
+                            ext.lookup("eddy_current_diffusion", "lag"))
+    pair = diagnose.Candidate((sat, slab))
+    assert pair.members == (slab, sat) and pair.n_params == 2
+    assert pair.combinable(hyst) and not pair.combinable(lag)
+    assert pair.label == "eddy_current_diffusion (slab) + magnetization_saturation"
 
 
 @pytest.mark.parametrize("form, extra, keys", [
@@ -209,8 +216,8 @@ def test_candidate_lists():
                                     "joint_damping_N_s_per_m", "joint_frequency_Hz",
                                     "joint_damping_ratio"})])
 def test_physical_parameters_of_the_forms(form, extra, keys):
-    cause = next(c for c, forms in diagnose.FORMS.items() if form in forms)
-    out = diagnose.physical_parameters(cause, extra, {"params": P}, form)
+    cls = next(e for e in ext.EXTENSIONS if e.form == form)
+    out = cls.from_fit(extra, CONTEXT)
     assert set(out) == keys
     json.dumps(out)
     if form == "two_dof":

@@ -12,6 +12,7 @@ import json
 
 import pytest
 
+import gmt
 from smeha import diagnose
 from smeha.cli import main
 from smeha.measured import write_measurements
@@ -41,11 +42,14 @@ def test_features_without_voltage_have_no_b_and_flux_from_displacement():
     # paper, Table 1: B_m = 0.0637 T at 50 Hz, 1 A (the generator's calibration); from y's
     # fundamental through eq 19 it is as good as the model that made y (noise 0.05 um)
     assert rf.flux_density_amplitude == pytest.approx(0.0637, rel=5e-3)
-    ev = diagnose._Evaluator(diagnose.gmt.TransducerParameters(), (1.0,))
+    ev = diagnose.Evaluator(gmt.TransducerParameters(), (1.0,))
     assert ev.n_features(rf) == (2 * diagnose.HARMONICS, 0, 3)
-    assert ev.residuals(rf, (0.0, 2.0, 0.0, 0.0)).size == 2 * diagnose.HARMONICS + 3
+    rf.y_prop_var = 0.0 * rf.y_var
+    batch = diagnose.Batch([rf])
+    assert ev.residuals(batch, (0.0, 2.0, 0.0, 0.0)).size == 2 * diagnose.HARMONICS + 3
 
 
+@pytest.mark.integration
 def test_clean_data_without_voltage_is_none():
     runs = generate_runs(None, seed=11)
     result = diagnose.diagnose(_without_voltage(runs))
@@ -63,6 +67,7 @@ def test_clean_data_without_voltage_is_none():
     assert "no sense voltage" in diagnose.format_diagnosis(result)
 
 
+@pytest.mark.integration
 def test_names_saturation_without_voltage():
     runs = generate_runs("magnetization_saturation", seed=11, strength=1.0)
     result = diagnose.diagnose(_without_voltage(runs), holdout=HOLDOUT)
@@ -70,6 +75,7 @@ def test_names_saturation_without_voltage():
     assert result.gain >= MIN_GAIN, "\n".join(result.evidence)
 
 
+@pytest.mark.integration
 def test_mixed_runs_with_and_without_voltage():
     """Low-frequency runs with a sense voltage, the others without: both kinds enter."""
     runs = generate_runs("magnetization_saturation", seed=3)
@@ -86,6 +92,7 @@ def test_mixed_runs_with_and_without_voltage():
         for r in rows if r["run"] in result.training_runs)
 
 
+@pytest.mark.integration
 def test_mechanical_resonance_without_voltage_is_named_with_small_gain():
     """The documented limit (docs/DIAGNOSE.md, Limits): without B, each run's B_m comes
     from y's own fundamental, so the paper's model already matches the fundamental's size
@@ -97,6 +104,7 @@ def test_mechanical_resonance_without_voltage_is_named_with_small_gain():
     assert result.gain > 1.0
 
 
+@pytest.mark.integration
 def test_cli_file_without_voltage_column(tmp_path, capsys):
     """A CSV without the sense_voltage_V column: the delay is named, with its gain."""
     path = tmp_path / "bare.csv"

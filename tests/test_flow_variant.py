@@ -10,6 +10,7 @@ import pytest
 
 import gmt
 from smeha import cli
+from smeha.diagnose import variant_from_diagnosis
 from smeha.flowstudy import Case, compare_variant, ensure_fmu, run_case
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -25,7 +26,7 @@ def test_shipped_paper_variant_is_what_the_paper_diagnosis_picks():
     shipped = json.loads(PAPER_VARIANT.read_text())
     assert "paper_data_diagnosis" in shipped["provenance"]
     v = gmt.ModelVariant.from_dict(shipped)
-    fresh = gmt.ModelVariant.from_diagnosis(paper_data_diagnosis())
+    fresh = variant_from_diagnosis(paper_data_diagnosis())
     assert (v.cause, v.form) == (fresh.cause, fresh.form) == ("mechanical_resonance",
                                                               "one_dof")
     for key, value in fresh.parameters.items():

@@ -147,15 +147,23 @@ def test_noise_levels_as_requested():
 # ---------------------------------------------------------------- clean data = the paper's model
 
 
-def test_clean_runs_are_gmt_simulate(clean):
+def test_clean_runs_are_the_continuous_paper_model(clean):
+    # the transducer is continuous: after the start's transient (the mechanics' slower pole,
+    # 0.14 ms, is gone within one period) the clean record is eq 30's periodic steady state
+    # with the continuous eq 27 (gmt.periodic_response without a step). The generator
+    # integrates eq 27 exactly for a force linear between samples 4x finer than the record's,
+    # leaving about (w h / 4)^2 / 12 = 3e-6 of the amplitude (2e-6 measured)
     p = gmt.TransducerParameters()
     for r in clean:
         im = r.meta["current_amplitude"]
         h = 1.0 / (r.frequency * 256)
         point = gmt.operating_point(p, gmt.Excitation(r.frequency, im))
+        steady = gmt.periodic_response(p, point, r.time)["displacement"]
+        expected = steady - gmt.bias_displacement(p) + r.meta["offset"]
+        settled = r.time >= 1.0 / r.frequency
+        err = np.max(np.abs(r.displacement - expected)[settled])
+        assert err <= 1e-5 * np.ptp(expected)
         sim = gmt.simulate(p, point, im * np.cos(2 * np.pi * r.frequency * r.time), h)
-        expected = sim["displacement"] - gmt.bias_displacement(p) + r.meta["offset"]
-        np.testing.assert_allclose(r.displacement, expected, rtol=0, atol=1e-15)
         # eq 21 on B of eq 4, against a numerical derivative of gmt's B
         e_num = -p.sense_turns * p.sense_area * np.gradient(sim["flux_density"], h)
         e_m = np.max(np.abs(r.sense_voltage))

@@ -1,8 +1,9 @@
 """Model variants (issue #5, item 6): the extended model time-stepped in gmt.Transducer.
 
 The stepped forms are checked against the periodic forms the diagnosis evaluates
-(``smeha.diagnose._Evaluator.predict``, a separate code path: harmonic balance on a grid
-with the ZOH frequency response of eq 27), after running long enough under a sinusoidal
+(:func:`gmt.extensions.steady.steady_state`, a separate code path: harmonic balance on a
+grid), evaluated at the stepper's step (``step=H``: the ZOH frequency response of eq 27,
+the steady state a held input reaches), after running long enough under a sinusoidal
 current to reach the periodic steady state.
 """
 from __future__ import annotations
@@ -10,15 +11,15 @@ from __future__ import annotations
 import json
 import math
 import pickle
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 import gmt
 from gmt import extensions as ext
-from gmt.variants import FORMS, VARIANTS, ModalBank, ModelVariant, SectionBank
-from smeha import diagnose
+from gmt.extensions import FORMS, REGISTRY, VARIANTS, ModalBank, SectionBank
+from gmt.extensions.steady import mu_imag_from_losses, steady_state
+from gmt.variants import ModelVariant
 
 P = gmt.TransducerParameters()
 F, H = 100.0, 1e-5  # operating point and step: 1000 samples a period
@@ -28,7 +29,7 @@ N = int(round(1 / (F * H)))
 THRESHOLDS = [2954.5, 5909.1, 8863.6, 11818.2]
 
 #: cause -> (SI parameters, the diagnosis' internal parametrisation of the same extension
-#: (smeha.diagnose.candidates / physical_parameters)).
+#: (the extension's FitSpec, mapped to SI by its from_fit)).
 CASES = {
     "rate_independent_hysteresis": (
         {"thresholds_A_per_m": THRESHOLDS, "weights": [0.3, 0.2, 0.1, 0.05]}, (3, 2, 1, 0.5)),
@@ -57,8 +58,8 @@ TOLERANCE = {"rate_independent_hysteresis": 1e-4, "magnetization_saturation": 1e
              "mechanical_resonance": 1e-10}
 
 #: The forms other than a cause's first: (cause, form) -> the diagnosis' internal
-#: parametrisation (smeha.diagnose.candidates(all_forms=True)); the SI parameters are
-#: what smeha.diagnose.physical_parameters reports for it, derived keys included.
+#: parametrisation (the extension's FitSpec); the SI parameters are what its from_fit
+#: reports for it (and smeha diagnose --json with it), derived keys included.
 #: tau = 1 ms: the skin depth equals the half thickness (radius) at 318 Hz; the joint:
 #: half of eq 27's mass on the output, 1 kHz, damping ratio 0.1.
 FORM_CASES = {
@@ -75,11 +76,18 @@ FORM_TOLERANCE = {"slab": 1e-5, "cylinder": 1e-5, "two_dof": 1e-10}
 ALL_FORMS = [(c, "") for c in ext.CAUSES] + list(FORM_CASES)
 
 
+CONTEXT = {"params": P, "thresholds": tuple(THRESHOLDS)}
+
+
+def reported(cause, internal, form=""):
+    """The SI parameters the diagnosis reports for the internal unknowns."""
+    return ext.lookup(cause, form).from_fit(internal, CONTEXT)
+
+
 def si_parameters(cause, form=""):
     if not form:
         return CASES[cause][0]
-    return diagnose.physical_parameters(cause, FORM_CASES[cause, form],
-                                        {"params": P, "thresholds": tuple(THRESHOLDS)}, form)
+    return reported(cause, FORM_CASES[cause, form], form)
 
 
 def variant(cause, form=""):
@@ -105,12 +113,11 @@ BM = gmt.DEFAULT_CALIBRATION.flux_density_amplitude(F, 1.0)
 
 
 def periodic(cause, extra, form=""):
-    """The diagnosis' periodic Y_k, B_k (k = 1..8) at the operating point, Table 2 losses."""
-    ev = diagnose._Evaluator(P, tuple(THRESHOLDS))
-    rf = SimpleNamespace(frequency=F, angular_frequency=W, current_amplitude=1.0, step=H,
-                         flux_density_amplitude=BM)
-    y, b, _, _ = ev.predict(rf, LOSS, cause, extra, form=form)
-    return y, b
+    """The diagnosis' periodic Y_k, B_k (k = 1..8) at the operating point, Table 2 losses,
+    at the stepper's step H."""
+    comps = () if cause == "none" else ((ext.lookup(cause, form), reported(cause, extra,
+                                                                            form)),)
+    return steady_state(P, F, 1.0, BM, LOSS, comps, step=H)
 
 
 def harmonics(x):
@@ -120,15 +127,16 @@ def harmonics(x):
 # ------------------------------------------------------------------ the variant object
 
 
-def test_every_form_of_the_diagnosis_has_a_step_form():
-    # a cause or form the diagnosis can name but the product cannot run fails here: add
-    # its StepForm to gmt.variants.FORMS (one class, one entry)
-    expected = {(c, f) for c in ext.CAUSES for f in diagnose.FORMS.get(c, ("",))}
-    assert set(FORMS) == expected
-    assert {(c, f or diagnose.FORMS.get(c, ("",))[0]) for c, f in ALL_FORMS} == expected
-    # the first form of each cause is the diagnosis' first (the default, named by the cause)
-    for cause, forms in diagnose.FORMS.items():
-        assert next(f for c, f in FORMS if c == cause) == forms[0]
+def test_every_extension_is_in_the_one_registry():
+    # one class per (cause, form), with its periodic form, its time-stepped form (the
+    # class itself) and its SI parameters; the diagnosis and the FMU read this registry
+    expected = {(c, f) for c in ext.CAUSES for f in FORMS.get(c, ("",))}
+    assert set(REGISTRY) == expected
+    assert {(c, f or FORMS.get(c, ("",))[0]) for c, f in ALL_FORMS} == expected
+    for (cause, form), cls in REGISTRY.items():
+        assert issubclass(cls, ext.Extension) and cls.stage in ext.STAGES
+        assert len(cls.fit.names) == len(cls.fit.lower) == len(cls.fit.upper)
+        assert all(len(s) == len(cls.fit.names) for s in cls.fit.starts)
     assert VARIANTS == ("paper", "rate_independent_hysteresis", "magnetization_saturation",
                         "eddy_current_diffusion", "eddy_current_diffusion:slab",
                         "eddy_current_diffusion:cylinder", "transport_delay",
@@ -141,14 +149,13 @@ def test_every_form_of_the_diagnosis_has_a_step_form():
 def test_parameters_are_the_diagnosis_si_parameters(cause, form):
     # the keys are those smeha diagnose --json reports for the candidate
     internal = CASES[cause][1] if not form else FORM_CASES[cause, form]
-    context = {"params": P, "thresholds": tuple(THRESHOLDS)}
-    reported = diagnose.physical_parameters(cause, internal, context, form)
-    v = ModelVariant(cause, reported, form)
-    assert set(v.parameters) == set(reported)
+    si = reported(cause, internal, form)
+    v = ModelVariant(cause, si, form)
+    assert set(v.parameters) == set(si) == {p.name for p in ext.lookup(cause, form).parameters}
     assert ModelVariant.from_dict(v.as_dict()) == v
-    assert ModelVariant.from_name(v.name, reported) == v
+    assert ModelVariant.from_name(v.name, si) == v
     assert pickle.loads(pickle.dumps(v)) == v and hash(v) == hash(
-        ModelVariant(cause, reported, form))
+        ModelVariant(cause, si, form))
 
 
 @pytest.mark.parametrize("form, derived", [
@@ -203,64 +210,15 @@ def test_saturation_below_the_bias_is_refused_with_the_range():
         gmt.Transducer(variant=v)
 
 
-def test_from_diagnosis_takes_the_winner_none_and_a_named_candidate():
-    cands = [{"cause": c, "parameters": diagnose.physical_parameters(
-        c, CASES[c][1], {"params": P, "thresholds": tuple(THRESHOLDS)})} for c in ext.CAUSES]
-    d = {"cause": "transport_delay", "candidates": cands, "gain": 3.0}
-    assert ModelVariant.from_diagnosis(d) == variant("transport_delay")
-    assert ModelVariant.from_dict(d) == variant("transport_delay")
-    assert ModelVariant.from_diagnosis(d, cause="mechanical_resonance") == variant(
-        "mechanical_resonance")
-    assert ModelVariant.from_diagnosis(dict(d, cause="none")).is_paper
-    with pytest.raises(gmt.ParameterError, match="unexplained.*explicitly"):
-        ModelVariant.from_diagnosis(dict(d, cause="unexplained"))
-    assert ModelVariant.from_diagnosis(dict(d, cause="unexplained"),
-                                       cause="thermal_drift").cause == "thermal_drift"
+def test_small_variant_json_and_a_whole_diagnosis():
     small = '{"cause": "transport_delay", "parameters": {"delay_s": 0.000337}, "provenance": "x"}'
     assert ModelVariant.from_json(small) == variant("transport_delay")
     with pytest.raises(gmt.ParameterError, match="JSON"):
         ModelVariant.from_json("{cause: paper}")
-
-
-def test_a_cause_with_several_formulations_takes_the_named_or_best_one():
-    # smeha diagnose may fit a cause in several forms (e.g. the eddy currents as a lag or as
-    # diffusion into a slab); the winner's "form" picks the candidate, else the best score
-    lag = {"cause": "eddy_current_diffusion", "form": "lag", "score": 90.0,
-           "parameters": {"time_constant_s": 1e-3, "order": 0.5}}
-    slab = {"cause": "eddy_current_diffusion", "form": "slab", "score": 80.0,
-            "parameters": {"time_constant_s": 2e-3}}
-    d = {"cause": "eddy_current_diffusion", "form": "lag", "candidates": [slab, lag]}
-    v = ModelVariant.from_diagnosis(d)
-    assert (v.form, v.parameters["order"]) == ("lag", 0.5) and v.name == "eddy_current_diffusion"
-    assert ModelVariant("eddy_current_diffusion", lag["parameters"]) == v  # default form
-    assert ModelVariant.from_name("eddy_current_diffusion", lag["parameters"]) == v
-    # the winner's form, even when its score is not the cause's best
-    won = ModelVariant.from_diagnosis(dict(d, form="slab", candidates=[lag, dict(
-        slab, score=95.0)]))
-    assert won == ModelVariant("eddy_current_diffusion", {"time_constant_s": 2e-3}, "slab")
-    assert won.name == "eddy_current_diffusion:slab"
-    # without the winner's form the best score wins
-    assert ModelVariant.from_diagnosis({k: d[k] for k in ("cause", "candidates")}).form == "slab"
-    # a named candidate and form
-    assert ModelVariant.from_diagnosis(d, "eddy_current_diffusion", "slab").form == "slab"
-    # a candidate without "form" is its cause's first form (diagnoses written before forms)
-    old = {"cause": "eddy_current_diffusion", "form": "lag",
-           "candidates": [{k: lag[k] for k in ("cause", "parameters")}, slab]}
-    assert ModelVariant.from_diagnosis(old) == v
-    # an unknown form, or a form with no candidate, is refused naming it and the forms
-    with pytest.raises(gmt.ParameterError, match=r"form = 'sphere' is not a form of "
-                                                 r"'eddy_current_diffusion': the allowed forms "
-                                                 r"are \['lag', 'slab', 'cylinder'\]"):
-        ModelVariant.from_diagnosis(dict(d, form="sphere"))
-    with pytest.raises(gmt.ParameterError, match="no candidate of form 'cylinder'.*'lag', "
-                                                 "'slab'"):
-        ModelVariant.from_diagnosis(dict(d, form="cylinder"))
-    with pytest.raises(gmt.ParameterError, match=r"form = 'sphere' .*\['lag', 'slab', "
-                                                 r"'cylinder'\]"):
-        ModelVariant.from_dict({"cause": "eddy_current_diffusion", "form": "sphere",
-                                "parameters": {"time_constant_s": 1e-3}})
-    with pytest.raises(gmt.ParameterError, match="one form"):
-        ModelVariant("transport_delay", {"delay_s": 1e-3}, "fifo")
+    # a whole diagnosis is smeha's to read (smeha.diagnose.variant_from_diagnosis)
+    with pytest.raises(gmt.ParameterError, match="variant_from_diagnosis"):
+        ModelVariant.from_dict({"cause": "transport_delay", "candidates": []})
+    assert ModelVariant.from_dict({"cause": "none"}).is_paper
     # a small variant JSON may carry the form; without it, the cause's first
     small = '{"cause": "mechanical_resonance", "form": "two_dof", "parameters": %s}'
     two = si_parameters("mechanical_resonance", "two_dof")
@@ -268,23 +226,12 @@ def test_a_cause_with_several_formulations_takes_the_named_or_best_one():
                                                                       "two_dof")
     with pytest.raises(gmt.ParameterError, match="unknown 'rod_mass_kg'"):
         ModelVariant.from_json(small.replace('"form": "two_dof", ', "") % json.dumps(two))
-
-
-def test_from_diagnosis_of_the_diagnose_json_takes_the_winning_form():
-    # the shape of smeha diagnose --json (Diagnosis.as_dict): top-level cause and form, every
-    # form of every cause a candidate with its own form and SI parameters
-    context = {"params": P, "thresholds": tuple(THRESHOLDS)}
-    cands = []
-    for cause, form in ALL_FORMS:
-        internal = CASES[cause][1] if not form else FORM_CASES[cause, form]
-        cands.append({"cause": cause, "form": form or diagnose.FORMS.get(cause, ("",))[0],
-                      "score": 100.0, "parameters": diagnose.physical_parameters(
-                          cause, internal, context, form)})
-    for cand in cands:
-        d = {"cause": cand["cause"], "form": cand["form"], "candidates": cands}
-        v = ModelVariant.from_diagnosis(d)
-        assert v == ModelVariant(cand["cause"], cand["parameters"], cand["form"])
-        assert (v.cause, v.form) == (cand["cause"], cand["form"])
+    with pytest.raises(gmt.ParameterError, match=r"form = 'sphere' .*\['lag', 'slab', "
+                                                 r"'cylinder'\]"):
+        ModelVariant.from_dict({"cause": "eddy_current_diffusion", "form": "sphere",
+                                "parameters": {"time_constant_s": 1e-3}})
+    with pytest.raises(gmt.ParameterError, match="one form"):
+        ModelVariant("transport_delay", {"delay_s": 1e-3}, "fifo")
 
 
 # ------------------------------------------------------------------ the default is unchanged
@@ -345,7 +292,7 @@ def test_stepped_form_reaches_the_diagnosis_periodic_form(cause, form):
         hm = P.field_per_ampere
         b_s = BM / abs(complex(dif.transfer(W)))
         mod = b_s / (gmt.constants.MU_0 * hm)
-        mu_i = diagnose._mu_imag(LOSS, F, b_s, hm)
+        mu_i = mu_imag_from_losses(LOSS, F, b_s, hm)
         m_s = abs(complex(math.sqrt(mod ** 2 - mu_i ** 2) - 1.0, -mu_i)) * hm
         c = P.rod_area * P.youngs_modulus * P.magnetostriction_coefficient
         mean = c * (P.bias_magnetization ** 2 + 0.5 * m_s ** 2 * float(
@@ -470,13 +417,12 @@ def test_stepped_drift_matches_the_diagnosis_drift_form(time_constant):
     y, _, _ = run(gmt.Transducer(P, gmt.Excitation(F, 1.0), variant=v), 10)
     t = H * np.arange(y.size)
     sel = t >= 1.0 / F
-    ev = diagnose._Evaluator(P, (1.0,))
-    rf = SimpleNamespace(frequency=F, angular_frequency=W, current_amplitude=1.0, step=H,
-                         flux_density_amplitude=gmt.DEFAULT_CALIBRATION.flux_density_amplitude(
-                             F, 1.0), time=t[sel], t_start=0.0, t_mid=float(t[sel].mean()),
-                         displacement=y[sel], phase=lambda tt: W * np.asarray(tt))
-    model = ev.samples(rf, (P.hysteresis_coefficient, P.steinmetz_exponent,
-                            P.eddy_coefficient, P.excess_coefficient), "thermal_drift", extra)
+    yk = periodic("none", ()).displacement
+    k = np.arange(1, yk.size + 1)
+    model = np.real(np.exp(1j * np.outer(W * t[sel], k)) @ yk)
+    model = ext.DriftForm.apply_samples(ext.DriftForm.from_fit(extra, CONTEXT), model, t[sel],
+                                        1.0)
+    model = model + np.mean(y[sel] - model)
     assert np.abs(y[sel] - model).max() <= 5e-4 * np.ptp(y[sel])
     # the drift is there: the offset o u(t) between the second and the last period, 8 um
     # (linear dose) and 0.95 um (t_th = 30 ms)
@@ -591,3 +537,75 @@ def test_a_state_of_the_wrong_size_is_refused():
         assert tr.get_state() == good  # nothing restored in part
     with pytest.raises(gmt.ParameterError, match="needs 7"):
         gmt.Transducer().set_state(tr.get_state())
+
+
+# ------------------------------------------------------------------ combinations
+#: internal unknowns of the members of the combinations below (each extension's FitSpec)
+COMBINED = {
+    ("rate_independent_hysteresis", ""): (3.0, 2.0, 1.0, 0.5),
+    ("magnetization_saturation", ""): (0.625,),
+    ("eddy_current_diffusion", "lag"): (math.log10(1.6e-3), 0.5),
+    ("eddy_current_diffusion", "slab"): (-3.0,),
+    ("transport_delay", ""): (0.337,),
+    ("mechanical_resonance", "one_dof"): (0.5, 0.3, 0.95),
+    ("mechanical_resonance", "two_dof"): (0.5, 3.0, 0.1),
+}
+
+
+def _single(cause, form=""):
+    return ModelVariant(cause, reported(cause, COMBINED[cause, form], form), form)
+
+
+def test_a_combination_is_one_variant_by_name_json_and_fmu_parameters():
+    pair = gmt.ModelVariant.combine(_single("transport_delay"),
+                                    _single("eddy_current_diffusion", "slab"))
+    # stage order: the field in the rod first, the sensor last
+    assert pair.name == "eddy_current_diffusion:slab+transport_delay"
+    assert pair.causes == ("eddy_current_diffusion", "transport_delay")
+    assert gmt.ModelVariant.from_dict(json.loads(json.dumps(pair.as_dict()))) == pair
+    assert gmt.ModelVariant.from_name(pair.name, pair.variant_parameters()) == pair
+    assert pickle.loads(pickle.dumps(pair)) == pair and hash(pair) == hash(
+        gmt.ModelVariant.combine(_single("eddy_current_diffusion", "slab"),
+                                 _single("transport_delay")))
+    assert gmt.ModelVariant.combine(_single("transport_delay")) == _single("transport_delay")
+    with pytest.raises(gmt.ParameterError, match="keyed by its members"):
+        gmt.ModelVariant.from_name(pair.name, {"delay_s": 1e-3})
+    with pytest.raises(gmt.ParameterError, match="one form of each cause"):
+        gmt.ModelVariant.combine(_single("eddy_current_diffusion", "slab"),
+                                 _single("eddy_current_diffusion", "lag"))
+    with pytest.raises(gmt.ParameterError, match="is not one of"):
+        gmt.ModelVariant.from_name("transport_delay+maxwell", {})
+
+
+#: pairs of extensions at different stages, and the pair of the magnetisation stage;
+#: tolerance as the larger of the members' in tests/test_variants.py (section banks 2e-4,
+#: the plays 1e-4, (w h)^2/12 of the held means 3.3e-6, the delay line (w h)^2/8)
+PAIRS = [
+    ((("eddy_current_diffusion", "slab"), ("rate_independent_hysteresis", "")), 1e-4),
+    ((("transport_delay", ""), ("magnetization_saturation", "")), 1e-5),
+    ((("rate_independent_hysteresis", ""), ("magnetization_saturation", "")), 1e-4),
+    ((("eddy_current_diffusion", "lag"), ("mechanical_resonance", "two_dof")), 2e-4),
+    ((("magnetization_saturation", ""), ("mechanical_resonance", "one_dof")), 1e-10),
+]
+
+
+@pytest.mark.parametrize("members, tolerance", PAIRS)
+def test_stepped_combination_reaches_its_periodic_form(members, tolerance):
+    variant = gmt.ModelVariant.combine(*(_single(c, f) for c, f in members))
+    periods = 8
+    tr = gmt.Transducer(P, gmt.Excitation(F, 1.0), variant=variant)
+    _, s, b = run(tr, periods)
+    last = slice(N * (periods - 1), N * periods)
+    yk, bk = steady_state(P, F, 1.0, BM, LOSS, variant.steady_components(), step=H)
+    harm_y, harm_b = harmonics(s[last]), harmonics(b[last])
+    assert np.abs(harm_y - yk).max() / abs(yk[0]) <= tolerance
+    assert np.abs(harm_b - bk).max() / abs(bk[0]) <= tolerance
+    # the pair is not either member alone
+    for c, f in members:
+        alone = steady_state(P, F, 1.0, BM, LOSS, _single(c, f).steady_components(), step=H)
+        assert np.abs(alone.displacement - yk).max() / abs(yk[0]) > 1e-3
+    # state save and restore replays bit for bit
+    saved = tr.get_state()
+    first = [tr.step(math.cos(W * k * H), H)[:3] for k in range(50)]
+    tr.set_state(saved)
+    assert [tr.step(math.cos(W * k * H), H)[:3] for k in range(50)] == first

@@ -161,13 +161,13 @@ class Transducer:
         port of :mod:`system_models.cosim`) takes its mechanics from here (through
         the FMU's calculated parameters), so that one set of values drives both.
         """
-        form = getattr(self.forward, "form", None)
-        system = getattr(form, "system", None)  # the two-mass variant's
-        if system is not None:
+        chain = getattr(self.forward, "chain", None)  # a variant's time-stepped forms
+        system = getattr(chain.mechanical, "system", None) if chain is not None else None
+        if system is not None:  # the two-mass variant's
             return RodMechanics(system.rod_mass, system.damping, system.stiffness,
                                 system.output_mass, system.joint_stiffness,
                                 system.joint_damping)
-        m, c, k = (form.mechanics if form is not None
+        m, c, k = (chain.mechanics if chain is not None
                    else (self.params.mass, self.params.damping, self.params.stiffness))
         return RodMechanics(float(m), float(c), float(k))
 

@@ -1,0 +1,160 @@
+"""Thermal drift: offset and gain of y drifting with the coil's heating.
+
+Coil heating i^2 R (mean I_m^2 R / 2 for a sinusoid) warms rod and sensor
+mount. K_lambda and M_b fall with temperature and the rod and mount expand
+(Engdahl (ed.), *Handbook of Giant Magnetostrictive Materials*, Academic Press
+2000, ch. 2 and 4; Clark, "Magnetostrictive rare earth-Fe2 compounds",
+Ferromagnetic Materials vol. 1, North-Holland 1980), so with the heating
+"dose" u(t) = I_m^2 t_th (1 - e^{-t/t_th}) (a first-order thermal lag; u =
+I_m^2 t, a linear drift, for t_th -> inf)
+
+    y_meas(t) = (1 + g u(t)) y(t) + o u(t),
+
+t from the start of the run, with o [m/(A^2 s)] and g [1/(A^2 s)].
+
+* periodic form: the drift is not periodic; the diagnosis compares its
+  slopes of the offset and of the fundamental with the features' and applies
+  it to the samples (:meth:`DriftForm.feature_slopes`, :meth:`DriftForm.apply_samples`);
+* time-stepped form: on the strain, about the operating point's mean strain
+  lambda_0 (eq 25's mean term): lambda' = lambda_0 + (1 + g u) (lambda - lambda_0)
+  + (o / L) u, o / L being the rod's free thermal strain rate, so the rod pushes
+  on its load with the drifted force. Quasi-statically (the drift is slow
+  against the mechanics) the displacement is then the periodic form about its
+  mean; t is the time since the start of the run (the FMU's initialisation);
+* parameters: o, g and t_th [s] (inf for a linear drift).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ParameterError, check_range
+from ..forward import strain_harmonics
+from ..magnetostriction import magnetostrictive_force
+from ._base import Extension, FitSpec, Parameter
+
+
+@dataclass(frozen=True)
+class LinearDrift:
+    """Offset and gain of y drifting with the coil's heating, linearly in time at first.
+
+    Coil heating i^2 R (mean I_m^2 R / 2 for a sinusoid) warms rod and sensor
+    mount. K_lambda and M_b fall with temperature and the rod and mount expand
+    (Engdahl 2000, ch. 2 and 4; Clark 1980), so with the heating "dose"
+    u(t) = I_m^2 t_th (1 - e^{-t/t_th}) (first-order thermal lag; u = I_m^2 t,
+    a linear drift, for t_th -> inf, the default)
+
+        y_meas(t) = (1 + g u(t)) y(t) + o u(t),
+
+    t from the start of the run, with o [m/(A^2 s)] and g [1/(A^2 s)].
+
+    Attributes
+    ----------
+    offset_rate : float
+        o, [m/(A^2 s)].
+    gain_rate : float
+        g, [1/(A^2 s)].
+    thermal_time_constant : float
+        t_th, [s], > 0; inf (default) for a drift linear in time.
+    """
+
+    offset_rate: float
+    gain_rate: float
+    thermal_time_constant: float = math.inf
+
+    def __post_init__(self):
+        for name in ("offset_rate", "gain_rate"):
+            if not math.isfinite(getattr(self, name)):
+                raise ParameterError(f"{name} = {getattr(self, name)!r} is not finite")
+        check_range("thermal_time_constant", self.thermal_time_constant, 0.0, math.inf,
+                    unit="s", high_open=False)
+
+    def dose(self, time, current_amplitude):
+        """u(t) = I_m^2 t_th (1 - e^{-t/t_th}), [A^2 s]; t from the start of the run."""
+        t = np.asarray(time, dtype=float)
+        tc = self.thermal_time_constant
+        base = t if math.isinf(tc) else -tc * np.expm1(-t / tc)
+        return current_amplitude ** 2 * base
+
+    def apply(self, displacement, time, current_amplitude):
+        """y_meas from the drift-free y (about its mean), [m]; per sample as is."""
+        u = self.dose(time, current_amplitude)
+        return (1.0 + self.gain_rate * u) * displacement + self.offset_rate * u
+
+
+class DriftForm(Extension):
+    """Strain drifting with the heating dose (:class:`LinearDrift`).
+
+    lambda' = lambda_0 + (1 + g u(t)) (lambda - lambda_0) + (o / L) u(t) with
+    u(t) = I_m^2 t_th (1 - e^{-t/t_th}), t from the start of the run (module
+    docstring); I_m is the operating point's. No memory beyond the elapsed
+    time the stepper keeps.
+    """
+
+    cause = "thermal_drift"
+    stage = "strain"
+    signals = "y only"
+    fit = FitSpec(("offset_rate_um_per_A2s", "gain_rate_pct_per_A2s", "log10_time_constant_s"),
+                  ((0.0, 0.0, 0.0), (0.0, 0.0, 2.0)), (-math.inf, -math.inf, -1.5),
+                  (math.inf, math.inf, 3.0))
+    parameters = (Parameter("offset_rate_m_per_A2s", "m/(A^2 s)"),
+                  Parameter("gain_rate_per_A2s", "1/(A^2 s)"),
+                  Parameter("thermal_time_constant_s", "s", 0.0, math.inf, high_open=False))
+
+    @classmethod
+    def validate(cls, values):
+        cls.drift_of(values)
+
+    @staticmethod
+    def drift_of(values) -> LinearDrift:
+        return LinearDrift(values["offset_rate_m_per_A2s"], values["gain_rate_per_A2s"],
+                           values["thermal_time_constant_s"])
+
+    @classmethod
+    def from_fit(cls, x, context):
+        return {"offset_rate_m_per_A2s": x[0] * 1e-6, "gain_rate_per_A2s": x[1] * 1e-2,
+                "thermal_time_constant_s": 10.0 ** x[2]}
+
+    @classmethod
+    def at_bounds(cls, x, tolerance=1e-3):
+        # a thermal time constant at its upper end is a drift linear in time, a form the
+        # drift may take; the short end is a bound pressed on
+        return tuple(n for n, v in zip(cls.fit.names[2:], x[2:])
+                     if v <= cls.fit.lower[2] + tolerance * (cls.fit.upper[2] - cls.fit.lower[2]))
+
+    # periodic form: the drift of the features (the diagnosis' least-squares slopes)
+    @classmethod
+    def feature_slopes(cls, values, time, start, middle, current_amplitude, fundamental):
+        """(d mean y/dt [m/s], d Y_1/dt [m/s]) the drift gives a run's features.
+
+        The features' slopes are the least-squares slopes over the run's
+        samples ``time`` [s] about ``middle`` [s]; the drift's are those of its
+        heating dose u(t - ``start``) times o and g Y_1 (``fundamental``, [m]).
+        """
+        u = cls.drift_of(values).dose(np.asarray(time) - start, current_amplitude)
+        tau = np.asarray(time) - middle
+        slope = float(tau @ (u - u.mean()) / (tau @ tau))
+        return (values["offset_rate_m_per_A2s"] * slope,
+                values["gain_rate_per_A2s"] * slope * fundamental)
+
+    @classmethod
+    def apply_samples(cls, values, displacement, time_since_start, current_amplitude):
+        """y_meas of the drift-free y samples (about its mean), [m]."""
+        return cls.drift_of(values).apply(displacement, time_since_start, current_amplitude)
+
+    # time-stepped form
+    def __init__(self, values, params, point, upstream=None):
+        super().__init__(values, params, point, upstream)
+        # on the strain: the offset is the rod's free thermal strain, o / L per unit dose
+        self.drift = LinearDrift(values["offset_rate_m_per_A2s"] / params.rod_length,
+                                 values["gain_rate_per_A2s"], values["thermal_time_constant_s"])
+        self.mean_strain = float(np.real(strain_harmonics(params, point)[0]))
+
+    def adjust(self, base, step, time):
+        p = self.params
+        lam = self.mean_strain + float(self.drift.apply(base.strain - self.mean_strain, time,
+                                                        self.point.current_amplitude))
+        return base._replace(strain=lam, force=magnetostrictive_force(lam, p.rod_area,
+                                                                      p.youngs_modulus))

@@ -1,0 +1,246 @@
+"""The models the diagnosis compares: the paper's, one extension, or several.
+
+A :class:`Candidate` is a set of extensions of :data:`gmt.extensions.REGISTRY`
+(empty: the paper's model). Its unknowns are its members' (each extension's
+:class:`gmt.extensions.FitSpec`), shared by all runs; the loss coefficients of
+eq 16 are fitted with them (:mod:`smeha.diagnose.fit`).
+
+The :class:`Evaluator` gives a candidate's features for a batch of runs: the
+periodic steady state of the paper's model plus the members
+(:func:`gmt.extensions.steady.steady_state`, the **continuous** model of
+eq 27: the features do not depend on how the data were sampled), the drift
+slopes of the thermal drift, and, for a run without a sense voltage, B_m
+through the candidate's own path from M to y
+(:func:`gmt.extensions.steady.flux_density_from_ratio`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from gmt import extensions as ext
+from gmt.extensions.steady import flux_density_from_ratio, steady_state
+
+from .features import HARMONICS
+
+CAUSES = ext.CAUSES
+#: The forms of the causes with several (the first is the default).
+FORMS = ext.FORMS
+
+
+def label(cls) -> str:
+    """Display name of an extension: the cause, with its form when it has several."""
+    return cls.cause if cls.cause not in FORMS else f"{cls.cause} ({cls.form})"
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """The paper's model plus ``members`` (extension classes, in stage order)."""
+
+    members: tuple = ()
+
+    def __post_init__(self):
+        object.__setattr__(self, "members", ext.ordered(self.members))
+
+    @property
+    def cause(self) -> str:
+        """"none" for the paper's model, else the first member's cause."""
+        return self.members[0].cause if self.members else "none"
+
+    @property
+    def causes(self) -> tuple:
+        return tuple(m.cause for m in self.members)
+
+    @property
+    def form(self) -> str:
+        return self.members[0].form if self.members else ""
+
+    @property
+    def label(self) -> str:
+        return " + ".join(label(m) for m in self.members) if self.members else "paper"
+
+    @property
+    def names(self) -> tuple:
+        """The unknowns, prefixed by their member's cause for a combination."""
+        if len(self.members) == 1:
+            return self.members[0].fit.names
+        return tuple(f"{m.cause}.{n}" for m in self.members for n in m.fit.names)
+
+    @property
+    def n_params(self) -> int:
+        return sum(m.fit.size for m in self.members)
+
+    @property
+    def lower(self) -> tuple:
+        return tuple(v for m in self.members for v in m.fit.lower)
+
+    @property
+    def upper(self) -> tuple:
+        return tuple(v for m in self.members for v in m.fit.upper)
+
+    def starts(self) -> list:
+        """Start vectors: every start of each member, the others at their first start."""
+        if not self.members:
+            return [()]
+        firsts = [m.fit.starts[0] for m in self.members]
+        out = []
+        for k, m in enumerate(self.members):
+            for s in m.fit.starts:
+                vec = tuple(v for j, f in enumerate(firsts) for v in (s if j == k else f))
+                if vec not in out:
+                    out.append(vec)
+        return out
+
+    def split(self, x) -> list:
+        """``x`` cut into the members' unknowns."""
+        out, k = [], 0
+        for m in self.members:
+            out.append(tuple(x[k:k + m.fit.size]))
+            k += m.fit.size
+        return out
+
+    def components(self, x, context) -> tuple:
+        """(extension class, SI parameters) of each member for unknowns ``x``."""
+        return tuple((m, m.from_fit(xm, context)) for m, xm in zip(self.members, self.split(x)))
+
+    def parameters(self, x, context) -> dict:
+        """The SI parameters: the member's, or by member variant name for a combination."""
+        comps = self.components(x, context)
+        if len(comps) == 1:
+            return comps[0][1]
+        return {ext.variant_name(m.cause, m.form): v for m, v in comps}
+
+    def at_bounds(self, x) -> tuple:
+        """The unknowns on a bound the fit pressed on (:meth:`gmt.extensions.Extension.at_bounds`)."""
+        if len(self.members) == 1:
+            return self.members[0].at_bounds(x)
+        return tuple(f"{m.cause}.{n}" for m, xm in zip(self.members, self.split(x))
+                     for n in m.at_bounds(xm))
+
+    def plus(self, member) -> "Candidate":
+        """This candidate with one more extension (raises ParameterError if they cannot combine)."""
+        return Candidate(self.members + (member,))
+
+    def combinable(self, member) -> bool:
+        """True when ``member`` may join (another cause, a stage with room)."""
+        try:
+            ext.ordered(self.members + (member,))
+        except ext.ParameterError:
+            return False
+        return True
+
+
+PAPER = Candidate()
+
+
+def candidates() -> tuple:
+    """The paper's model and every single extension (every form of every cause)."""
+    return (PAPER,) + tuple(Candidate((e,)) for e in ext.EXTENSIONS)
+
+
+class Batch:
+    """Features of several runs as arrays, for one vectorised evaluation."""
+
+    def __init__(self, feats):
+        self.runs = list(feats)
+        self.frequency = np.array([rf.frequency for rf in feats])
+        self.current_amplitude = np.array([rf.current_amplitude for rf in feats])
+        self.flux_density_amplitude = np.array([rf.flux_density_amplitude for rf in feats])
+        self.has_b = np.array([rf.has_b for rf in feats], dtype=bool)
+        self.ratio = np.array([rf.magnetization_ratio if rf.magnetization_ratio is not None
+                               else 0.0 for rf in feats], dtype=complex)
+        self.y = np.array([rf.y for rf in feats])
+        self.b = np.array([rf.b if rf.has_b else np.zeros_like(rf.y) for rf in feats])
+        self.y_sd = None
+        self.b_sd = np.array([np.sqrt(rf.b_var) if rf.has_b else np.ones(rf.y.size)
+                              for rf in feats])
+        self.drift = np.array([rf.offset_slope for rf in feats])
+        self.drift_sd = np.array([math.sqrt(rf.offset_slope_var) for rf in feats])
+        self.y1_slope = np.array([rf.y1_slope for rf in feats])
+        self.y1_slope_sd = np.array([math.sqrt(rf.y1_slope_var) for rf in feats])
+        self.refresh()
+
+    def refresh(self):
+        """Re-read the y variances (after the B_m error was carried into them)."""
+        self.y_sd = np.array([np.sqrt(rf.y_var + (rf.y_prop_var if rf.y_prop_var is not None
+                                                  else 0.0)) for rf in self.runs])
+
+    def __len__(self):
+        return len(self.runs)
+
+
+class Evaluator:
+    """Periodic steady state of candidates for batches of runs (module docstring)."""
+
+    def __init__(self, params, thresholds, harmonics=HARMONICS):
+        self.params = params
+        self.thresholds = tuple(thresholds)
+        self.k = np.arange(1, harmonics + 1)
+        self.context = {"params": params, "thresholds": self.thresholds}
+
+    def predict(self, batch: Batch, loss, cand: Candidate = PAPER, x=(), flux=None):
+        """(Y_k [m], B_k [T], offset slope [m/s], Y_1 slope [m/s]) of the model, per run."""
+        comps = cand.components(x, self.context)
+        bm = batch.flux_density_amplitude if flux is None else np.asarray(flux, float)
+        if flux is None and not batch.has_b.all():
+            nob = ~batch.has_b
+            bm = bm.copy()
+            bm[nob] = flux_density_from_ratio(self.params, batch.frequency[nob],
+                                              batch.current_amplitude[nob], batch.ratio[nob],
+                                              comps)
+        res = steady_state(self.params, batch.frequency, batch.current_amplitude, bm, loss,
+                           comps, harmonics=self.k.size)
+        y, b = res.displacement, res.flux_density
+        s_off = np.zeros(len(batch))
+        s_y1 = np.zeros(len(batch), complex)
+        for cls, values in comps:
+            if cls.stage == "strain":
+                for j, rf in enumerate(batch.runs):
+                    s_off[j], s_y1[j] = cls.feature_slopes(values, rf.time, rf.t_start,
+                                                           rf.t_mid, rf.current_amplitude,
+                                                           y[j, 0])
+        return y, b, s_off, s_y1
+
+    def residuals(self, batch: Batch, loss, cand: Candidate = PAPER, x=()):
+        """Model minus data over each feature's standard deviation, all runs, flat.
+
+        y's harmonics (real, imaginary), B's for the runs that have them, then
+        the three drift features of each run.
+        """
+        y, b, s_off, s_y1 = self.predict(batch, loss, cand, x)
+        dy = (y - batch.y) / batch.y_sd
+        parts = [dy.real.ravel(), dy.imag.ravel()]
+        if batch.has_b.any():
+            db = ((b - batch.b) / batch.b_sd)[batch.has_b]
+            parts += [db.real.ravel(), db.imag.ravel()]
+        ds = (s_y1 - batch.y1_slope) / batch.y1_slope_sd
+        parts += [(s_off - batch.drift) / batch.drift_sd, ds.real, ds.imag]
+        return np.concatenate(parts)
+
+    def parts(self, batch: Batch, loss, cand: Candidate = PAPER, x=()):
+        """chi^2 per run of y (harmonics), of B (0 without B), of the drift features."""
+        y, b, s_off, s_y1 = self.predict(batch, loss, cand, x)
+        dy = np.abs((y - batch.y) / batch.y_sd) ** 2
+        cy = np.sum(dy, axis=1)
+        db = np.abs((b - batch.b) / batch.b_sd) ** 2
+        cb = np.where(batch.has_b, np.sum(db, axis=1), 0.0)
+        ds = np.abs((s_y1 - batch.y1_slope) / batch.y1_slope_sd) ** 2
+        cd = ((s_off - batch.drift) / batch.drift_sd) ** 2 + ds
+        return cy, cb, cd
+
+    def n_features(self, rf) -> tuple:
+        """Number of features of y, of B (0 without a sense voltage), of the drift."""
+        return 2 * self.k.size, 2 * self.k.size * rf.has_b, 3
+
+    def samples(self, rf, loss, cand: Candidate = PAPER, x=()):
+        """Model y at the run's samples, best constant offset fitted, [m]."""
+        batch = Batch([rf])
+        y, _, _, _ = self.predict(batch, loss, cand, x)
+        th = rf.phase(rf.time)
+        out = np.real(np.exp(1j * np.outer(th, self.k)) @ y[0])
+        for cls, values in cand.components(x, self.context):
+            if cls.stage == "strain":
+                out = cls.apply_samples(values, out, rf.time - rf.t_start, rf.current_amplitude)
+        return out + float(np.mean(rf.displacement - out))

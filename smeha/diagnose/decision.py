@@ -1,0 +1,115 @@
+"""The decision: none, the cause(s), or unexplained.
+
+* ``none`` when the paper's model is within noise: reduced chi^2 at most
+  :data:`WITHIN_NOISE` on the training fit and on the held-out runs;
+* otherwise **forward selection** (:func:`select`): the best single
+  candidate (lowest held-out score, every form of every cause) is named when
+  it passes the rule against the paper's model (:func:`passes`): it lowers the
+  held-out score by more than :data:`MIN_BIC_DROP` **and** removes at least
+  :data:`MIN_EXPLAINED` of the paper's held-out excess chi^2 (chi^2 - n). Then
+  every extension that can join it is fitted together with it (all unknowns
+  and the loss coefficients refitted), and the best such combination is kept
+  when it passes the same rule against the model before it; and so on, up to
+  :data:`MAX_CAUSES` causes, while the model is still outside noise on the
+  held-out runs;
+* ``unexplained`` when even the best single candidate fails the rule
+  (structure beyond noise that no candidate removes).
+
+The causes are reported in the order they were added, which is the order of
+their contribution. A model whose unknowns sit on a bound the fit pressed on
+(:attr:`smeha.diagnose.fit.Fit.at_bounds`) is a **weak** finding: it predicts
+better, but its parameters are not a physical result.
+
+Other causes that pass the same rule against the paper and score within
+:data:`MIN_BIC_DROP` of the first named one are reported as "also consistent"
+(:func:`also_consistent`): the data prefer the named cause, but not by the
+margin the rule asks of a name.
+"""
+from __future__ import annotations
+
+from .fit import Fit, fit_and_score
+
+#: Reduced chi^2 at or below which a model "explains the data within noise".
+WITHIN_NOISE = 2.0
+#: A model must lower the held-out score (BIC) of the one before it by more than this ...
+MIN_BIC_DROP = 25.0
+#: ... and remove at least this fraction of its held-out excess chi^2.
+MIN_EXPLAINED = 0.5
+#: Most causes forward selection names.
+MAX_CAUSES = 3
+
+
+def explained(base: Fit, new: Fit) -> float:
+    """Fraction of ``base``'s held-out excess chi^2 that ``new`` removes."""
+    return 1.0 - max(new.heldout_excess, 0.0) / max(base.heldout_excess, 1e-12)
+
+
+def passes(base: Fit, new: Fit) -> bool:
+    """The rule of the module docstring, ``new`` against ``base``."""
+    return (base.score - new.score > MIN_BIC_DROP
+            and explained(base, new) >= MIN_EXPLAINED)
+
+
+def within_noise(fit: Fit, train_dof_lost: int = 4) -> bool:
+    """Reduced chi^2 at most :data:`WITHIN_NOISE` on the training fit and the held-out runs."""
+    red_train = fit.train_chi2 / max(fit.train_n - train_dof_lost - fit.n_params, 1)
+    return red_train <= WITHIN_NOISE and fit.heldout_chi2 / fit.heldout_n <= WITHIN_NOISE
+
+
+def select(ev, train, held, paper: Fit, singles: list) -> tuple:
+    """Forward selection (module docstring): (answer, chosen fit, combinations tried).
+
+    ``answer`` is "none", "unexplained" or the first cause; ``chosen`` the
+    paper's fit for the first two.
+    """
+    if within_noise(paper):
+        return "none", paper, []
+    best = min(singles, key=lambda f: f.score)
+    if not passes(paper, best):
+        return "unexplained", paper, []
+    current, tried = best, []
+    while len(current.causes) < MAX_CAUSES and not within_noise(current):
+        round_fits = []
+        for single in singles:
+            member = single.candidate.members[0]
+            if not current.candidate.combinable(member):
+                continue
+            cand = current.candidate.plus(member)
+            # start from the fitted values of the model so far and of the newcomer alone
+            own = dict(zip(current.candidate.members, current.candidate.split(current.x)))
+            own[member] = single.x
+            start = tuple(v for m in cand.members for v in own[m])
+            try:
+                fit = fit_and_score(ev, train, held, cand, current.loss, starts=[start])
+            except ValueError:
+                continue
+            round_fits.append(fit)
+        tried += round_fits
+        if not round_fits:
+            break
+        nxt = min(round_fits, key=lambda f: f.score)
+        if not passes(current, nxt):
+            break
+        current = nxt
+    return current.cause, current, tried
+
+
+def also_consistent(paper: Fit, fits, chosen: Fit) -> list:
+    """Other causes the held-out data do not separate from the first named one.
+
+    The best form of each other cause that passes the rule against the paper
+    (:func:`passes`) and whose score is within :data:`MIN_BIC_DROP` of the
+    named single cause's. Empty for ``none`` and ``unexplained``.
+    """
+    if not chosen.causes:
+        return []
+    first = [f for f in fits if f.causes == (chosen.cause,)]
+    ref = min(first, key=lambda f: f.score) if first else chosen
+    best = {}
+    for f in fits:
+        if len(f.causes) != 1 or f.cause in chosen.causes:
+            continue
+        if passes(paper, f) and f.score - ref.score <= MIN_BIC_DROP:
+            if f.cause not in best or f.score < best[f.cause].score:
+                best[f.cause] = f
+    return sorted(best.values(), key=lambda f: f.score)

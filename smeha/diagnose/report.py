@@ -1,0 +1,400 @@
+"""What the diagnosis reports: residual structure, evidence, text, JSON and figures."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from gmt import extensions as ext
+
+from .candidates import CAUSES, FORMS, Batch, Evaluator
+from .decision import MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, explained
+from .workflow import CONFUSABLE_WITHOUT_B
+
+#: What each cause changes, for the evidence text.
+SIGNALS = {e.cause: e.signals for e in ext.EXTENSIONS}
+
+
+def _synth(harm, theta):
+    k = np.arange(1, len(harm) + 1)
+    return np.real(np.exp(1j * np.outer(theta, k)) @ harm)
+
+
+def characterise(ev: Evaluator, feats, loss) -> dict:
+    """Residual structure of the paper's model over all runs (module docstring, step 3)."""
+    theta = 2.0 * np.pi * np.arange(128) / 128
+    falling = theta < np.pi  # i = I_m cos(theta) falls on (0, pi)
+    rows = []
+    for rf in feats:
+        one = Batch([rf])
+        y, b, _, _ = ev.predict(one, loss)
+        y, b = y[0], b[0]
+        ry = rf.y - y
+        rb = rf.b - b if rf.has_b else None
+        r = _synth(ry, theta)
+        sy = math.sqrt(float(np.sum(rf.y_var)))  # noise of the periodic residual (RMS-ish)
+        data = _synth(rf.y, theta)
+        opening = float(_synth(rf.y, np.array([np.pi / 2]))[0]
+                        - _synth(rf.y, np.array([3 * np.pi / 2]))[0])
+        cy_y, cy_b, cy_d = (float(v[0]) for v in ev.parts(one, loss))
+        n_y, n_b, n_d = ev.n_features(rf)
+        rows.append({
+            "run": rf.name, "frequency_Hz": rf.frequency,
+            "current_amplitude_A": rf.current_amplitude,
+            "flux_density_source": rf.flux_density_source,
+            "noise_um": rf.noise_y * 1e6,
+            "noise_source": rf.noise_source,
+            "cycles_used": rf.cycles,
+            "transient_cycles_dropped": rf.dropped_cycles,
+            "periodic_residual_rms_um": float(np.sqrt(np.mean(r * r))) * 1e6,
+            "periodic_noise_rms_um": sy * 1e6,
+            "falling_rms_um": float(np.sqrt(np.mean(r[falling] ** 2))) * 1e6,
+            "rising_rms_um": float(np.sqrt(np.mean(r[~falling] ** 2))) * 1e6,
+            "y_residual_harmonics_um": [float(abs(v)) * 1e6 for v in ry[:3]],
+            "y_residual_phases_deg": [math.degrees(float(np.angle(v))) for v in ry[:3]],
+            # the B entries are None for a run without a sense voltage
+            "b_residual_harmonics_mT": ([float(abs(v)) * 1e3 for v in rb[:3]]
+                                        if rf.has_b else None),
+            "y_extra_lag_deg": math.degrees(float(np.angle(y[0] / rf.y[0]))),
+            "y_gain_ratio": float(abs(rf.y[0]) / abs(y[0])),
+            "b_extra_lag_deg": (math.degrees(float(np.angle(b[0] / rf.b[0])))
+                                if rf.has_b else None),
+            "y3_over_y1_pct": 100.0 * float(abs(rf.y[2]) / abs(rf.y[0])),
+            "b3_over_b1_pct": (100.0 * float(abs(rf.b[2]) / abs(rf.b[0]))
+                               if rf.has_b else None),
+            "loop_opening_um": opening * 1e6,
+            "loop_opening_rel": opening / float(np.ptp(data)),
+            "offset_drift_um_per_s": rf.offset_slope * 1e6,
+            "offset_drift_z": rf.offset_slope / math.sqrt(rf.offset_slope_var),
+            "gain_drift_per_s": float((rf.y1_slope / rf.y[0]).real),
+            "gain_drift_z": float((rf.y1_slope * np.conj(rf.y[0]) / abs(rf.y[0])).real
+                                  / math.sqrt(rf.y1_slope_var)),
+            "chi2_y": cy_y, "chi2_b": cy_b, "chi2_drift": cy_d,
+            "n_y": n_y, "n_b": n_b, "n_drift": n_d,
+        })
+    # loop opening against f, at the largest amplitude
+    amps = sorted({round(r["current_amplitude_A"], 2) for r in rows})
+    top = [r for r in rows if round(r["current_amplitude_A"], 2) == amps[-1]]
+    top.sort(key=lambda r: r["frequency_Hz"])
+    f = np.array([r["frequency_Hz"] for r in top])
+    o = np.array([r["loop_opening_rel"] for r in top])
+    law = {}
+    if f.size >= 3:
+        for name, x in (("linear", f), ("sqrt", np.sqrt(f))):
+            a = np.column_stack((np.ones_like(x), x))
+            coef, *_ = np.linalg.lstsq(a, o, rcond=None)
+            law[name] = {"intercept": float(coef[0]), "slope": float(coef[1]),
+                         "rms": float(np.sqrt(np.mean((a @ coef - o) ** 2)))}
+    # extra lag of y against f: through the origin (a delay) or not
+    lag = np.array([math.radians(r["y_extra_lag_deg"]) for r in rows])
+    fr = np.array([r["frequency_Hz"] for r in rows])
+    tau = float((fr @ lag) / (2 * np.pi * (fr @ fr)))
+    return {"runs": rows, "opening_vs_f": law,
+            "opening_lowest_f_rel": float(o[0]) if o.size else None,
+            "opening_highest_f_rel": float(o[-1]) if o.size else None,
+            "y_lag_as_delay_s": tau,
+            "y_lag_as_delay_rms_deg": math.degrees(float(np.sqrt(np.mean(
+                (lag - 2 * np.pi * fr * tau) ** 2))))}
+
+
+def evidence(d) -> list[str]:
+    """The evidence lines of the text report (and ``evidence`` in the JSON)."""
+    p, c = d.paper, d.characterisation
+    rows = c["runs"]
+    brows = [r for r in rows if r["b_residual_harmonics_mT"] is not None]  # runs with B
+    without = d.runs_without_sense_voltage
+    out = []
+    if d.skipped:
+        out.append("runs not used: " + "; ".join(f"{n} ({why})" for n, why in d.skipped))
+    dropped = [(r["run"], r["transient_cycles_dropped"]) for r in rows
+               if r["transient_cycles_dropped"]]
+    if dropped:
+        out.append("transient at the start of the record, dropped: " + ", ".join(
+            f"{n} {k} period{'s' if k > 1 else ''}" for n, k in dropped))
+    if without:
+        magnetic = ", ".join(c for c in CAUSES if SIGNALS[c] == "B and y")
+        pairs = "; ".join(f"{a} vs {b}" for a, b in CONFUSABLE_WITHOUT_B)
+        out.append(f"no sense voltage in {len(without)} of {len(rows)} runs "
+                   f"({', '.join(without)}): B_m of those from y's fundamental (eq 19, as "
+                   "smeha.identify), and only y's harmonics and drift are compared. Without B "
+                   f"the magnetic causes, which change B and y together ({magnetic}), are "
+                   "told from those that change y only by the shape of y alone; hard to tell "
+                   f"apart: {pairs}")
+    e_noise = [d.context["features"][r["run"]].noise_e for r in brows]
+    out.append(f"noise (scatter from period to period, or about a many-harmonic fit): y "
+               f"{d.noise_um:.3g} um per "
+               "sample (median over runs), sense voltage "
+               + (f"{np.median(e_noise):.3g} V" if e_noise else "not measured"))
+    ny = sum(r["n_y"] for r in rows)
+    nb = sum(r["n_b"] for r in rows)
+    nd = sum(r["n_drift"] for r in rows)
+    cy = sum(r["chi2_y"] for r in rows)
+    cb = sum(r["chi2_b"] for r in rows)
+    cd = sum(r["chi2_drift"] for r in rows)
+    b_text = f"{cb / nb:.3g} on B harmonics" if nb else "no B harmonics (no sense voltage)"
+    out.append(f"paper's model, all runs: chi^2/n = {cy / ny:.3g} on y harmonics, "
+               f"{b_text}, {cd / nd:.3g} on the drift terms "
+               f"(1 = within noise); training reduced chi^2 "
+               f"{p.train_chi2 / max(p.train_n - 4, 1):.3g}, held-out "
+               f"{p.heldout_chi2 / p.heldout_n:.3g} (threshold {WITHIN_NOISE:g})")
+    carriers = [name for name, v in (("y", cy / ny), ("B", cb / nb if nb else 0.0),
+                                     ("drift of y", cd / nd))
+                if v > WITHIN_NOISE]
+    out.append("the discrepancy is carried by: " + (", ".join(carriers) if carriers
+                                                     else "neither signal (within noise)"))
+    res = np.array([r["periodic_residual_rms_um"] for r in rows])
+    nse = np.array([r["periodic_noise_rms_um"] for r in rows])
+    out.append(f"periodic residual RMS of y per run: {res.min():.3g} to {res.max():.3g} um "
+               f"against a noise level of the averaged period of {nse.min():.2g} to "
+               f"{nse.max():.2g} um")
+    fall = np.array([r["falling_rms_um"] for r in rows])
+    rise = np.array([r["rising_rms_um"] for r in rows])
+    out.append(f"by branch: residual RMS falling current {np.mean(fall):.3g} um, rising "
+               f"{np.mean(rise):.3g} um (mean over runs)")
+    lo, hi = min(rows, key=lambda r: r["frequency_Hz"]), max(rows,
+                                                              key=lambda r: r["frequency_Hz"])
+    def bres(r):
+        v = r["b_residual_harmonics_mT"]
+        return "/".join(f"{x:.3g}" for x in v) if v is not None else "not measured"
+    out.append(
+        f"by harmonic (y residual, um, k = 1..3): {lo['run']} "
+        + "/".join(f"{v:.3g}" for v in lo["y_residual_harmonics_um"])
+        + f"; {hi['run']} " + "/".join(f"{v:.3g}" for v in hi["y_residual_harmonics_um"])
+        + f"; B residual (mT): {bres(lo)} and {bres(hi)}")
+    amps = sorted({round(r["current_amplitude_A"], 2) for r in rows})
+    if len(amps) >= 2:
+        def mean3(a, key):
+            v = [r[key] for r in rows
+                 if round(r["current_amplitude_A"], 2) == a and r[key] is not None]
+            return float(np.mean(v)) if v else None
+
+        b_lo, b_hi = mean3(amps[0], "b3_over_b1_pct"), mean3(amps[-1], "b3_over_b1_pct")
+        b_part = (f"third harmonic of B: {b_lo:.3g} % of the fundamental at {amps[0]:g} A, "
+                  f"{b_hi:.3g} % at {amps[-1]:g} A; " if b_lo is not None and b_hi is not None
+                  else "third harmonic of B: not measured (no sense voltage); ")
+        out.append(b_part + f"of y: {mean3(amps[0], 'y3_over_y1_pct'):.3g} % at {amps[0]:g} "
+                   f"A and {mean3(amps[-1], 'y3_over_y1_pct'):.3g} % at {amps[-1]:g} A")
+    law = c["opening_vs_f"]
+    if law:
+        better = min(law, key=lambda k: law[k]["rms"])
+        out.append(f"loop opening (y at i = 0, falling minus rising, over peak-to-peak) at the "
+                   f"largest amplitude: {c['opening_lowest_f_rel']:.3g} at the lowest f, "
+                   f"{c['opening_highest_f_rel']:.3g} at the highest; best law {better} in f "
+                   f"with intercept {law[better]['intercept']:.3g} at f -> 0")
+    lag = " ".join(f"{r['frequency_Hz']:g}Hz:{r['y_extra_lag_deg']:+.2f}" for r in rows
+                   if round(r["current_amplitude_A"], 2) == amps[-1])
+    out.append(f"extra lag of y's fundamental behind the model (deg): {lag}; as a delay "
+               f"{c['y_lag_as_delay_s'] * 1e3:.3g} ms leaves {c['y_lag_as_delay_rms_deg']:.2g} "
+               "deg RMS")
+    bl = " ".join(f"{r['frequency_Hz']:g}Hz:{r['b_extra_lag_deg']:+.2f}" for r in brows
+                  if round(r["current_amplitude_A"], 2) == amps[-1])
+    out.append("extra lag of B's fundamental behind the model (deg): "
+               + (bl or "not measured (no sense voltage)"))
+    gains = " ".join(f"{r['frequency_Hz']:g}Hz:{r['y_gain_ratio']:.3f}" for r in rows
+                     if round(r["current_amplitude_A"], 2) == amps[-1])
+    out.append(f"gain of y's fundamental, measured over model: {gains}")
+    zo = max(rows, key=lambda r: abs(r["offset_drift_z"]))
+    zg = max(rows, key=lambda r: abs(r["gain_drift_z"]))
+    out.append(f"drift within runs: largest offset drift {zo['offset_drift_um_per_s']:.3g} um/s "
+               f"(z = {zo['offset_drift_z']:.3g}, {zo['run']}), largest gain drift "
+               f"{zg['gain_drift_per_s'] * 100:.3g} %/s (z = {zg['gain_drift_z']:.3g}, "
+               f"{zg['run']})")
+    ranked = sorted(d.fits, key=lambda f: f.score)
+    out.append(f"held-out RMS of y: paper {p.heldout_rms * 1e6:.4g} um; candidates "
+               + ", ".join(f"{f.label} {f.heldout_rms * 1e6:.4g} um (score {f.score:.4g})"
+                           for f in ranked) + f"; paper's score {p.score:.4g}")
+    if d.cause in CAUSES:
+        e = d.extended
+        first = min((f for f in d.fits if f.causes == (d.cause,)), key=lambda f: f.score)
+        out.append(f"named {first.label} (acts on {SIGNALS[d.cause]}): held-out BIC lower by "
+                   f"{p.score - first.score:.4g} (threshold {MIN_BIC_DROP:g}), "
+                   f"{100 * explained(p, first):.3g} % of the paper's excess chi^2 removed; "
+                   f"held-out RMS {p.heldout_rms * 1e6:.4g} -> "
+                   f"{first.heldout_rms * 1e6:.4g} um")
+        if len(e.causes) > 1:
+            out.append(f"forward selection: {e.label} together lower the held-out BIC by "
+                       f"{first.score - e.score:.4g} beyond {first.label} alone; the model "
+                       f"with all {len(e.causes)} gives held-out RMS "
+                       f"{e.heldout_rms * 1e6:.4g} um, gain {d.gain:.3g}x")
+        elif d.combinations:
+            best = min(d.combinations, key=lambda f: f.score)
+            out.append(f"forward selection: the best second cause, {best.label}, lowers the "
+                       f"held-out BIC by {first.score - best.score:.4g} and removes "
+                       f"{100 * explained(first, best):.3g} % of the remaining excess; not "
+                       f"enough for a second name (the same rule)")
+        out.append(f"parameters of the extended model: {_fmt_params(e.parameters)}")
+        if e.weak:
+            out.append(f"weak finding: {', '.join(e.at_bounds)} on the bound{'s' if len(e.at_bounds) > 1 else ''} "
+                       "of the fit; the extended model predicts the held-out runs better, but "
+                       "these parameters are not a physical result (the effect may be another "
+                       "one, or the data do not fix it)")
+        if d.also_consistent:
+            out.append("also consistent: " + ", ".join(
+                f"{f.label} (score {f.score - first.score:+.3g} from the named one, held-out "
+                f"RMS {f.heldout_rms * 1e6:.4g} um)" for f in d.also_consistent)
+                + f"; the data prefer {first.label} by less than the BIC margin "
+                f"({MIN_BIC_DROP:g}), so they do not separate these causes"
+                + (" (without B, see above)" if without else ""))
+    elif d.cause == "none":
+        out.append("none: the paper's model is within noise on training and held-out runs")
+    else:
+        out.append("unexplained: the paper's model is outside noise and no candidate removes "
+                   f"at least {100 * MIN_EXPLAINED:g} % of its held-out excess with a BIC drop "
+                   f"above {MIN_BIC_DROP:g}")
+    return out
+
+
+def _fmt_params(p: dict) -> str:
+    def f(v):
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(f"{x:.3g}" for x in v) + "]"
+        if isinstance(v, dict):
+            return "{" + _fmt_params(v) + "}"
+        return f"{v:.4g}"
+    return ", ".join(f"{k} = {f(v)}" for k, v in p.items())
+
+
+def format_diagnosis(d, path: str = "") -> str:
+    """Plain-text report."""
+    lines = []
+    if path:
+        lines.append(f"diagnosis of {path}")
+    if d.cause in CAUSES:
+        lines.append(f"cause: {d.cause}" + (f" (model: {d.extended.form})"
+                                             if d.cause in FORMS else "")
+                     + (" [weak: parameters on bounds]" if d.weak else ""))
+        if len(d.causes) > 1:
+            lines.append(f"causes (in order of contribution): {d.extended.label}")
+    else:
+        lines.append(f"cause: {d.cause}")
+    if d.also_consistent:
+        lines.append("also consistent: " + ", ".join(f.label for f in d.also_consistent))
+    without = d.runs_without_sense_voltage
+    if without:
+        lines.append(f"no sense voltage: {', '.join(without)} (B_m from the displacement; "
+                     "y's features only)")
+    if d.skipped:
+        lines.append("runs not used: " + "; ".join(f"{n} ({why})" for n, why in d.skipped))
+    lines.append(f"held-out runs: {', '.join(d.heldout_runs)}")
+    lines.append(f"held-out RMS of y: paper {d.paper.heldout_rms * 1e6:.4g} um, extended "
+                 f"{d.extended.heldout_rms * 1e6:.4g} um, gain {d.gain:.3g}x")
+    lines.append("")
+    head = f"{'candidate':<42} {'held-out RMS [um]':>18} {'chi2/n':>10} {'score':>12} {'k':>3}"
+    lines += [head, "-" * len(head)]
+    for f in sorted([d.paper] + d.fits + d.combinations, key=lambda f: f.score):
+        lines.append(f"{('paper (none)' if f.cause == 'none' else f.label):<42.42} "
+                     f"{f.heldout_rms * 1e6:>18.4g} {f.heldout_chi2 / f.heldout_n:>10.4g} "
+                     f"{f.score:>12.5g} {f.n_params:>3}")
+    lines.append("")
+    lines.append("evidence:")
+    lines += [f"  - {e}" for e in d.evidence]
+    return "\n".join(lines)
+
+
+def _fit_dict(fit) -> dict:
+    return {"cause": fit.cause, "form": fit.form, "causes": list(fit.causes),
+            "label": fit.label, "heldout_rms_um": fit.heldout_rms * 1e6,
+            "score": fit.score, "heldout_chi2": fit.heldout_chi2, "heldout_n": fit.heldout_n,
+            "heldout_chi2_y": fit.heldout_chi2_y, "heldout_chi2_b": fit.heldout_chi2_b,
+            "heldout_chi2_drift": fit.heldout_chi2_drift,
+            "train_chi2": fit.train_chi2, "train_n": fit.train_n,
+            "added_parameters": fit.n_params, "parameters": fit.parameters,
+            "at_bounds": list(fit.at_bounds),
+            "loss_coefficients": dict(zip(("K_h", "n", "K_e", "K_ex"), fit.loss))}
+
+
+def sense_voltage_report(d) -> dict:
+    """What the missing sense voltage leaves undetermined (``sense_voltage`` in JSON)."""
+    without = d.runs_without_sense_voltage
+    return {"runs_without": without,
+            "flux_density_source": {name: rf.flux_density_source
+                                    for name, rf in d.context["features"].items()},
+            "hard_to_separate": [list(p) for p in CONFUSABLE_WITHOUT_B] if without else []}
+
+
+def as_dict(d) -> dict:
+    """JSON-able report (the ``--json`` output)."""
+    named = d.cause in CAUSES
+    return {
+        "cause": d.cause,
+        "form": d.extended.form,
+        "causes": d.causes,
+        "weak": d.weak,
+        "model": d.variant().as_dict() if named else {"cause": d.cause},
+        "evidence": list(d.evidence),
+        "heldout_runs": list(d.heldout_runs),
+        "training_runs": list(d.training_runs),
+        "skipped_runs": [{"run": n, "reason": why} for n, why in d.skipped],
+        "noise_um": d.noise_um,
+        "heldout_rms_um": {"paper": d.paper.heldout_rms * 1e6,
+                           "extended": d.extended.heldout_rms * 1e6},
+        "gain": d.gain,
+        "extended": _fit_dict(d.extended),
+        "also_consistent": [{"cause": f.cause, "form": f.form, "score": f.score,
+                             "score_above_named": f.score - d.extended.score,
+                             "heldout_rms_um": f.heldout_rms * 1e6}
+                            for f in d.also_consistent],
+        "sense_voltage": sense_voltage_report(d),
+        "candidates": [_fit_dict(f) for f in d.fits],
+        "combinations": [_fit_dict(f) for f in d.combinations],
+        "paper": _fit_dict(d.paper),
+        "characterisation": d.characterisation,
+        "decision_rule": {"within_noise_reduced_chi2": WITHIN_NOISE,
+                          "min_bic_drop": MIN_BIC_DROP,
+                          "min_explained_excess": MIN_EXPLAINED,
+                          "forward_selection": "add the best candidate that passes the same "
+                                               "rule against the model before it"},
+    }
+
+
+def write_report(d, directory) -> list:
+    """PNG figures: per run, the loop (measured, paper, extended) and the residual
+    against phase by branch, before (paper) and after (extended). Returns the paths."""
+    from pathlib import Path
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    ev = d.context["evaluator"]
+    paths = []
+    for name, rf in d.context["features"].items():
+        yp = ev.samples(rf, d.paper.loss)
+        ye = ev.samples(rf, d.extended.loss, d.extended.candidate, d.extended.x)
+        th = np.mod(rf.phase(rf.time), 2 * np.pi)
+        falling = th < np.pi
+        fig, axes = plt.subplots(1, 3, figsize=(14, 4))
+        ax = axes[0]
+        # three colours that stay apart in print and for colour-blind readers
+        ax.plot(rf.current, rf.displacement * 1e6, ".", ms=2.0, color="0.45",
+                label="measured")
+        order = np.argsort(rf.time)
+        ax.plot(rf.current[order], yp[order] * 1e6, "-", lw=1.0, color="tab:blue",
+                label="paper")
+        if d.extended.cause != "none":
+            ax.plot(rf.current[order], ye[order] * 1e6, "--", lw=1.0, color="tab:red",
+                    label=f"extended ({d.extended.label})")
+        ax.set_xlabel("current i [A]")
+        ax.set_ylabel("displacement y [um]")
+        tag = " (held out)" if name in d.heldout_runs else ""
+        ax.set_title(f"{name}{tag}: loop")
+        ax.legend(fontsize=7)
+        for ax, model, label in ((axes[1], yp, "paper"), (axes[2], ye, "extended")):
+            r = (rf.displacement - model) * 1e6
+            ax.plot(th[falling], r[falling], ".", ms=1.5, color="tab:purple",
+                    label="falling current")
+            ax.plot(th[~falling], r[~falling], ".", ms=1.5, color="tab:green",
+                    label="rising current")
+            ax.axhline(0.0, color="k", lw=0.5)
+            ax.set_xlabel("phase of the current [rad]")
+            ax.set_ylabel("measured - model [um]")
+            ax.set_title(f"residual, {label} (RMS {np.sqrt(np.mean(r * r)):.3g} um)")
+            ax.legend(fontsize=7)
+        fig.tight_layout()
+        path = out / f"diagnose_{name}.png"
+        fig.savefig(path, dpi=90)
+        plt.close(fig)
+        paths.append(path)
+    return paths

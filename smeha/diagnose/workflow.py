@@ -1,0 +1,224 @@
+"""The diagnosis from runs to answer: :func:`diagnose` and its result :class:`Diagnosis`."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+import gmt
+
+from ..measured import DataError
+from ..plausibility import check_plausible
+from .candidates import CAUSES, PAPER, Batch, Evaluator, candidates
+from .decision import also_consistent, select
+from .features import extract
+from .fit import Fit, fit_and_score, fit_candidate, score
+
+#: Play-operator thresholds as fractions of the largest field amplitude of the runs.
+PLAY_THRESHOLDS = gmt.extensions.PLAY_THRESHOLDS
+
+#: Without B (no sense voltage) these causes are told apart only by the shape of y:
+#: each magnetic cause that changes B and y together against the causes that change y only
+#: and leave a similar trace in y's harmonics against f.
+CONFUSABLE_WITHOUT_B = (
+    ("eddy_current_diffusion", "mechanical_resonance"),
+    ("eddy_current_diffusion", "transport_delay"),
+    ("rate_independent_hysteresis", "magnetization_saturation"),
+)
+
+
+@dataclass
+class Diagnosis:
+    """Result of :func:`diagnose`.
+
+    ``cause`` is "none", "unexplained" or the first named cause; ``causes``
+    every named cause in the order of contribution (empty for "none" and
+    "unexplained"); ``extended`` the chosen model's fit (the paper's for
+    "none"/"unexplained"); ``fits`` every single candidate, ``combinations``
+    the combinations forward selection tried; ``skipped`` the runs not used,
+    with the reason.
+    """
+
+    cause: str
+    evidence: list
+    heldout_runs: list
+    training_runs: list
+    paper: Fit
+    extended: Fit
+    fits: list
+    noise_um: float
+    characterisation: dict
+    context: dict = field(repr=False, default=None)
+    also_consistent: list = field(default_factory=list)
+    combinations: list = field(default_factory=list)
+    skipped: list = field(default_factory=list)
+
+    @property
+    def causes(self) -> list:
+        """Every named cause, in the order forward selection added them."""
+        return list(self.extended.causes) if self.cause in CAUSES else []
+
+    @property
+    def weak(self) -> bool:
+        """True when the named model's parameters sit on bounds (a weak finding)."""
+        return self.cause in CAUSES and self.extended.weak
+
+    @property
+    def runs_without_sense_voltage(self) -> list:
+        """Names of the runs without a sense voltage (B_m from the displacement)."""
+        return [name for name, rf in self.context["features"].items() if not rf.has_b]
+
+    @property
+    def gain(self):
+        return self.paper.heldout_rms / self.extended.heldout_rms
+
+    def variant(self) -> gmt.ModelVariant:
+        """The extended model as a :class:`gmt.ModelVariant` (the paper's for none/unexplained)."""
+        if self.cause not in CAUSES:
+            return gmt.ModelVariant()
+        comps = self.extended.candidate.components(self.extended.x, self.context["evaluator"]
+                                                   .context)
+        singles = [gmt.ModelVariant(cls.cause, values, cls.form) for cls, values in comps]
+        return singles[0] if len(singles) == 1 else gmt.ModelVariant.combine(*singles)
+
+    def as_dict(self) -> dict:
+        """JSON-able report (the ``--json`` output; :mod:`smeha.diagnose.report`)."""
+        from .report import as_dict
+
+        return as_dict(self)
+
+
+def default_holdout(runs) -> list[str]:
+    """Names of the default held-out runs.
+
+    With at least five distinct frequencies, all runs at the middle frequency
+    (index (n - 1) // 2 of the sorted frequencies) and at the second-highest
+    one, so the held-out runs lie inside the trained range; with three or four
+    frequencies, the runs at the middle one; fewer needs ``holdout`` explicitly.
+    """
+    freqs = sorted({float(r.frequency) for r in runs})
+    if len(freqs) >= 5:
+        chosen = {freqs[(len(freqs) - 1) // 2], freqs[-2]}
+    elif len(freqs) >= 3:
+        chosen = {freqs[(len(freqs) - 1) // 2]}
+    else:
+        raise ValueError(f"{len(freqs)} distinct frequencies: the default hold-out needs at "
+                         "least 3; name the held-out runs (holdout=...)")
+    return [r.name for r in runs if float(r.frequency) in chosen]
+
+
+def _loss_start(train_runs, params):
+    """Start values of the loss coefficients: the paper's procedure (smeha.identify)."""
+    from .. import identify as identify_mod
+
+    try:
+        ident = identify_mod.identify(train_runs, params)
+        loss0 = ident.loss_fit.values if ident.loss_fit is not None else None
+    except (ValueError, gmt.ParameterError):
+        loss0 = None
+    if loss0 is None or not all(math.isfinite(v) for v in loss0):
+        loss0 = (params.hysteresis_coefficient, params.steinmetz_exponent,
+                 params.eddy_coefficient, params.excess_coefficient)
+    return (max(loss0[0], 0.0), loss0[1], max(loss0[2], 0.0), max(loss0[3], 0.0))
+
+
+def _propagate_flux_error(ev, feats, loss):
+    """Carry each run's B_m error into the variance of its y harmonics."""
+    for rf in feats:
+        if not rf.has_b:
+            # B_m comes from y's own fundamental: its error is y's noise, already counted
+            rf.y_prop_var = np.zeros(rf.y.size)
+            continue
+        d = 1e-3 * rf.flux_density_amplitude
+        one = Batch([rf])
+        y0 = ev.predict(one, loss, flux=[rf.flux_density_amplitude])[0][0]
+        y1 = ev.predict(one, loss, flux=[rf.flux_density_amplitude + d])[0][0]
+        rf.y_prop_var = 0.5 * (np.abs(y1 - y0) / d * rf.flux_density_stderr) ** 2
+
+
+def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
+             causes=CAUSES) -> Diagnosis:
+    """Fit, characterise, name the cause(s) and measure the gain (:mod:`smeha.diagnose`).
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Measured runs with current and displacement, and the sense voltage
+        where measured (a run without it is compared on y alone).
+    holdout : sequence of str, optional
+        Names of the held-out runs; default :func:`default_holdout` of the
+        usable runs.
+    params : TransducerParameters, optional
+        Rod, coil, magnetostriction and mechanics (default Table 2); its loss
+        coefficients are only the fallback start values.
+    causes : sequence of str
+        Candidates to try (default all six).
+
+    Raises
+    ------
+    DataError
+        Implausible magnitudes (:func:`smeha.plausibility.check_plausible`), or
+        no usable run.
+    ValueError
+        Unknown or skipped held-out names, too few training runs (fewer than
+        4: the four loss coefficients).
+    """
+    from .report import characterise, evidence
+
+    params = params or gmt.TransducerParameters()
+    runs = list(runs)
+    names = [r.name for r in runs]
+    if len(set(names)) != len(names):
+        raise ValueError("run names must be unique")
+    unknown_c = [c for c in causes if c not in CAUSES]
+    if unknown_c:
+        raise ValueError(f"unknown cause(s) {unknown_c}; choose from {CAUSES}")
+    if holdout:
+        unknown = [h for h in holdout if h not in names]
+        if unknown:
+            raise ValueError(f"held-out run(s) {', '.join(map(repr, unknown))} not in the "
+                             f"data (runs: {', '.join(names)})")
+    check_plausible(runs, params)
+    feats, skipped = extract(runs, params)
+    if not feats:
+        where = runs[0].source.rsplit(":", 1)[0] if runs and runs[0].source else "the data"
+        raise DataError(f"{where}: no usable run: " + "; ".join(
+            f"{n}: {why}" for n, why in skipped))
+    usable = [r for r in runs if r.name in feats]
+    reasons = dict(skipped)
+    if holdout:
+        gone = [h for h in holdout if h in reasons]
+        if gone:
+            raise ValueError("held-out run(s) cannot be used: " + "; ".join(
+                f"{h!r} ({reasons[h]})" for h in gone))
+        holdout = list(holdout)
+    else:
+        holdout = default_holdout(usable)
+    train_runs = [r for r in usable if r.name not in holdout]
+    if len(train_runs) < 4:
+        raise ValueError(f"{len(train_runs)} training run(s); the four loss coefficients of "
+                         "eq 16 need at least 4 (hold out fewer runs)")
+    hmax = max(params.field_per_ampere * rf.current_amplitude for rf in feats.values())
+    ev = Evaluator(params, tuple(c * hmax for c in PLAY_THRESHOLDS))
+    loss0 = _loss_start(train_runs, params)
+    _propagate_flux_error(ev, feats.values(), loss0)
+    train = Batch([feats[r.name] for r in train_runs])
+    held = Batch([feats[h] for h in holdout])
+    context = {"params": params, "thresholds": ev.thresholds, "evaluator": ev,
+               "features": feats}
+    paper_loss, x0, chi2, n = fit_candidate(ev, train, PAPER, loss0)
+    paper = score(ev, PAPER, paper_loss, x0, chi2, n, held)
+    fits = [fit_and_score(ev, train, held, cand, paper.loss)
+            for cand in candidates()[1:] if cand.cause in causes]
+    cause, chosen, combos = select(ev, train, held, paper, fits)
+    character = characterise(ev, list(feats.values()), paper.loss)
+    noise = float(np.median([rf.noise_y for rf in feats.values()])) * 1e6
+    diag = Diagnosis(cause=cause, evidence=[], heldout_runs=holdout,
+                     training_runs=[r.name for r in train_runs], paper=paper,
+                     extended=chosen, fits=fits, noise_um=noise,
+                     characterisation=character, context=context,
+                     also_consistent=also_consistent(paper, fits, chosen),
+                     combinations=combos, skipped=skipped)
+    diag.evidence = evidence(diag)
+    return diag
