@@ -231,11 +231,13 @@ VARIABLES: tuple[Variable, ...] = (
          "\"eddy_current_diffusion\" (lag), \"eddy_current_diffusion:slab\", "
          "\"eddy_current_diffusion:cylinder\", \"transport_delay\" (sensed_displacement "
          "only), \"mechanical_resonance\" (one DOF), \"mechanical_resonance:two_dof\", "
-         "\"thermal_drift\"; anything else is an error",
+         "\"thermal_drift\"; several of these joined by \"+\" combine them (one form "
+         "of each cause); anything else is an error",
          "paper", kind="String"),
     _par(_M, "variant_parameters", None, "JSON object of the extension's SI parameters, "
          "keyed as the candidate's \"parameters\" in smeha diagnose --json, e.g. "
-         "{\"delay_s\": 0.0005}; {} for \"paper\"", "{}", kind="String"),
+         "{\"delay_s\": 0.0005}; {} for \"paper\"; for a combination, one such object "
+         "per member keyed by the member's name", "{}", kind="String"),
     # -- calculated parameters: the mechanics the force drives, for a host that
     #    integrates the rod with its load (e.g. a pump chamber fed the output `force`)
     _calc("equivalent_mass", "kg", "Mass m of eq 27 in effect: Table 2's mass, the "
@@ -339,8 +341,12 @@ def model_variant(gmt, name: str, parameters: str):
     """
     import json
 
-    if name not in MODEL_VARIANTS:
-        raise gmt.ParameterError(f"model_variant = {name!r} is not one of {MODEL_VARIANTS}")
+    if name not in MODEL_VARIANTS:  # a combination: members of MODEL_VARIANTS joined by "+"
+        try:
+            gmt.extensions.parse_name(name)
+        except gmt.ParameterError as exc:
+            raise gmt.ParameterError(f"model_variant = {name!r} is not one of {MODEL_VARIANTS} "
+                                     f"nor a combination of them joined by '+' ({exc})") from None
     text = parameters.strip() or "{}"
     try:
         values = json.loads(text)
