@@ -213,3 +213,63 @@ def test_operating_point_defined_over_paper_range(params):
         for i_m in (0.3, 0.5, 0.7, 1.0):
             op = gmt.operating_point(params, gmt.Excitation(f, i_m))
             assert op.mu_real > 1.0 and op.mu_imag > 0.0, (f, i_m)
+
+
+# -- numpy-only run time (issue 13 item 4): PCHIP and the B_max root against SciPy --------------
+PCHIP_CASES = {
+    "two points": ([0.0, 1.0], [1.0, 3.0]),
+    "three rising": ([0.0, 1.0, 3.0], [0.0, 1.0, 1.5]),
+    "monotone, uneven": ([0.0, 0.3, 1.1, 1.2, 4.0, 7.5], [0.0, 0.1, 1.5, 1.55, 1.6, 4.0]),
+    "flat part": ([0.0, 1.0, 2.0, 3.0, 4.0], [1.0, 2.0, 2.0, 2.0, 5.0]),
+    "sign changes": ([0.0, 1.0, 2.0, 2.5, 4.0, 6.0], [0.0, 2.0, -1.0, 3.0, 3.5, -2.0]),
+    "steep end": ([0.0, 0.1, 3.0], [0.0, 5.0, 5.1]),
+    # the calibration's own data: log f and log D(f) from Table 1 (a falling roll-off)
+    "table 1 roll-off": (np.log(gmt.DEFAULT_CALIBRATION._freqs).tolist(),
+                         np.log(gmt.DEFAULT_CALIBRATION._ratio).tolist()),
+}
+
+
+@pytest.mark.parametrize("case", PCHIP_CASES)
+def test_pchip_equals_scipy_pchip_interpolator(case):
+    # Reference: SciPy's PchipInterpolator (Fritsch-Carlson / Fritsch-Butland slopes, the
+    # same interpolant; a separate implementation evaluated through piecewise polynomials).
+    # Agreement to 1e-13 of the data's range: rounding only.
+    from scipy.interpolate import PchipInterpolator
+
+    from gmt.interpolation import Pchip
+
+    x, y = (np.asarray(v) for v in PCHIP_CASES[case])
+    ours, ref = Pchip(x, y), PchipInterpolator(x, y)
+    xs = np.linspace(x[0], x[-1], 997)
+    scale = np.ptp(y)
+    assert np.max(np.abs(ours(xs) - ref(xs))) <= 1e-13 * scale
+    assert np.max(np.abs(ours.slopes - ref.derivative()(x))) <= 1e-12 * scale / np.min(np.diff(x))
+    assert ours(float(x[1])) == pytest.approx(y[1], abs=1e-15 * scale)
+
+
+def test_pchip_keeps_monotone_data_monotone():
+    # Fritsch & Carlson 1980: the interpolant is monotone where the data are
+    from gmt.interpolation import Pchip
+
+    x, y = (np.asarray(v) for v in PCHIP_CASES["monotone, uneven"])
+    values = Pchip(x, y)(np.linspace(x[0], x[-1], 5001))
+    assert np.all(np.diff(values) >= -1e-15)
+
+
+def test_largest_flux_density_amplitude_is_scipy_brentq_root(params):
+    # B_max solves B/(mu_0 H_m) = mu''(B) (eq 20 real below it): gmt bisects in plain Python,
+    # SciPy's brentq is the reference, to 1e-11 relative (both stop at ~1e-12)
+    from scipy.optimize import brentq
+
+    from gmt.forward import largest_flux_density_amplitude
+
+    for f, i_m in ((5.0, 0.5), (50.0, 1.0), (100.0, 1.0), (1000.0, 3.0)):
+        hm = gmt.field.applied_field(i_m, params.coil_turns, params.leakage_coefficient,
+                                     params.rod_length)
+
+        def margin(b):
+            total = gmt.losses.separate_losses(params, f, hm, b).total
+            return (permeability.amplitude_permeability(b, hm)
+                    - gmt.losses.imaginary_permeability(total, hm, f, params.rod_volume))
+        ref = brentq(margin, 1e-6, 100.0, xtol=1e-15, rtol=1e-13)
+        assert largest_flux_density_amplitude(params, f, hm) == pytest.approx(ref, rel=1e-11)

@@ -14,7 +14,7 @@ amplitude permeability mu_a = B_m / (mu_0 H_m) (eq 19), separated as
   5 Hz, 0.5 and 0.7 A). With a single amplitude R is constant.
 * D(f), the frequency roll-off (eddy-current shielding), is the ratio
   mu_a / R at each table frequency (averaged over its amplitudes),
-  interpolated by a monotone cubic (PCHIP) in log f. Below the lowest table
+  interpolated by a monotone cubic (PCHIP, :mod:`gmt.interpolation`) in log f. Below the lowest table
   frequency D is held at its value there (the permeability is taken as
   quasi-static); above the highest it is extrapolated as a power law with the
   log-log slope of the last table segment, kept between -0.5 (the skin-effect
@@ -29,10 +29,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import PchipInterpolator
 
 from .constants import MU_0
 from .errors import ParameterError
+from .interpolation import Pchip
 
 #: Paper, Table 1: (f [Hz], I_m [A], E_m [V], B_m [T]), measured with the
 #: sensing coil (N_c = 150, d_c = 22 mm).
@@ -90,7 +90,7 @@ class FluxDensityCalibration:
         object.__setattr__(self, "_ratio", ratio)
         if len(freqs) >= 2:
             object.__setattr__(self, "_interp",
-                               PchipInterpolator(np.log(freqs), np.log(ratio)))
+                               Pchip(np.log(freqs), np.log(ratio)))
             slope = (math.log(ratio[-1] / ratio[-2])
                      / math.log(freqs[-1] / freqs[-2]))
             object.__setattr__(self, "_tail_slope", min(0.0, max(-0.5, slope)))

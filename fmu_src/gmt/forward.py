@@ -16,7 +16,7 @@ in three forms that share one set of formulas:
 The quadrature term
 -------------------
 The paper's i tan(w t) is the quadrature part I_m sin(w t) of a sinusoidal
-current (NOTES.md). Sample by sample, it is rebuilt as eq 31 does:
+current (for i = I_m cos(w t), i tan(w t) = I_m sin(w t)). Sample by sample, it is rebuilt as eq 31 does:
 i tan(w t) = +-sqrt(I_m^2 - i^2), with the sign of sin(w t), which is the
 current's direction: falling current +, rising -. Taken from two samples,
 sign(i[k-1] - i[k]) is the sign of sin(w t) half a step earlier, wrong at the
@@ -46,7 +46,6 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from scipy.optimize import brentq
 
 from . import mechanics
 from .calibration import DEFAULT_CALIBRATION
@@ -173,7 +172,13 @@ def largest_flux_density_amplitude(params: TransducerParameters, frequency: floa
     lo = hi / 2.0
     while margin(lo) <= 0.0 and lo > 1e-12:
         lo /= 2.0
-    return brentq(margin, lo, hi, xtol=1e-15, rtol=1e-12)
+    while hi - lo > 1e-15 + 1e-12 * hi:
+        mid = 0.5 * (lo + hi)
+        if margin(mid) > 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
 
 
 def quadrature_current(current, previous_current, current_amplitude,

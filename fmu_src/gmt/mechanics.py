@@ -1,8 +1,10 @@
 """Mass-spring-damper of the transducer, eqs 27 and 29.
 
-Transfer function, state space and frequency response through python-control;
-the per-step ZOH discretisation the steppers use in closed form
-(:func:`zoh_closed_form`, checked against python-control).
+Poles, frequency response (continuous and at the samples of the ZOH-discretised
+system) and the per-step ZOH discretisation the steppers use, all in closed
+form with numpy (the FMU's run time imports numpy only). The tests check each
+against python-control's transfer function, state space and matrix-exponential
+ZOH (``tests/test_physics_forward.py``).
 
 The rod, output rod and prestress spring act on the load as one degree of
 freedom, m y'' + c y' + K y = F - F_ext (eq 27 with an external axial force
@@ -18,39 +20,9 @@ from __future__ import annotations
 import math
 from functools import lru_cache
 
-import control
 import numpy as np
 
 from .errors import ParameterError
-
-
-def transfer_function(mass, damping, stiffness):
-    """Eq 29: displacement per unit force, Y(s)/F(s) = 1 / (m s^2 + c s + K), [m/N].
-
-    Multiply by the blocked force A_r E^H lambda (eq 28) to get eq 29 itself.
-
-    Returns
-    -------
-    control.TransferFunction
-    """
-    return control.tf([1.0], [mass, damping, stiffness])
-
-
-def state_space(mass, damping, stiffness):
-    """Eq 27 in state-space form with physical states x = [y, v].
-
-    Input: net force F - F_ext [N]. Outputs: displacement y [m] and velocity
-    v [m/s].
-
-    Returns
-    -------
-    control.StateSpace
-    """
-    a = [[0.0, 1.0], [-stiffness / mass, -damping / mass]]
-    b = [[0.0], [1.0 / mass]]
-    c = [[1.0, 0.0], [0.0, 1.0]]
-    d = [[0.0], [0.0]]
-    return control.ss(a, b, c, d)
 
 
 def zoh_closed_form(mass, damping, stiffness, step):
@@ -138,14 +110,13 @@ def zoh_matrices(mass, damping, stiffness, step):
     return _zoh_cached(float(mass), float(damping), float(stiffness), float(step))
 
 
-def discrete_system(mass, damping, stiffness, step):
-    """The ZOH-discretised eq 27 as a python-control system (outputs y, v)."""
-    return control.sample_system(state_space(mass, damping, stiffness), step,
-                                 method="zoh")
-
-
 def frequency_response(mass, damping, stiffness, angular_frequency, step=None):
-    """Complex response of y and v to a sinusoidal force, per newton.
+    """Complex response of y and v to a sinusoidal force, per newton (eq 29).
+
+    Continuous: Y/F = G(j w) = 1 / (K - m w^2 + j c w), V/F = j w G(j w).
+    With ``step``, the ZOH-discretised system at its samples, z = exp(j w h):
+    with (A_d, B_d) of :func:`zoh_closed_form`,
+    [Y, V]/F = (z I - A_d)^-1 B_d, the 2x2 inverse written out.
 
     Parameters
     ----------
@@ -154,8 +125,8 @@ def frequency_response(mass, damping, stiffness, angular_frequency, step=None):
     angular_frequency : float or array
         w, [rad/s]; 0 gives the static compliance 1/K.
     step : float, optional
-        If given, the response of the ZOH-discretised system at its samples,
-        G_d(exp(j w h)), rather than the continuous G(j w).
+        If given, the response G_d(exp(j w h)) of the ZOH-discretised system
+        rather than the continuous G(j w).
 
     Returns
     -------
@@ -163,20 +134,29 @@ def frequency_response(mass, damping, stiffness, angular_frequency, step=None):
         Y/F [m/N] and V/F [m/(N s)], complex.
     """
     w = np.atleast_1d(np.asarray(angular_frequency, dtype=float))
-    sys = state_space(mass, damping, stiffness)
-    if step is not None:
-        sys = control.sample_system(sys, step, method="zoh")
-    resp = sys(np.exp(1j * w * step) if step is not None else 1j * w)
-    resp = np.asarray(resp).reshape(2, 1, -1)
-    return resp[0, 0], resp[1, 0]
-
-
-def phase_lag(mass, damping, stiffness, frequency):
-    """Lag of displacement behind force, -arg G(j 2 pi f), [rad] (eq 29)."""
-    gy, _ = frequency_response(mass, damping, stiffness, 2 * math.pi * frequency)
-    return float(-np.angle(gy[0]))
+    m, c, k = float(mass), float(damping), float(stiffness)
+    if step is None:
+        s = 1j * w
+        gy = 1.0 / (m * s * s + c * s + k)
+        return gy, s * gy
+    a11, a12, a21, a22, b1, b2 = zoh_matrices(m, c, k, step)
+    z = np.exp(1j * w * step)
+    det = (z - a11) * (z - a22) - a12 * a21
+    return ((z - a22) * b1 + a12 * b2) / det, (a21 * b1 + (z - a11) * b2) / det
 
 
 def poles(mass, damping, stiffness):
-    """Poles of eq 29, [rad/s]."""
-    return np.asarray(control.poles(transfer_function(mass, damping, stiffness)))
+    """Poles of eq 29, the roots of m s^2 + c s + K, [rad/s] (complex array).
+
+    Written -c/(2m) -+ sqrt((c/(2m))^2 - K/m); for real roots the smaller one
+    is taken as K/(m p_1) (Vieta), which keeps its digits when c^2 >> 4 K m.
+    """
+    m, c, k = float(mass), float(damping), float(stiffness)
+    r = -c / (2.0 * m)
+    disc = r * r - k / m
+    if disc >= 0.0:
+        big = r - math.copysign(math.sqrt(disc), c) if c else -math.sqrt(disc)
+        small = (k / m) / big if big else 0.0
+        return np.array([big, small], dtype=complex)
+    root = 1j * math.sqrt(-disc)
+    return np.array([r - root, r + root])
