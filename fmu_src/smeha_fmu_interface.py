@@ -421,18 +421,23 @@ def check_against_gmt() -> None:
         raise AssertionError("FMU interface out of date with gmt:\n  " + "\n  ".join(problems))
 
 
-def load_physics():
+def load_physics(problem: str | None = None):
     """(gmt module, None), or (None, the problem) when it cannot be imported.
 
-    gmt needs numpy, scipy and control from the host's Python; a slave reports
-    the problem from every instance instead of crashing the host.
+    Parameters
+    ----------
+    problem : str, optional
+        A reason known beforehand (``smeha_fmu_runtime.missing_packages_message``):
+        gmt is then not imported. Every instance of the slave reports the problem
+        instead of crashing the host.
     """
+    if problem:
+        return None, problem
     try:
         return physics(), None
     except Exception as exc:
-        return None, (f"cannot import gmt ({type(exc).__name__}: {exc}); the FMU needs "
-                      "numpy, scipy and control importable by the host's Python "
-                      "(e.g. PYTHONPATH=<site-packages of an environment with them>)")
+        return None, (f"cannot import gmt ({type(exc).__name__}: {exc}); the FMU needs numpy "
+                      "importable by the Python of the host process")
 
 
 class TransducerSlave:
@@ -441,14 +446,20 @@ class TransducerSlave:
     The slave class sets the FMI flavour (status values, function names for
     messages, its physics module) and registers its variables; this class
     builds :class:`gmt.Transducer` on leaving initialisation, steps it, and
-    saves and restores the FMU state. Errors never reach pythonfmu (an
-    exception there is Fatal, and a second one crashes the host): each
-    callback catches them, logs through the FMU logger, and a failed step
-    returns Discard with the state rolled back. A slave with more state than
-    the variables (FMI 3.0's ``time``) extends :meth:`_after_step`,
-    :meth:`_extra_state` and :meth:`_restore_extra`.
+    saves and restores the FMU state. Exceptions do not reach pythonfmu
+    uninvited: each callback catches them and logs through the FMU logger.
+    A step with a bad input returns Discard with the state rolled back (the
+    host may retry). An *unusable* instance -- a bad parameter, a package
+    missing -- cannot return Error from initialisation (pythonfmu turns every
+    exception there into Fatal), so its first and every later ``doStep``
+    fails with what the slave's :meth:`_fail_step` returns, the strongest
+    status the FMI flavour can give, and the reason is also written once to
+    the process's stderr (a host may run without FMU logging). A slave with
+    more state than the variables (FMI 3.0's ``time``) extends
+    :meth:`_after_step`, :meth:`_extra_state` and :meth:`_restore_extra`.
     """
 
+    MODEL_NAME = ""
     STATUS_ERROR = STATUS_WARNING = STATUS_DISCARD = None
     EXIT_INITIALIZATION = "fmi2ExitInitializationMode"
     GET_STATE = "fmi2GetFMUstate"
@@ -460,6 +471,7 @@ class TransducerSlave:
         self._transducer = None  # gmt.Transducer, built on leaving initialisation
         self._built_from = None  # parameter values it was built from
         self._problem = self.IMPORT_PROBLEM or f"not initialised (call {self.EXIT_INITIALIZATION})"
+        self._told_stderr = False  # the unusable instance's reason goes to stderr once
         if self.IMPORT_PROBLEM:
             self._report(self.IMPORT_PROBLEM)
 
@@ -519,9 +531,7 @@ class TransducerSlave:
     def do_step(self, current_time, step_size):
         transducer = self._transducer
         if transducer is None:
-            self._report(f"doStep at t = {current_time!r} s refused: {self._problem}",
-                         self.STATUS_DISCARD)
-            return False
+            return self._refuse_step(current_time)
         saved = transducer.get_state()
         try:
             out = transducer.step(self.u, step_size, self.external_force)
@@ -538,6 +548,22 @@ class TransducerSlave:
             setattr(self, name, value)
         self._after_step(current_time, step_size)
         return True
+
+    def _refuse_step(self, current_time):
+        """An unusable instance's step: log the reason (Error), tell stderr once, fail."""
+        import sys
+
+        message = f"doStep at t = {current_time!r} s refused: {self._problem}"
+        self._report(message)
+        if not self._told_stderr:
+            self._told_stderr = True
+            sys.stderr.write(f"{self.MODEL_NAME} instance {self.instance_name!r}: {message}\n")
+            sys.stderr.flush()
+        return self._fail_step(message)
+
+    def _fail_step(self, message: str):
+        """What ``do_step`` of an unusable instance returns (or raises): the slave's choice."""
+        raise NotImplementedError
 
     def _after_step(self, current_time, step_size):
         """Hook after a successful step (FMI 3.0 advances its ``time``)."""

@@ -11,16 +11,24 @@ Life cycle
   re-runs the constructor (pythonfmu), so the host initialises again.
 * ``fmi2DoStep(t, h)`` holds ``u`` and ``external_force`` over [t, t+h) and
   returns the outputs at t+h, as :meth:`gmt.Transducer.step` does.
-* Errors never reach pythonfmu (an exception there is fmi2Fatal, and a second
-  one crashes the host): each callback catches them, logs through the FMU
-  logger and returns fmi2Discard from ``fmi2DoStep``. A bad parameter makes
-  initialisation log an error and every later step return Discard; a bad input
-  or step size makes that step return Discard and leaves the state untouched.
+* Errors are caught and logged through the FMU logger. A bad input or step
+  size makes that step return fmi2Discard and leaves the state untouched. A
+  bad parameter or a missing package makes the instance unusable:
+  initialisation logs an error, and its every ``fmi2DoStep`` then raises into
+  pythonfmu, which returns **fmi2Fatal**: pythonfmu 0.7 maps a ``do_step``
+  result to OK or Discard only, and fmpy takes a Discard of a terminated
+  instance as a normal end, so Fatal is the one status no host can miss
+  (:meth:`SmehaGmt._fail_step` keeps the objects pythonfmu releases after an
+  exception alive, so the host may still terminate and free the instance).
 * The FMU state (``fmi2GetFMUstate`` / serialisation) holds every variable,
   the parameter set the gmt objects were built from and
   :meth:`gmt.Transducer.get_state`, as JSON.
 """
 from __future__ import annotations
+
+import smeha_fmu_runtime  # first, before any extension module: see its docstring
+
+smeha_fmu_runtime.prepare()
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real, String
 from pythonfmu.default_experiment import DefaultExperiment
@@ -28,7 +36,8 @@ from pythonfmu.enums import Fmi2Status
 
 import smeha_fmu_interface as iface  # next to this file, in fmu_src/ and in the FMU's resources
 
-gmt, _IMPORT_PROBLEM = iface.load_physics()  # resources/smeha_fmu_gmt: the FMU's own copy
+# resources/smeha_fmu_gmt: the FMU's own copy, unless a package it needs is missing
+gmt, _IMPORT_PROBLEM = iface.load_physics(smeha_fmu_runtime.missing_packages_message())
 
 _TYPES = {"Real": Real, "Integer": Integer, "Boolean": Boolean, "String": String}
 _CAUSALITY = {"input": Fmi2Causality.input, "parameter": Fmi2Causality.parameter,
@@ -50,12 +59,14 @@ class SmehaGmt(iface.TransducerSlave, Fmi2Slave):
     description = iface.DESCRIPTION
     version = getattr(gmt, "__version__", None)
     default_experiment = DefaultExperiment(**iface.DEFAULT_EXPERIMENT)
+    MODEL_NAME = iface.MODEL_NAME_FMI2
     STATUS_ERROR, STATUS_WARNING, STATUS_DISCARD = (Fmi2Status.error, Fmi2Status.warning,
                                                     Fmi2Status.discard)
     PHYSICS, IMPORT_PROBLEM = gmt, _IMPORT_PROBLEM
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
+        smeha_fmu_runtime.arm_clean_exit(iface.MODEL_NAME_FMI2)  # exits cleanly: see there
         self._init_transducer()
         for var in iface.VARIABLES:
             setattr(self, var.name, var.initial_value)
@@ -66,3 +77,15 @@ class SmehaGmt(iface.TransducerSlave, Fmi2Slave):
                 var.name, causality=_CAUSALITY[var.causality],
                 variability=_VARIABILITY[var.variability],
                 description=var.description, **options))
+
+    def _fail_step(self, message: str):
+        # pythonfmu 0.7 answers an exception from do_step with fmi2Fatal after releasing
+        # (Py_DECREF) its references to the slave class, the instance and its log queue, and
+        # releases them again when the host frees the instance: one extra reference each,
+        # per exception, keeps all three alive, so later calls and fmi2FreeInstance are safe
+        _KEEP_ALIVE.extend((type(self), self, self.log_queue))
+        raise RuntimeError(message)
+
+
+#: Objects pythonfmu releases once more than it owns after an exception (see _fail_step).
+_KEEP_ALIVE: list = []

@@ -8,19 +8,25 @@ Types: Real -> Float64, Integer -> Int32, Boolean, String.
 
 Errors never reach pythonfmu3 (an exception there is fmi3Fatal): a bad input
 or step size makes ``fmi3DoStep`` return fmi3Discard, leaving the state
-untouched; a bad parameter makes initialisation log an error and every later
-step return fmi3Discard. Messages go through the FMU logger.
+untouched; a bad parameter or a missing package makes initialisation log an
+error and every later step return **fmi3Error** (pythonfmu3 takes the status
+of a ``do_step`` result). Messages go through the FMU logger.
 """
 from __future__ import annotations
+
+import smeha_fmu_runtime  # first, before any extension module: see its docstring
+
+smeha_fmu_runtime.prepare()
 
 from xml.etree.ElementTree import Element
 
 from pythonfmu3 import (Boolean, DefaultExperiment, Float64, Fmi3Causality, Fmi3Slave,
-                        Fmi3Status, Fmi3Variability, Int32, String, Unit)
+                        Fmi3Status, Fmi3StepResult, Fmi3Variability, Int32, String, Unit)
 
 import smeha_fmu_interface as iface  # next to this file, in fmu_src/ and in the FMU's resources
 
-gmt, _IMPORT_PROBLEM = iface.load_physics()  # resources/smeha_fmu_gmt: the FMU's own copy
+# resources/smeha_fmu_gmt: the FMU's own copy, unless a package it needs is missing
+gmt, _IMPORT_PROBLEM = iface.load_physics(smeha_fmu_runtime.missing_packages_message())
 
 _TYPES = {"Real": Float64, "Integer": Int32, "Boolean": Boolean, "String": String}
 _CAUSALITY = {"input": Fmi3Causality.input, "parameter": Fmi3Causality.parameter,
@@ -54,6 +60,7 @@ class SmehaGmt3(iface.TransducerSlave, Fmi3Slave):
     the FMU state).
     """
 
+    MODEL_NAME = iface.MODEL_NAME_FMI3
     STATUS_ERROR, STATUS_WARNING, STATUS_DISCARD = (Fmi3Status.error, Fmi3Status.warning,
                                                     Fmi3Status.discard)
     EXIT_INITIALIZATION = "fmi3ExitInitializationMode"
@@ -62,6 +69,7 @@ class SmehaGmt3(iface.TransducerSlave, Fmi3Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
+        smeha_fmu_runtime.arm_clean_exit(iface.MODEL_NAME_FMI3)  # exits cleanly: see there
         self.author = iface.AUTHOR
         self.license = iface.LICENSE
         self.description = iface.DESCRIPTION
@@ -87,6 +95,9 @@ class SmehaGmt3(iface.TransducerSlave, Fmi3Slave):
 
     def enter_initialization_mode(self):
         pass
+
+    def _fail_step(self, message: str):
+        return Fmi3StepResult(status=Fmi3Status.error)
 
     def _after_step(self, current_time, step_size):
         self.time = current_time + step_size

@@ -38,6 +38,8 @@ import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
+from . import fmu_native
+
 #: Repository root (the build needs the source tree: fmu_src/ is not installed).
 REPO = Path(__file__).resolve().parents[1]
 FMU_SRC = REPO / "fmu_src"
@@ -46,25 +48,29 @@ FMU_SRC = REPO / "fmu_src"
 DIST = REPO / "dist"
 
 
-def _load_interface():
-    """``fmu_src/smeha_fmu_interface.py`` (the FMU's variable table), as ``smeha._fmu_interface``.
+def _load_from_fmu_src(module: str):
+    """``fmu_src/<module>.py`` loaded from the source tree as ``smeha._<module>``.
 
-    Loaded from the source tree under a name of its own: registered as
-    ``smeha_fmu_interface``, an FMU this process loads later would import this
-    copy instead of the one bundled in its resources.
+    Under a name of its own: registered under its file's name, an FMU this
+    process loads later would import this copy instead of the one bundled in
+    its resources.
     """
-    name = "smeha._fmu_interface"
+    name = f"smeha._{module}"
     if name in sys.modules:
         return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, FMU_SRC / "smeha_fmu_interface.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module  # dataclasses look their module up while it executes
-    spec.loader.exec_module(module)
-    return module
+    spec = importlib.util.spec_from_file_location(name, FMU_SRC / f"{module}.py")
+    loaded = importlib.util.module_from_spec(spec)
+    sys.modules[name] = loaded  # dataclasses look their module up while it executes
+    spec.loader.exec_module(loaded)
+    return loaded
 
 
 #: The FMU's variable table and slave logic (``fmu_src/smeha_fmu_interface.py``).
-iface = _load_interface()
+iface = _load_from_fmu_src("smeha_fmu_interface")
+RUNTIME_MODULE = "smeha_fmu_runtime"
+#: The FMU's run-time set-up (``fmu_src/smeha_fmu_runtime.py``): what it needs, and the
+#: format of the build environment record.
+runtime = _load_from_fmu_src(RUNTIME_MODULE)
 #: Namespace of the deterministic GUIDs (uuid5 of the model description).
 GUID_NAMESPACE = uuid.UUID("5d0c3c8e-6f1e-5a4b-9a55-736d6568612e")
 
@@ -169,18 +175,28 @@ def finish_model_description(xml: bytes) -> bytes:
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True) + b"\n"
 
 
+#: Folders of the Linux binaries (FMI 2.0, FMI 3.0), which get libpython as a needed library.
+LINUX_BINARIES = ("binaries/linux64/", "binaries/x86_64-linux/")
+
+
 def rewrite_fmu(raw: Path, dest: Path) -> Path:
-    """Write ``dest``: ``raw`` with its model description finished, members sorted,
-    timestamps fixed (SOURCE_DATE_EPOCH, else 1980-01-01)."""
+    """Write ``dest``: ``raw`` with its model description finished, its Linux binary
+    linked to the libpython of its environment record (:mod:`smeha.fmu_native`),
+    members sorted, timestamps fixed (SOURCE_DATE_EPOCH, else 1980-01-01)."""
     stamp = _build_time().timetuple()[:6] if os.environ.get("SOURCE_DATE_EPOCH") \
         else (1980, 1, 1, 0, 0, 0)
     dest.parent.mkdir(parents=True, exist_ok=True)
     tmp = dest.with_name(dest.name + ".tmp")
     with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
+        record = runtime.parse_environment(
+            zin.read(f"resources/{runtime.ENVIRONMENT_FILE}").decode("utf-8"))
         for name in sorted(zin.namelist()):
             data = zin.read(name)
             if name == "modelDescription.xml":
                 data = finish_model_description(data)
+            elif (name.startswith(LINUX_BINARIES) and name.endswith(".so")
+                  and record.get("libpython")):
+                data = fmu_native.link_libpython(data, record["libpython"][0])
             info = zipfile.ZipInfo(name, date_time=stamp)
             info.compress_type = zipfile.ZIP_DEFLATED
             info.external_attr = 0o644 << 16
@@ -200,6 +216,9 @@ def _stage(fmi: str, staging: Path) -> Path:
     staging.mkdir(parents=True)
     shutil.copy2(script, staging / script.name)
     shutil.copy2(FMU_SRC / f"{iface.INTERFACE_MODULE}.py", staging)
+    shutil.copy2(FMU_SRC / f"{RUNTIME_MODULE}.py", staging)
+    (staging / runtime.ENVIRONMENT_FILE).write_text(runtime.format_environment(
+        fmu_native.environment_record(runtime.REQUIRED_PACKAGES)), encoding="utf-8")
     shutil.copytree(FMU_SRC / "gmt", staging / iface.BUNDLED_PHYSICS_PACKAGE,
                     ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
     return staging / script.name
@@ -213,18 +232,27 @@ def _worker(fmi: str, workdir: str) -> None:
     import smeha_fmu_interface  # the staged copy
 
     smeha_fmu_interface.check_against_gmt()
+    project_files = [script.parent / name for name in (
+        iface.BUNDLED_PHYSICS_PACKAGE, f"{iface.INTERFACE_MODULE}.py", f"{RUNTIME_MODULE}.py",
+        runtime.ENVIRONMENT_FILE)]
     if fmi == "2":
         from pythonfmu.builder import FmuBuilder
-        FmuBuilder.build_FMU(script, dest=work / "raw",
-                             project_files=[script.parent / iface.BUNDLED_PHYSICS_PACKAGE,
-                                            script.parent / "smeha_fmu_interface.py"],
+        FmuBuilder.build_FMU(script, dest=work / "raw", project_files=project_files,
                              **FMI2_OPTIONS)
     else:
         from pythonfmu3 import FmuBuilder as Fmu3Builder
-        Fmu3Builder.build_FMU(script, dest=work / "raw",
-                              project_files=[script.parent / iface.BUNDLED_PHYSICS_PACKAGE,
-                                             script.parent / "smeha_fmu_interface.py"],
+        Fmu3Builder.build_FMU(script, dest=work / "raw", project_files=project_files,
                               **FMI3_OPTIONS)
+
+
+def _child(fmi: str, workdir: str) -> int:
+    """Entry point of the child process: :func:`_worker`, a known failure as a message."""
+    try:
+        _worker(fmi, workdir)
+    except fmu_native.NativeError as exc:
+        print(exc, file=sys.stderr)
+        return 1
+    return 0
 
 
 def build(fmi: str = "2", out: str | os.PathLike = DIST, validate: bool = True) -> Path:
@@ -244,14 +272,17 @@ def build(fmi: str = "2", out: str | os.PathLike = DIST, validate: bool = True) 
         env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1",
                    PYTHONPATH=os.pathsep.join(
                        p for p in (str(REPO), os.environ.get("PYTHONPATH", "")) if p))
-        code = "import sys; from smeha.fmu_build import _worker; _worker(sys.argv[1], sys.argv[2])"
+        code = "import sys; from smeha.fmu_build import _child; sys.exit(_child(*sys.argv[1:]))"
         proc = subprocess.run([sys.executable, "-c", code, fmi, tmp], cwd=tmp, env=env,
                               capture_output=True, text=True)
         raw = Path(tmp) / "raw" / f"{name}.fmu"
         if proc.returncode != 0 or not raw.is_file():
             raise BuildError(f"building the FMI {fmi} FMU failed (exit {proc.returncode}):\n"
                              f"{proc.stdout}{proc.stderr}")
-        dest = rewrite_fmu(raw, Path(out) / f"{name}.fmu")
+        try:
+            dest = rewrite_fmu(raw, Path(out) / f"{name}.fmu")
+        except fmu_native.NativeError as exc:
+            raise BuildError(str(exc)) from None
     if validate:
         problems = validate_fmu(dest)
         if problems:

@@ -398,7 +398,19 @@ def behaviour(out_path, fmu_path):
 
 # -- bad input --------------------------------------------------------------------------------
 def bad_input(out_path, fmu_path):
+    import io
+
     results = {"gmt_imported_before_fmu": "gmt" in sys.modules}
+    # what the FMU writes to the process's stderr (an unusable instance's reason)
+    stderr, sys.stderr = sys.stderr, io.StringIO()
+    try:
+        _bad_input(results, fmu_path)
+    finally:
+        results["stderr"], sys.stderr = sys.stderr.getvalue(), stderr
+    _write(out_path, results)
+
+
+def _bad_input(results, fmu_path):
     unzip = None
     clean_cache = {}
 
@@ -524,7 +536,6 @@ def bad_input(out_path, fmu_path):
                                 == clean({}, [(1.0, 0.0, 1e-5)] * 2),
                                 "logs": fmu.logs}
     results["process_survived"] = True
-    _write(out_path, results)
 
 
 # -- memory -------------------------------------------------------------------------------------

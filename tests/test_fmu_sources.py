@@ -38,3 +38,45 @@ def test_build_reads_the_table_from_fmu_src_under_its_own_name():
 
     assert Path(iface.__file__) == FMU_SRC / "smeha_fmu_interface.py"
     assert iface.__name__ != iface.INTERFACE_MODULE == "smeha_fmu_interface"
+
+
+#: Child: everything the FMU's slave does with the paper's model -- build the transducer from
+#: the FMU's start values (uncompensated and compensated, calibrated and measured B_m, a bad
+#: B_m whose error message needs the root of eq 20), step it, save and restore its state --
+#: then list the modules it imported. Run from the source tree, as the bundled copy runs.
+_RUN_TIME_PATH = r"""
+import json, sys
+sys.path.insert(0, sys.argv[1])
+import smeha_fmu_interface as iface
+gmt, problem = iface.load_physics()
+assert problem is None, problem
+values = {v.name: v.start for v in iface.VARIABLES if v.causality == "parameter"}
+for extra in ({}, {"compensated": True}, {"flux_density_amplitude": 0.0531, "frequency": 100.0},
+              {"compensated": True, "branch_rule": "demand", "current_limit": 0.5}):
+    tr = iface.make_transducer(dict(values, **extra))
+    for k in range(200):
+        out = tr.step(1.0 + 0.5 * (k % 7), 1e-5 * (1 + k % 3), 3.0)
+    tr.set_state(tr.get_state())
+try:
+    iface.make_transducer(dict(values, flux_density_amplitude=5.0))
+except gmt.ParameterError as exc:
+    assert "allowed range" in str(exc)
+print(json.dumps(sorted(sys.modules)))
+"""
+
+
+def test_fmu_run_time_path_imports_numpy_only():
+    # issue 13 item 4: scipy and python-control must never load in the FMU's process
+    # (minimal FMUs importing scipy crash the host at exit, numpy-only ones do not)
+    import json
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-c", _RUN_TIME_PATH, str(FMU_SRC)],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    modules = json.loads(proc.stdout)
+    assert "numpy" in modules and "gmt" in modules
+    top = {m.split(".")[0] for m in modules}
+    assert not top & {"scipy", "control", "smeha", "matplotlib", "numba"}, sorted(
+        top & {"scipy", "control", "smeha", "matplotlib", "numba"})

