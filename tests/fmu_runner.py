@@ -10,6 +10,9 @@ Commands
 ``bad_input OUT FMU``      one fresh instance per bad input; FMI statuses and log messages
 ``memory OUT FMU N``       RSS while stepping N times
 ``cosim OUT FMU``          the FMI 2.0 FMU in libcosimpy and in fmpy, same inputs
+``drive OUT FMU N H F A U0 [NAME=VALUE...]``  u = U0 + A cos(2 pi F t), N steps of H (the
+                           C host's drive, tests/fmu_c_host.c)
+``simulate_bad OUT FMU``   fmpy.simulate_fmu with every bad parameter
 
 Why a child process: pythonfmu FMUs run in the host's interpreter, and a host
 that already imported ``gmt`` makes the FMU use that copy instead of the one
@@ -65,6 +68,44 @@ VARIANTS = {
 def variant_parameters(cause, values) -> dict:
     """FMU start values selecting a variant (the String parameters)."""
     return {"model_variant": cause, "variant_parameters": json.dumps(values)}
+
+
+_NAN, _INF = float("nan"), float("inf")
+#: Bad parameter values: case -> (start values, the parameter the error message must name).
+#: tests/test_fmu_hosts.py adds every Real parameter set to NaN (read from the FMU).
+BAD_PARAMETERS = {
+    "frequency_zero": ({"frequency": 0.0}, "frequency"),
+    "frequency_negative": ({"frequency": -50.0}, "frequency"),
+    "frequency_nan": ({"frequency": _NAN}, "frequency"),
+    "current_amplitude_zero": ({"current_amplitude": 0.0}, "current_amplitude"),
+    "current_amplitude_negative": ({"current_amplitude": -1.0}, "current_amplitude"),
+    "rod_length_negative": ({"rod_length": -0.08}, "rod_length"),
+    "steinmetz_exponent_out_of_range": ({"steinmetz_exponent": 5.0}, "steinmetz_exponent"),
+    "leakage_coefficient_below_one": ({"leakage_coefficient": 0.5}, "leakage_coefficient"),
+    "mass_inf": ({"mass": _INF}, "mass"),
+    "flux_density_amplitude_too_large": ({"flux_density_amplitude": 3.0},
+                                         "flux_density_amplitude"),
+    "current_limit_zero": ({"current_limit": 0.0, "compensated": True}, "current_limit"),
+    "branch_rule_unknown": ({"branch_rule": "sideways"}, "branch_rule"),
+    "model_variant_unknown": ({"model_variant": "maxwell"}, "model_variant"),
+    "variant_parameters_not_json": ({"model_variant": "transport_delay",
+                                     "variant_parameters": "{delay_s: 1}"},
+                                    "variant_parameters"),
+    "variant_parameters_out_of_range": ({"model_variant": "transport_delay",
+                                         "variant_parameters": '{"delay_s": -0.001}'},
+                                        "delay_s"),
+    "variant_parameters_missing": ({"model_variant": "rate_independent_hysteresis",
+                                    "variant_parameters": "{}"}, "thresholds_A_per_m"),
+    "variant_parameters_for_paper": ({"variant_parameters": '{"delay_s": 0.001}'},
+                                     "variant_parameters"),
+    "model_variant_unknown_form": ({"model_variant": "eddy_current_diffusion:sphere",
+                                    "variant_parameters": '{"time_constant_s": 1e-3}'},
+                                   "model_variant"),
+    "variant_parameters_derived_disagree": (
+        {"model_variant": "mechanical_resonance:two_dof",
+         "variant_parameters": json.dumps(dict(TWO_DOF, joint_frequency_Hz=2 * _FJ))},
+        "joint_frequency_Hz"),
+}
 
 
 # -- test cases (identical in every process: seeded) ----------------------------------
@@ -473,32 +514,8 @@ def _bad_input(results, fmu_path):
         results[name] = {"init": init, "bad_step": steps[0], "statuses": steps,
                          "logs": fmu.logs}
 
-    parameter_case("frequency_zero", {"frequency": 0.0})
-    parameter_case("frequency_negative", {"frequency": -50.0})
-    parameter_case("frequency_nan", {"frequency": nan})
-    parameter_case("current_amplitude_zero", {"current_amplitude": 0.0})
-    parameter_case("current_amplitude_negative", {"current_amplitude": -1.0})
-    parameter_case("rod_length_negative", {"rod_length": -0.08})
-    parameter_case("steinmetz_exponent_out_of_range", {"steinmetz_exponent": 5.0})
-    parameter_case("leakage_coefficient_below_one", {"leakage_coefficient": 0.5})
-    parameter_case("mass_inf", {"mass": inf})
-    parameter_case("flux_density_amplitude_too_large", {"flux_density_amplitude": 3.0})
-    parameter_case("current_limit_zero", {"current_limit": 0.0, "compensated": True})
-    parameter_case("branch_rule_unknown", {"branch_rule": "sideways"})
-    parameter_case("model_variant_unknown", {"model_variant": "maxwell"})
-    parameter_case("variant_parameters_not_json", {"model_variant": "transport_delay",
-                                                   "variant_parameters": "{delay_s: 1}"})
-    parameter_case("variant_parameters_out_of_range", {
-        "model_variant": "transport_delay", "variant_parameters": '{"delay_s": -0.001}'})
-    parameter_case("variant_parameters_missing", {"model_variant": "rate_independent_hysteresis",
-                                                  "variant_parameters": "{}"})
-    parameter_case("variant_parameters_for_paper", {"variant_parameters": '{"delay_s": 0.001}'})
-    parameter_case("model_variant_unknown_form", {
-        "model_variant": "eddy_current_diffusion:sphere",
-        "variant_parameters": '{"time_constant_s": 1e-3}'})
-    parameter_case("variant_parameters_derived_disagree", {
-        "model_variant": "mechanical_resonance:two_dof",
-        "variant_parameters": json.dumps(dict(TWO_DOF, joint_frequency_Hz=2 * _FJ))})
+    for name, (params, _) in BAD_PARAMETERS.items():
+        parameter_case(name, params)
 
     # a fixed parameter set after initialisation is refused and changes nothing
     fmu, init = fresh("parameter_after_init")
@@ -536,6 +553,66 @@ def _bad_input(results, fmu_path):
                                 == clean({}, [(1.0, 0.0, 1e-5)] * 2),
                                 "logs": fmu.logs}
     results["process_survived"] = True
+
+
+# -- the same drive as tests/fmu_c_host.c, and every bad parameter through simulate_fmu ---------
+#: Outputs the drive command records (and the C host prints), in this order.
+DRIVE_OUTPUTS = ("current", "displacement", "velocity", "flux_density", "force")
+
+
+def drive(out_path, fmu_path, steps, h, frequency, amplitude, offset, *settings):
+    """u = offset + amplitude cos(2 pi f t) at t = k h, as the C host drives it; rows [t, outputs]."""
+    steps, h, frequency, amplitude, offset = (int(steps), float(h), float(frequency),
+                                              float(amplitude), float(offset))
+    fmu = Fmu(fmu_path, "drive")
+    params = {}
+    for item in settings:
+        name, value = item.split("=", 1)
+        kind = fmu.vars[name].type
+        params[name] = (value if kind == "String" else value in ("1", "true")
+                        if kind == "Boolean" else float(value))
+    init = fmu.init(params)
+    vrs = [fmu.vr[n] for n in DRIVE_OUTPUTS]
+    get = fmu.s.getReal if fmu.fmi == "2" else fmu.s.getFloat64
+    rows, statuses = [], []
+    for k in range(steps):
+        t = k * h
+        fmu.inputs(offset + amplitude * math.cos(2.0 * math.pi * frequency * t), 0.0)
+        statuses.append(fmu.step(t, h))
+        if statuses[-1] != 0:
+            break
+        rows.append([(k + 1) * h] + list(get(vrs)))
+    _write(out_path, {"init": init, "statuses": sorted(set(statuses)), "rows": rows,
+                      "logs": fmu.logs, "python": sys.version, "executable": sys.executable})
+
+
+def simulate_bad(out_path, fmu_path):
+    """fmpy.simulate_fmu with each bad parameter (BAD_PARAMETERS, and every Real one NaN).
+
+    Records, per case, the exception simulate_fmu raised (or None) and what the FMU wrote
+    to stderr; the FMU is simulated with fmpy's defaults (no logging), as a user would.
+    """
+    import io
+
+    from fmpy import read_model_description, simulate_fmu
+
+    md = read_model_description(fmu_path)
+    cases = {name: params for name, (params, _) in BAD_PARAMETERS.items()}
+    for v in md.modelVariables:
+        if v.causality == "parameter" and v.type in ("Real", "Float64"):
+            cases[f"{v.name}_nan"] = {v.name: _NAN}
+    results = {}
+    for name, params in cases.items():
+        stderr, sys.stderr = sys.stderr, io.StringIO()
+        try:
+            simulate_fmu(fmu_path, start_values=params, stop_time=1e-3, output_interval=1e-4)
+            raised = None
+        except Exception as exc:  # the point: what simulate_fmu raises
+            raised = f"{type(exc).__name__}: {exc}"
+        finally:
+            told, sys.stderr = sys.stderr.getvalue(), stderr
+        results[name] = {"raised": raised, "stderr": told, "params": list(params)}
+    _write(out_path, results)
 
 
 # -- memory -------------------------------------------------------------------------------------
@@ -634,7 +711,7 @@ def _write(path, obj):
 
 
 COMMANDS = {"reference": reference, "behaviour": behaviour, "bad_input": bad_input,
-            "memory": memory, "cosim": cosim}
+            "memory": memory, "cosim": cosim, "drive": drive, "simulate_bad": simulate_bad}
 
 if __name__ == "__main__":
     COMMANDS[sys.argv[1]](*sys.argv[2:])

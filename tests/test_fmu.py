@@ -26,6 +26,11 @@ except ImportError:  # tests/ imported as a package
                                     fmu_dist, max_relative_difference, reference,
                                     run_runner, runner_dir)
 
+try:
+    from fmu_runner import BAD_PARAMETERS
+except ImportError:  # tests/ imported as a package
+    from tests.fmu_runner import BAD_PARAMETERS
+
 from smeha.fmu_build import iface
 
 pytestmark = pytest.mark.integration
@@ -273,21 +278,8 @@ def check_variant_state(res, reference, case):
 INPUT_CASES = ("u_nan", "u_inf", "u_nan_compensated", "force_nan_compensated",
                "force_minus_inf", "step_zero", "step_negative", "step_nan", "step_inf",
                "u_nan_variant_delay", "step_zero_variant_hysteresis")
-PARAMETER_CASES = {
-    "frequency_zero": "frequency", "frequency_negative": "frequency",
-    "frequency_nan": "frequency", "current_amplitude_zero": "current_amplitude",
-    "current_amplitude_negative": "current_amplitude", "rod_length_negative": "rod_length",
-    "steinmetz_exponent_out_of_range": "steinmetz_exponent",
-    "leakage_coefficient_below_one": "leakage_coefficient", "mass_inf": "mass",
-    "flux_density_amplitude_too_large": "flux_density_amplitude",
-    "current_limit_zero": "current_limit", "branch_rule_unknown": "branch_rule",
-    "model_variant_unknown": "model_variant",
-    "variant_parameters_not_json": "variant_parameters",
-    "variant_parameters_out_of_range": "delay_s",
-    "variant_parameters_missing": "thresholds_A_per_m",
-    "variant_parameters_for_paper": "variant_parameters",
-    "model_variant_unknown_form": "model_variant",
-    "variant_parameters_derived_disagree": "joint_frequency_Hz"}
+#: Bad parameters: case -> the parameter its message names (tests/fmu_runner.py).
+PARAMETER_CASES = {case: named for case, (_, named) in BAD_PARAMETERS.items()}
 DISCARD, ERROR, FATAL = 2, 3, 4
 #: What doStep of an unusable instance (bad parameter, missing package) returns: FMI 3.0
 #: Error (pythonfmu3 takes a do_step result's status); FMI 2.0 Fatal, the one status above

@@ -1,0 +1,235 @@
+"""The FMUs in hosts that are not fmpy-in-this-venv (issue 13 items 1-4).
+
+* **A C host** (``tests/fmu_c_host.c``, ours, FMI types declared from the standard) is
+  compiled by the system compiler and loads each FMU's binary with
+  ``dlopen(RTLD_NOW | RTLD_LOCAL)``, as C and C++ tools do, in a clean environment: no
+  ``LD_PRELOAD``, no ``PYTHONPATH``, ``PATH=/usr/bin:/bin`` (where ``python3`` is the
+  system's, not the build's). Its outputs must equal fmpy's for the same drive, and it
+  must exit with status 0, through the FMU library's destructors, every time.
+* **Two interpreters in one process**: fmpy run by the system's statically linked
+  ``/usr/bin/python3.11`` (when there is one): the FMU's binary then loads the build's
+  libpython as a second copy, and must use the host's interpreter.
+* **Failing loudly**: every bad parameter makes ``fmpy.simulate_fmu`` raise and
+  ``fmpy simulate`` exit non-zero naming the parameter; the C host gets Fatal (FMI 2.0)
+  or Error (FMI 3.0) and the reason on stderr; a package the FMU cannot find is named.
+
+The reference is fmpy in this venv's Python (tests/fmu_runner.py ``drive``), which
+the other FMU tests check against gmt to the last bit.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import sysconfig
+import zipfile
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+import pytest
+
+try:
+    from fmu_fixtures import (child_env, fmu_dist, max_relative_difference,  # noqa: F401
+                              run_runner, runner_dir)
+    from fmu_runner import BAD_PARAMETERS, DRIVE_OUTPUTS
+except ImportError:  # tests/ imported as a package
+    from tests.fmu_fixtures import (child_env, fmu_dist, max_relative_difference,  # noqa: F401
+                                    run_runner, runner_dir)
+    from tests.fmu_runner import BAD_PARAMETERS, DRIVE_OUTPUTS
+
+pytestmark = pytest.mark.integration
+
+HOST_SOURCE = Path(__file__).resolve().with_name("fmu_c_host.c")
+#: A clean environment: nothing that points a process at a Python.
+CLEAN_ENV = {"PATH": "/usr/bin:/bin", "LANG": "C.UTF-8"}
+#: The paper's uncompensated drive, i = cos(2 pi 50 t) A, 1500 steps of 10 us.
+DRIVE = ("1500", "1e-5", "50", "1", "0")
+#: C host runs per FMI version: each must exit 0 (benchmarks/fmu_exit_crashes.py runs 50).
+RUNS = 3
+#: Status of doStep for an unusable instance (tests/test_fmu.py UNUSABLE): Fatal, Error.
+UNUSABLE = {"2": 4, "3": 3}
+
+
+@pytest.fixture(scope="module")
+def c_host(tmp_path_factory):
+    """tests/fmu_c_host.c compiled by the system's C compiler."""
+    cc = (sysconfig.get_config_var("CC") or "cc").split()[0]
+    cc = shutil.which(cc) or shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        pytest.skip("no C compiler on this machine")
+    exe = tmp_path_factory.mktemp("c_host") / "fmu_c_host"
+    proc = subprocess.run([cc, "-std=c11", "-D_GNU_SOURCE", "-O2", "-Wall", "-Wextra", "-Werror",
+                           "-o", str(exe), str(HOST_SOURCE), "-ldl", "-lm"],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    return exe
+
+
+class Unzipped:
+    """An FMU extracted for the C host: binary, resources, token, value references."""
+
+    def __init__(self, fmu: Path, where: Path):
+        with zipfile.ZipFile(fmu) as z:
+            z.extractall(where)
+        root = ET.parse(where / "modelDescription.xml").getroot()
+        self.fmi = root.get("fmiVersion")[0]
+        self.token = root.get("guid" if self.fmi == "2" else "instantiationToken")
+        ident = root.find("CoSimulation").get("modelIdentifier")
+        platform = "linux64" if self.fmi == "2" else "x86_64-linux"
+        self.binary = where / "binaries" / platform / f"{ident}.so"
+        self.resources = where / "resources"
+        variables = (root.find("ModelVariables").findall("ScalarVariable") if self.fmi == "2"
+                     else list(root.find("ModelVariables")))
+        self.vr = {v.get("name"): int(v.get("valueReference")) for v in variables}
+        self.kind = {v.get("name"): (v[0].tag if self.fmi == "2" else v.tag) for v in variables}
+
+    def setting(self, name, value) -> str:
+        kind = self.kind[name]
+        letter = {"Real": "r", "Float64": "r", "Boolean": "b", "String": "s"}[kind]
+        if letter == "b":
+            value = int(bool(value))
+        return f"{letter}:{self.vr[name]}={value}"
+
+    def run(self, exe, drive=DRIVE, settings=(), env=CLEAN_ENV):
+        args = [str(exe), self.fmi, str(self.binary), f"{self.resources}/", self.token,
+                str(self.vr["u"]), *drive, *settings, "--",
+                *(str(self.vr[n]) for n in DRIVE_OUTPUTS)]
+        return subprocess.run(args, capture_output=True, text=True, env=env, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def unzipped(fmu_dist, tmp_path_factory):
+    cache = {}
+
+    def get(fmi):
+        if fmi not in cache:
+            cache[fmi] = Unzipped(fmu_dist[fmi], tmp_path_factory.mktemp(f"unzipped{fmi}"))
+        return cache[fmi]
+    return get
+
+
+def rows(stdout: str):
+    return [[float(x) for x in line.split(",")] for line in stdout.splitlines() if line]
+
+
+# -- loads anywhere, same numbers, exits cleanly ----------------------------------------------
+@pytest.mark.parametrize("fmi", ["2", "3"])
+def test_c_host_without_python_runs_the_fmu_as_fmpy_does(fmi, c_host, unzipped, fmu_dist,
+                                                         runner_dir):
+    fmu = unzipped(fmi)
+    ref = run_runner("drive", runner_dir / f"drive{fmi}", fmu_dist[fmi], *DRIVE)
+    assert ref["statuses"] == [0]
+    codes, tables = [], []
+    for _ in range(RUNS):
+        proc = fmu.run(c_host)
+        codes.append(proc.returncode)
+        tables.append(rows(proc.stdout))
+        assert "Error" not in proc.stderr and "Fatal" not in proc.stderr, proc.stderr
+    # exit status 0 every time: no crash at exit (pythonfmu's exit-time double release is
+    # pre-empted, smeha_fmu_runtime.arm_clean_exit)
+    assert codes == [0] * RUNS, codes
+    # the same arithmetic on the same doubles: fmpy's numbers exactly (1e-12 relative
+    # allowed, as between the FMU and gmt in tests/test_fmu.py)
+    for table in tables:
+        assert len(table) == int(DRIVE[0])
+        assert max_relative_difference(table, ref["rows"]) <= 1e-12
+    current = [r[1] for r in tables[0]]
+    assert max(current) == pytest.approx(1.0, abs=1e-6)  # the drive reached the FMU
+
+
+def test_the_binary_needs_libpython_through_its_run_path(unzipped):
+    # docs/FMU.md, "What a host machine needs": the build's libpython, found through RUNPATH
+    out = subprocess.run(["readelf", "-d", str(unzipped("2").binary)], capture_output=True,
+                         text=True)
+    if out.returncode != 0:
+        pytest.skip("readelf is not installed")
+    needed = [line.split("[")[-1].rstrip("]") for line in out.stdout.splitlines()
+              if "(NEEDED)" in line]
+    runpath = [line.split("[")[-1].rstrip("]") for line in out.stdout.splitlines()
+               if "(RUNPATH)" in line]
+    libpython = Path(sysconfig.get_config_var("LIBDIR")) / sysconfig.get_config_var("INSTSONAME")
+    assert libpython.name in needed
+    assert runpath == [str(libpython.resolve().parent)]
+
+
+def test_two_interpreters_in_one_process(fmu_dist, runner_dir, tmp_path):
+    # fmpy in the system's statically linked Python 3.11: the FMU's binary loads the build's
+    # libpython as a second copy; the FMU must run in the host's interpreter (its numpy
+    # from the FMU's build environment, fmpy from this venv) and give the same numbers
+    system = Path("/usr/bin/python3.11")
+    if not system.is_file() or Path(sys.executable).resolve() == system.resolve():
+        pytest.skip("no second Python 3.11 at /usr/bin/python3.11")
+    probe = subprocess.run([str(system), "-c", "import sysconfig; "
+                            "print(sysconfig.get_config_var('Py_ENABLE_SHARED'))"],
+                           capture_output=True, text=True)
+    if probe.returncode != 0:
+        pytest.skip("/usr/bin/python3.11 does not run")
+    site = sysconfig.get_path("purelib")
+    env = dict(CLEAN_ENV, PYTHONPATH=site, PYTHONDONTWRITEBYTECODE="1")
+    out = tmp_path / "drive.json"
+    proc = subprocess.run([str(system), str(Path(__file__).with_name("fmu_runner.py")),
+                           "drive", str(out), str(fmu_dist["2"]), *DRIVE], env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    import json
+
+    got = json.loads(out.read_text())
+    ref = run_runner("drive", runner_dir / "drive2", fmu_dist["2"], *DRIVE)
+    assert got["python"] != ref["python"]  # two interpreters: the host's ran the FMU
+    assert got["statuses"] == [0]
+    assert max_relative_difference(got["rows"], ref["rows"]) <= 1e-12
+
+
+# -- fails loudly -----------------------------------------------------------------------------
+@pytest.mark.parametrize("fmi", ["2", "3"])
+def test_c_host_gets_a_failing_status_and_the_reason_for_a_bad_parameter(fmi, c_host, unzipped):
+    fmu = unzipped(fmi)
+    proc = fmu.run(c_host, settings=[fmu.setting("frequency", 0.0)])
+    assert proc.returncode == UNUSABLE[fmi], proc.stderr
+    assert "frequency = 0 Hz is outside the allowed range" in proc.stderr
+    assert rows(proc.stdout) == []
+
+
+@pytest.mark.parametrize("fmi", ["2", "3"])
+def test_every_bad_parameter_makes_simulate_fmu_raise_naming_it(fmi, fmu_dist, runner_dir):
+    res = run_runner("simulate_bad", runner_dir / f"simulate_bad{fmi}", fmu_dist[fmi])
+    named = {case: n for case, (_, n) in BAD_PARAMETERS.items()}
+    with zipfile.ZipFile(fmu_dist[fmi]) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    reals = {v.get("name") for v in root.iter() if v.get("causality") == "parameter"
+             and (v.tag == "Float64" or v.find("Real") is not None)}
+    assert len(reals) >= 24 and {f"{n}_nan" for n in reals} <= set(res)  # each one NaN
+    for case, r in res.items():
+        parameter = named.get(case, case.removesuffix("_nan"))
+        assert r["raised"] is not None, case
+        assert "FMICallException" in r["raised"], (case, r["raised"])
+        # fmpy runs the FMU without logging: the reason reaches stderr all the same
+        assert parameter in r["stderr"] and "refused" in r["stderr"], (case, r["stderr"])
+
+
+@pytest.mark.parametrize("fmi", ["2", "3"])
+@pytest.mark.parametrize("name,value", [("frequency", "0"), ("model_variant", "maxwell")])
+def test_fmpy_simulate_exits_non_zero_naming_the_parameter(fmi, name, value, fmu_dist):
+    # the command line as docs/FMU.md shows it
+    proc = subprocess.run([str(Path(sys.executable).with_name("fmpy")), "simulate",
+                           str(fmu_dist[fmi]), "--start-values", name, value],
+                          capture_output=True, text=True, env=child_env(), timeout=300)
+    assert proc.returncode != 0
+    assert f"{name} = " in proc.stderr and "refused" in proc.stderr, proc.stderr
+
+
+@pytest.mark.parametrize("fmi", ["2", "3"])
+def test_a_missing_package_is_named(fmi, c_host, fmu_dist, tmp_path):
+    # the FMU, asked for a package neither this Python nor the build environment has,
+    # refuses every step and names it (and where it looked)
+    fmu = Unzipped(fmu_dist[fmi], tmp_path)
+    runtime = fmu.resources / "smeha_fmu_runtime.py"
+    text = runtime.read_text()
+    assert 'REQUIRED_PACKAGES = ("numpy",)' in text
+    runtime.write_text(text.replace('REQUIRED_PACKAGES = ("numpy",)',
+                                    'REQUIRED_PACKAGES = ("numpy", "smeha_absent_package")'))
+    proc = fmu.run(c_host)
+    assert proc.returncode == UNUSABLE[fmi], proc.stderr
+    assert "smeha_absent_package" in proc.stderr
+    assert "site-packages" in proc.stderr  # where it looked: the build environment's
