@@ -25,6 +25,7 @@ HERE = Path(__file__).resolve().parent
 BENCHMARKS = {
     "cli_startup": ([], ["--repeats", "3"]),
     "fmu_step_cost": ([], ["--runs", "2", "--steps", "5000", "--memory-steps", "0"]),
+    "fmu_exit_crashes": ([], ["--runs", "2", "--steps", "200"]),
     "flow_fastpath": ([], ["--skip-timestepping", "--repeats", "1"]),
     "cosim_realtime": (["--duration", "1", "--repeats", "3"],
                        ["--duration", "0.05", "--repeats", "1", "--steps", "20e-6,40e-6"]),
