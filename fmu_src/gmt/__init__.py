@@ -13,7 +13,7 @@ module                 equations
 ``sensing``            sensing coil, eqs 21-22
 ``calibration``        B_m at unmeasured points (Table 1)
 ``magnetostriction``   strain about the bias and force, eqs 25, 28
-``mechanics``          mass-spring-damper, eqs 27, 29 (python-control)
+``mechanics``          mass-spring-damper, eqs 27, 29 (closed forms)
 ``forward``            composed model, eq 30 (stepper and steady state)
 ``inverse``            inverse model and compensator, eqs 31-37, Fig. 9
 ``transducer``         drive chain: amplifier, compensator, eq 30
@@ -26,7 +26,7 @@ SI units throughout. This package imports no FMI, file or plotting code.
 
 The names below are loaded on first use (PEP 562 module ``__getattr__``), so
 ``import gmt`` is cheap: a command that only needs ``gmt.ParameterError`` or
-``gmt.parameters`` does not pay for scipy and python-control.
+``gmt.parameters`` does not pay for numpy and the modules of the model.
 """
 import importlib
 
