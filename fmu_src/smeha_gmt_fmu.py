@@ -18,8 +18,9 @@ Life cycle
   pythonfmu, which returns **fmi2Fatal**: pythonfmu 0.7 maps a ``do_step``
   result to OK or Discard only, and fmpy takes a Discard of a terminated
   instance as a normal end, so Fatal is the one status no host can miss
-  (:meth:`SmehaGmt._fail_step` keeps the objects pythonfmu releases after an
-  exception alive, so the host may still terminate and free the instance).
+  (:meth:`SmehaGmt._fail_step` balances the references pythonfmu releases
+  after an exception, so the host may still terminate, reset and free the
+  instance).
 * The FMU state (``fmi2GetFMUstate`` / serialisation) holds every variable,
   the parameter set the gmt objects were built from and
   :meth:`gmt.Transducer.get_state`, as JSON.
@@ -29,6 +30,8 @@ from __future__ import annotations
 import smeha_fmu_runtime  # first, before any extension module: see its docstring
 
 smeha_fmu_runtime.prepare()
+
+import ctypes  # noqa: E402  (an extension module: after prepare())
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real, String
 from pythonfmu.default_experiment import DefaultExperiment
@@ -80,12 +83,20 @@ class SmehaGmt(iface.TransducerSlave, Fmi2Slave):
 
     def _fail_step(self, message: str):
         # pythonfmu 0.7 answers an exception from do_step with fmi2Fatal after releasing
-        # (Py_DECREF) its references to the slave class, the instance and its log queue, and
-        # releases them again when the host frees the instance: one extra reference each,
-        # per exception, keeps all three alive, so later calls and fmi2FreeInstance are safe
-        _KEEP_ALIVE.extend((type(self), self, self.log_queue))
+        # (Py_DECREF) its references to the slave class, the instance and its log queue,
+        # and releases the instance and the queue once more when the host resets or frees
+        # the instance (the class too when it frees it): one release per exception more
+        # than it owns. An owner-less reference per exception, taken through the C API,
+        # balances each one, so the three stay alive and later calls, fmi2Reset and
+        # fmi2FreeInstance are safe (what is left over leaks: a few kB per failure).
+        # A Python list holding them would not do: its own references would be the ones
+        # released, and freeing the list at interpreter exit would free them again.
+        for obj in (type(self), self, self.log_queue):
+            _INCREF(obj)
         raise RuntimeError(message)
 
 
-#: Objects pythonfmu releases once more than it owns after an exception (see _fail_step).
-_KEEP_ALIVE: list = []
+#: Py_IncRef of the C API (ctypes.pythonapi: the interpreter the FMU runs in).
+_INCREF = ctypes.pythonapi.Py_IncRef
+_INCREF.argtypes = (ctypes.py_object,)
+_INCREF.restype = None
