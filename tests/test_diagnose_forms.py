@@ -53,6 +53,7 @@ def test_diffusion_low_frequency_is_a_first_order_lag(geometry, lag_fraction):
     assert complex(ext.EddyCurrentDiffusion(0.0, geometry).transfer(1e3)) == 1.0
 
 
+@pytest.mark.integration  # ~2.5 s
 @pytest.mark.parametrize("geometry, factor", [("slab", 1.0), ("cylinder", 2.0)])
 def test_diffusion_high_frequency_is_the_skin_effect(geometry, factor):
     # |q| >> 1: the field lives in a skin of depth ~ a / |q|; <g> -> factor / q, phase -45 deg

@@ -103,6 +103,7 @@ def test_sense_voltage_gives_bm_by_eq_22():
     assert b_m == pytest.approx(float(flux_density_amplitude(f, field_amp(1.0))), rel=2e-4)
 
 
+@pytest.mark.integration  # solve_ivp from switch-on, 1-3 s
 def test_clean_model_matches_solve_ivp_from_switch_on():
     # exact harmonic sum + modal switch-on transient vs DOP853 (rtol 1e-12) on eq 27
     f, i_m, phase = 100.0, 1.0, 0.8

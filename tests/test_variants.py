@@ -445,6 +445,7 @@ def test_first_order_eddy_lag_is_second_order_in_the_step():
     assert abs(harmonics(b[last])[0]) == pytest.approx(bm, rel=1e-5)
 
 
+@pytest.mark.integration  # 15 cases, ~25 s
 @pytest.mark.parametrize("order", [0.3, 0.5, 0.7, 0.9, 0.99])
 @pytest.mark.parametrize("time_constant", [1e-6, 1e-3, 0.1])
 def test_section_bank_approximates_the_fractional_lag(order, time_constant):
@@ -496,6 +497,7 @@ def test_reidentified_mechanics_rest_on_the_new_stiffness():
 # ------------------------------------------------------------------ state
 
 
+@pytest.mark.integration  # every form, both modes, ~12 s
 @pytest.mark.parametrize("compensated", [False, True])
 @pytest.mark.parametrize("cause, form", ALL_FORMS)
 def test_state_save_restore_replays_bit_identically(cause, form, compensated):
@@ -589,6 +591,7 @@ PAIRS = [
 ]
 
 
+@pytest.mark.integration  # time-stepped pairs to steady state, 1-3 s each
 @pytest.mark.parametrize("members, tolerance", PAIRS)
 def test_stepped_combination_reaches_its_periodic_form(members, tolerance):
     variant = gmt.ModelVariant.combine(*(_single(c, f) for c, f in members))

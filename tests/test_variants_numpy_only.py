@@ -15,12 +15,14 @@ import sys
 from pathlib import Path
 
 import gmt
+import pytest
 
 EXTENSIONS_DIR = Path(gmt.__file__).parent / "extensions"
 
 SCRIPT = r"""
 import math, sys
 import gmt
+import pytest
 from gmt import extensions as ext
 
 # the paper's model first: what gmt's core imports is the FMU's core tests' business
@@ -66,6 +68,7 @@ print("ok", len(variants), bad)
 """
 
 
+@pytest.mark.integration  # a fresh interpreter stepping every variant, 2-10 s
 def test_every_variant_steps_without_scipy_or_control():
     # modules gmt itself already loaded (its core modules, until they are numpy-only) are
     # allowed; anything a variant would import afterwards is refused
