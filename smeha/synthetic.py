@@ -17,7 +17,8 @@ What is recorded, as a bench would
   amplifier); the command is digital and carries no noise.
 * ``displacement`` -- y(t) in metres minus the bias displacement of the magnet
   alone, plus a random constant offset per run (measured displacements are
-  relative, NOTES.md), plus Gaussian noise ``noise_um``.
+  relative, as the paper's Table 3 zeroes them at the loop minimum), plus
+  Gaussian noise ``noise_um``.
 * ``sense_voltage`` -- E = -N_c A_c dB/dt (eq 21) of the model's B(t), plus
   Gaussian noise ``voltage_noise``, [V]. dB/dt of the paper's B is exact
   (B is a sinusoid, eq 4); an effect's change of B is differentiated by

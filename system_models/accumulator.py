@@ -15,8 +15,9 @@ class AccumulatorParameters:
     Attributes
     ----------
     precharge_pressure : float
-        Gas pressure with no oil inside, [Pa] (absolute; HYDRAULICS.md: bias
-        pressure 0.5-3 MPa keeps the pump chamber from cavitating).
+        Gas pressure with no oil inside, [Pa] (absolute; the 0.5-3 MPa bias of
+        smart-material pumps such as Sirohi & Chopra's (2003) and Rupinsky &
+        Dapino's (2006) keeps the pump chamber from cavitating on expansion).
     gas_volume : float
         Gas volume at the pre-charge, [m^3].
     polytropic_index : float

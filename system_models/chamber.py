@@ -16,7 +16,8 @@ class PumpChamberParameters:
     ----------
     dead_volume : float
         Chamber volume with the rod at its reference position, [m^3]
-        (2.5 cm^3: HYDRAULICS.md, the stiffness discussion).
+        (2.5 cm^3: with 1.4 GPa oil and A_d = 1256 mm^2 the oil's stiffness on
+        the rod, beta A_d^2 / V, is ~9e8 N/m, ~45 times Table 2's K).
     piston_area : float
         A_d, [m^2] (paper, Table 2: 1256 mm^2).
     reference_displacement : float

@@ -1,7 +1,7 @@
 """The assembled hydraulic circuit of the EHA as ``rhs(t, x, inputs, params)``.
 
 Ports: P pump chamber, B big cavity, S small cavity, A accumulator, joined by
-valves V1 (P-B), V2 (B-A), V3 (P-S), V4 (S-A) (shared/paper/NOTES.md).
+valves V1 (P-B), V2 (B-A), V3 (P-S), V4 (S-A) (the paper's Figure 2).
 
 State vector (SI), see :data:`STATE_NAMES`:
 p_P, p_B, p_S [Pa]; V_A, oil stored in the accumulator [m^3]; x, v of the

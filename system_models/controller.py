@@ -7,7 +7,7 @@
 | 3     | up       | compressing  | V2, V3 | V1, V4 |
 | 4     | up       | expanding    | V1, V2 | V3, V4 |
 
-(shared/paper/NOTES.md). The chamber is compressing while the control signal
+(the paper's Figure 2 and its text). The chamber is compressing while the control signal
 rises and expanding while it falls, so the valves' square wave switches at the
 extremes of the control signal: at i = +-I_m uncompensated (eq 40), at u = 0
 and u = u_m compensated (eq 41).

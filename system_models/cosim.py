@@ -8,7 +8,7 @@ and integrates the hydraulics over the step.
 Why not plain explicit coupling
 -------------------------------
 The chamber's oil is far stiffer than the rod: beta A_d^2 / V ~ 9e8 N/m
-against K = 2e7 N/m (shared HYDRAULICS.md). Rod and oil form a ~30 kHz
+against K = 2e7 N/m (Table 2; beta = 1.4 GPa, V = 2.5 cm^3). Rod and oil form a ~30 kHz
 oscillator; exchanging the force and the motion once per step with a
 zero-order hold (Jacobi or Gauss-Seidel) is only conditionally stable. With
 stiff oil it diverges at a 20 us step (the ideal circuit: past 1e8 Pa within

@@ -1,8 +1,9 @@
 """Hydraulic fluid: density, effective bulk modulus with entrained air, viscosity.
 
-Defaults are a mineral hydraulic oil, ISO VG 32 at 40 C (shared HYDRAULICS.md:
-density 850-870 kg/m^3, viscosity ~0.03 Pa s, pure-oil bulk modulus
-1.4-1.8 GPa).
+Defaults are a mineral hydraulic oil of viscosity grade ISO VG 32 at 40 C (ISO 3448:
+32 mm^2/s, so ~0.03 Pa s at the density of mineral oil, 850-870 kg/m^3), and the
+pure-oil bulk modulus of mineral oils, 1.4-1.8 GPa (Merritt, Hydraulic Control
+Systems, 1967, ch. 2).
 """
 from __future__ import annotations
 

@@ -1,8 +1,8 @@
 """Named circuit configurations: the ideal limit of eqs 40/41 and realistic defaults.
 
-Realistic values are typical of smart-material pumps (shared HYDRAULICS.md,
-after Sirohi & Chopra 2003, Chaudhuri & Wereley 2012, Rupinsky & Dapino 2006,
-and fluid-power handbooks):
+Realistic values are typical of smart-material pumps (Sirohi & Chopra 2003,
+Chaudhuri & Wereley 2012, Rupinsky & Dapino 2006) and of fluid-power handbooks
+(Merritt, Hydraulic Control Systems, 1967):
 
 * oil: 860 kg/m^3, 1.6 GPa without air, 0.5 % entrained air at 1 bar, which
   gives an effective bulk modulus of about 1.2 GPa at the 1.5-2 MPa the

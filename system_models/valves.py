@@ -1,6 +1,6 @@
 """Active valves V1-V4: orifice flow and opening response.
 
-Bridge (shared/paper/NOTES.md): P pump chamber, B big (cap) cavity, S small
+Bridge (the paper's Figure 2): P pump chamber, B big (cap) cavity, S small
 (rod) cavity, A accumulator; V1 joins P and B, V2 joins B and A, V3 joins P
 and S, V4 joins S and A.
 """
@@ -31,7 +31,9 @@ class ValveParameters:
     area : float
         Flow area fully open, [m^2].
     discharge_coefficient : float
-        C_d, [-] (0.6-0.7 for sharp-edged orifices, HYDRAULICS.md).
+        C_d, [-] (0.6-0.7 for sharp-edged orifices; von Mises' ideal
+        sharp-edged orifice gives pi / (pi + 2) = 0.61: Merritt, Hydraulic
+        Control Systems, 1967, ch. 3).
     transition_pressure : float
         Pressure difference below which the flow turns laminar (linear in
         the pressure difference), [Pa].

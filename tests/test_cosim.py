@@ -1,6 +1,6 @@
 """Co-simulation of the EHA: transducer (FMU or gmt in-process) + hydraulic circuit.
 
-References (shared/paper/NOTES.md): the flow q = f A_d dy of eqs 39-41, with dy
+References (the paper): the flow q = f A_d dy of eqs 39-41, with dy
 the rod's displacement between the two valve switching instants of a cycle;
 the valve bridge and the four stages of Figure 2; Figure 12 and conclusion 4
 ("the flow rate is improved [by the inverse compensator] and the growth rate
@@ -37,7 +37,7 @@ REPO = Path(__file__).resolve().parents[1]
 #: Paper, Table 2: pump piston area A_d = 1256 mm^2.
 PISTON_AREA = 1256e-6
 #: Frequencies of the ideal-limit checks [Hz]: the paper identified its model
-#: at 50 and 100 Hz (NOTES.md), the two ends of Figure 12.
+#: at 50 and 100 Hz (Figures 6-7), the two ends of Figure 12.
 FREQUENCIES = (50.0, 100.0)
 #: Upper end of a plausible circuit pressure [Pa]: the accumulator runs at
 #: 1.5 MPa (presets docstring); 10 MPa is far above anything the pump can build.
@@ -389,7 +389,7 @@ def test_explicit_coupling_diverges_where_the_implicit_master_does_not(ideal_run
 # --------------------------------------------------------------------------------------
 @pytest.mark.integration
 def test_valve_stages_route_the_flow_as_figure_2(ideal_runs):
-    """Ideal circuit, 100 Hz uncompensated, direction "down" (NOTES.md, Figure 2):
+    """Ideal circuit, 100 Hz uncompensated, direction "down" (the paper's Figure 2):
     stage 1 (compressing) V1 open, V3 closed: V1 carries the pumped volume
     A_d dy of each compression window into the big cavity; stage 2 (expanding)
     V3 open, V1 closed: the chamber refills from the small cavity through V3.

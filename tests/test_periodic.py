@@ -1,6 +1,6 @@
 """The periodic-steady-state fast path (system_models.periodic, smeha.fastpath).
 
-References: the flow q = f A_d dy of eqs 39-41 (paper; shared/paper/NOTES.md),
+References: the flow q = f A_d dy of eqs 39-41 (paper),
 eq 27 at zero frequency (static compliance 1/K, Table 2), and continuity in
 the cylinder's cavities. The agreement with the time-stepped co-simulation is
 the integration test at the end (module docstring of system_models.periodic

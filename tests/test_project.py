@@ -2,9 +2,11 @@
 
 The developers' brief sets the rules these check: the README's two commands (one runs the
 main job, one is exactly what CI runs), every command and option the README shows exists,
-every file it points to exists, and the benchmarks it lists are the ones ``run_all.py`` runs.
+every file it points to exists, the benchmarks it lists are the ones ``run_all.py`` runs,
+and the repository stands alone (no reference to notes kept outside it).
 """
 import re
+import subprocess
 import tomllib
 from pathlib import Path
 
@@ -112,3 +114,19 @@ def test_every_benchmark_script_is_run_and_listed():
     for name in scripts:
         assert f"`{name}.py`" in listed, name
 
+
+def test_the_repository_stands_alone():
+    # the brief: cite the paper, books and standards, never notes kept outside the repository
+    # (the pattern is spelt so that this file does not match it)
+    tracked = subprocess.run(["git", "ls-files"], cwd=ROOT, capture_output=True, text=True)
+    if tracked.returncode != 0:
+        pytest.skip("not a git checkout")
+    outside = re.compile(r"(NOTES|HYDRAULICS|DIAGNOSIS)[.]md|shared[/]paper|/work[/]shared")
+    found = []
+    for name in tracked.stdout.split():
+        path = ROOT / name
+        if path.is_file() and path.suffix not in (".fmu", ".png", ".zip"):
+            for k, line in enumerate(path.read_text(errors="replace").splitlines(), 1):
+                if outside.search(line):
+                    found.append(f"{name}:{k}: {line.strip()}")
+    assert not found, "\n".join(found)

@@ -1,7 +1,7 @@
 """Synthetic measured runs (smeha.synthetic): the ground truth of the diagnosis tests.
 
-Each hidden effect is checked against its physical signature (shared/DIAGNOSIS.md,
-"Signatures and extensions") with references computed here independently of the
+Each hidden effect is checked against its physical signature (docs/DIAGNOSE.md, the
+candidate causes) with references computed here independently of the
 generator: analytic transfer functions (slab eddy currents, two-mass mechanics,
 pure delay) and an independent ODE integration (thermal model).
 """
@@ -231,8 +231,8 @@ def test_effect_changes_displacement_measurably(effect, runs_that_matter, clean,
 
 @pytest.mark.parametrize("effect", synthetic.EFFECTS)
 def test_only_magnetic_effects_change_the_sense_voltage(effect, clean, effect_runs):
-    # DIAGNOSIS.md: an effect that shows in B is magnetic; mechanical and sensor
-    # effects leave B (and so E, eq 21) untouched
+    # B is the magnetic state (eqs 4, 17): a magnetic effect changes it; mechanical and
+    # sensor effects act downstream of M (eqs 25-30) and leave B (and so E, eq 21) untouched
     changed = max(np.max(np.abs(a.sense_voltage - b.sense_voltage))
                   for a, b in zip(effect_runs[effect], clean))
     if effect in synthetic.MAGNETIC_EFFECTS:

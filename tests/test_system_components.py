@@ -13,7 +13,7 @@ from system_models.cylinder import CylinderParameters, cavity_volumes
 from system_models.fluid import FluidParameters, effective_bulk_modulus
 from system_models.valves import ValveParameters, orifice_flow
 
-# Figure 2 as NOTES.md tabulates it: stage -> (direction, compressing, open valves)
+# The paper's Figure 2 as a table: stage -> (direction, compressing, open valves)
 FIGURE_2 = {1: ("down", True, {"V1", "V4"}), 2: ("down", False, {"V3", "V4"}),
             3: ("up", True, {"V2", "V3"}), 4: ("up", False, {"V1", "V2"})}
 
