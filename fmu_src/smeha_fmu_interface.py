@@ -1,19 +1,20 @@
-"""The FMU's variable table and slave logic, defined once for both slaves and the build.
+"""The FMU's variable table, defined once for both slaves, the build and the docs.
 
 Both slaves (``smeha_gmt_fmu.py``, FMI 2.0, and ``smeha_gmt_fmu3.py``, FMI 3.0,
 next to this file in ``fmu_src/``) register their variables from
-:data:`VARIABLES` and take every callback from :class:`TransducerSlave`;
+:data:`VARIABLES` and take every callback from ``smeha_fmu_slave.TransducerSlave``,
+which builds gmt's objects from the parameters named here;
 ``smeha.fmu_build`` writes the units of the FMI 2.0 model description from the
 same table, and ``docs/FMU.md`` documents it.
 
 The FMU bundles this file under its own name, ``resources/smeha_fmu_interface.py``
 (a module name unique to this project, so that it cannot collide with another
 Python FMU in the same host process). It imports nothing from ``smeha`` and does
-not import ``gmt`` at module level; :func:`make_transducer` and
-:func:`check_against_gmt` import ``gmt`` when called, which inside an FMU is the
-bundled copy. ``smeha.fmu_build`` loads this file from the source tree under
-another module name (``smeha._fmu_interface``), so a process that builds an FMU
-and then loads it still runs the FMU's bundled copy.
+not import ``gmt`` at module level; :func:`check_against_gmt` imports ``gmt``
+when called, which inside an FMU is the bundled copy. ``smeha.fmu_build`` loads
+this file from the source tree under another module name
+(``smeha._smeha_fmu_interface``), so a process that builds an FMU and then loads
+it still runs the FMU's bundled copy.
 
 Names of the parameters are the field names of :class:`gmt.TransducerParameters`,
 :class:`gmt.Excitation` and :class:`gmt.DriveParameters`; their start values are
@@ -23,7 +24,6 @@ build when the two drift apart.
 from __future__ import annotations
 
 import math
-import operator
 from dataclasses import dataclass
 from typing import Any
 
@@ -37,6 +37,10 @@ SLAVE_MODULE_FMI2 = "smeha_gmt_fmu"
 SLAVE_MODULE_FMI3 = "smeha_gmt_fmu3"
 #: Module name of this file, in fmu_src/ and in the FMU's resources.
 INTERFACE_MODULE = "smeha_fmu_interface"
+#: The other modules of fmu_src/ the FMU bundles next to its slave: the callbacks both
+#: slaves share, and the run-time set-up each slave runs first.
+SLAVE_LOGIC_MODULE = "smeha_fmu_slave"
+RUNTIME_MODULE = "smeha_fmu_runtime"
 #: Name under which the gmt package is bundled in the FMU's resources. Unique to
 #: this project, so that a host that has imported its own ``gmt`` (the smeha
 #: co-simulation master does) cannot make the FMU run the host's copy: one Python
@@ -206,6 +210,11 @@ VARIABLES: tuple[Variable, ...] = (
          "in (0, 100] A (eqs 1-2)", 1.0),
     _par(_E, "flux_density_amplitude", "T", "Measured flux-density amplitude B_m "
          "(Table 1); 0 = take it from the Table 1 calibration", 0.0),
+    _par(_E, "follow_drive", None, "false: the model stays at (frequency, "
+         "current_amplitude) and outside_design_point flags a drive that departs from it; "
+         "true: the operating point follows the sinusoid the coil current is, measured over "
+         "each period (B_m from the Table 1 calibration; paper's model only)", False,
+         kind="Boolean"),
     # -- DriveParameters: amplifier and inverse compensator (Figure 9) -----------
     _par(_D, "amplifier_gain", "A/V", "Amplifier gain K_a, coil current per volt of "
          "control signal", 1.0),
@@ -271,6 +280,17 @@ VARIABLES: tuple[Variable, ...] = (
          "compensator's demand was out of reach", kind="Boolean"),
     _out("saturation_count", None, "Steps saturated since initialisation or reset",
          kind="Integer"),
+    _out("outside_design_point", None, "true while the coil current departs from the "
+         "sinusoid at (operating_frequency, operating_current_amplitude) the complex "
+         "permeability is defined for (eqs 1-2, 31): frequency off by more than 5 %, "
+         "amplitude or offset by more than 1 % of I_m (judged each period), standing still "
+         "(DC, a step's plateau) or stepping; a warning is logged the first time",
+         kind="Boolean"),
+    _out("operating_frequency", "Hz", "Frequency f of the operating point the model runs "
+         "at: the frequency parameter, or with follow_drive the drive's last full period's"),
+    _out("operating_current_amplitude", "A", "Current amplitude I_m of the operating point "
+         "the model runs at: the current_amplitude parameter, or with follow_drive the "
+         "drive's last full period's"),
 )
 
 BY_NAME: dict[str, Variable] = {v.name: v for v in VARIABLES}
@@ -281,13 +301,11 @@ EXCITATION_PARAMETERS = tuple(v.name for v in VARIABLES if v.group == _E)
 DRIVE_PARAMETERS = tuple(v.name for v in VARIABLES if v.group == _D)
 #: Calculated parameters, in the order of :class:`gmt.RodMechanics`' fields.
 MECHANICS = tuple(v.name for v in VARIABLES if v.group == "mechanics")
-#: Real outputs copied from a gmt.TransducerOutput, in :data:`OUTPUTS` order.
+#: Real outputs, in :data:`OUTPUTS` order (``smeha_fmu_slave.output_values``).
 REAL_OUTPUTS = tuple(v.name for v in VARIABLES if v.causality == "output" and v.kind == "Real")
-#: Every variable's name, in VARIABLES order, and one C-level getter of all their values:
-#: a saved FMU state holds the values as a tuple in this order (a co-simulation master
-#: saves and restores the state at every step, and a dict of ~50 getattrs was most of it)
+#: Every variable's name, in VARIABLES order (a saved FMU state holds the values as a
+#: tuple in this order, ``smeha_fmu_slave``)
 VARIABLE_NAMES = tuple(v.name for v in VARIABLES)
-_all_values = operator.attrgetter(*VARIABLE_NAMES)
 
 
 def coerce(name: str, value):
@@ -305,75 +323,6 @@ def coerce(name: str, value):
 def parameter_values(source) -> dict:
     """The parameters' current values, read as attributes of ``source`` (a slave)."""
     return {name: coerce(name, getattr(source, name)) for name in PARAMETERS}
-
-
-def make_transducer(values: dict):
-    """Build the ``gmt.Transducer`` for a set of parameter values.
-
-    Parameters
-    ----------
-    values : dict
-        Parameter name -> value, as :func:`parameter_values` returns.
-
-    Raises
-    ------
-    gmt.ParameterError
-        A value outside the range gmt accepts, or an unknown ``model_variant``.
-    """
-    gmt = physics()  # inside an FMU: the bundled copy (resources/smeha_fmu_gmt)
-
-    variant = model_variant(gmt, values["model_variant"], values["variant_parameters"])
-    params = gmt.TransducerParameters(**{n: values[n] for n in TRANSDUCER_PARAMETERS})
-    excitation = gmt.Excitation(**{n: values[n] for n in EXCITATION_PARAMETERS})
-    drive = gmt.DriveParameters(**{n: values[n] for n in DRIVE_PARAMETERS})
-    return gmt.Transducer(params, excitation, drive, variant=variant)
-
-
-def model_variant(gmt, name: str, parameters: str):
-    """The ``gmt.ModelVariant`` of the ``model_variant`` and ``variant_parameters`` strings.
-
-    Raises
-    ------
-    gmt.ParameterError
-        An unknown variant, parameters that are not a JSON object, or a
-        missing, unknown or out-of-range parameter; the message names
-        ``model_variant`` or ``variant_parameters`` and the offending key.
-    """
-    import json
-
-    if name not in MODEL_VARIANTS:  # a combination: members of MODEL_VARIANTS joined by "+"
-        try:
-            gmt.extensions.parse_name(name)
-        except gmt.ParameterError as exc:
-            raise gmt.ParameterError(f"model_variant = {name!r} is not one of {MODEL_VARIANTS} "
-                                     f"nor a combination of them joined by '+' ({exc})") from None
-    text = parameters.strip() or "{}"
-    try:
-        values = json.loads(text)
-    except ValueError as exc:
-        raise gmt.ParameterError(f"variant_parameters = {text!r} is not valid JSON "
-                                 f"({exc}); give a JSON object such as "
-                                 '{"delay_s": 0.0005}') from None
-    if not isinstance(values, dict):
-        raise gmt.ParameterError(f"variant_parameters = {text!r} is not a JSON object")
-    try:
-        return gmt.ModelVariant.from_name(name, values)
-    except gmt.ParameterError as exc:
-        raise gmt.ParameterError(f"variant_parameters = {text!r} for model_variant "
-                                 f"{name!r}: {exc}") from None
-
-
-def output_values(out) -> tuple:
-    """Real outputs (in :data:`REAL_OUTPUTS` order), ``saturated`` and ``saturation_count``.
-
-    Parameters
-    ----------
-    out : gmt.TransducerOutput
-    """
-    m = out.magnetics
-    reals = (out.current, out.displacement, out.velocity, out.sensed_displacement, m.field,
-             m.flux_density, m.magnetization, m.strain, m.force)
-    return tuple(float(x) for x in reals), bool(out.saturated), int(out.saturation_count)
 
 
 def check_against_gmt() -> None:
@@ -412,234 +361,11 @@ def check_against_gmt() -> None:
         problems.append(f"calculated parameters {MECHANICS} do not follow gmt.RodMechanics "
                         f"{gmt.RodMechanics._fields}")
     if REAL_OUTPUTS != ("current", "displacement", "velocity", "sensed_displacement", "field",
-                        "flux_density", "magnetization", "strain", "force"):
+                        "flux_density", "magnetization", "strain", "force",
+                        "operating_frequency", "operating_current_amplitude"):
         problems.append(f"Real outputs {REAL_OUTPUTS} are not in output_values' order")
     for v in VARIABLES:
         if v.kind == "Real" and v.unit not in UNITS:
             problems.append(f"{v.name}: unit {v.unit!r} is not in UNITS")
     if problems:
         raise AssertionError("FMU interface out of date with gmt:\n  " + "\n  ".join(problems))
-
-
-def load_physics(problem: str | None = None):
-    """(gmt module, None), or (None, the problem) when it cannot be imported.
-
-    Parameters
-    ----------
-    problem : str, optional
-        A reason known beforehand (``smeha_fmu_runtime.missing_packages_message``):
-        gmt is then not imported. Every instance of the slave reports the problem
-        instead of crashing the host.
-    """
-    if problem:
-        return None, problem
-    try:
-        return physics(), None
-    except Exception as exc:
-        return None, (f"cannot import gmt ({type(exc).__name__}: {exc}); the FMU needs numpy "
-                      "importable by the Python of the host process")
-
-
-class TransducerSlave:
-    """The callbacks both slaves share: a mixin placed before the pythonfmu(3) base.
-
-    The slave class sets the FMI flavour (status values, function names for
-    messages, its physics module) and registers its variables; this class
-    builds :class:`gmt.Transducer` on leaving initialisation, steps it, and
-    saves and restores the FMU state. Exceptions do not reach pythonfmu
-    uninvited: each callback catches them and logs through the FMU logger.
-    A step with a bad input returns Discard with the state rolled back (the
-    host may retry). An *unusable* instance -- a bad parameter, a package
-    missing -- cannot return Error from initialisation (pythonfmu turns every
-    exception there into Fatal), so its first and every later ``doStep``
-    fails with what the slave's :meth:`_fail_step` returns, the strongest
-    status the FMI flavour can give, and the reason is also written once to
-    the process's stderr (a host may run without FMU logging). A slave with
-    more state than the variables (FMI 3.0's ``time``) extends
-    :meth:`_after_step`, :meth:`_extra_state` and :meth:`_restore_extra`.
-    """
-
-    MODEL_NAME = ""
-    STATUS_ERROR = STATUS_WARNING = STATUS_DISCARD = None
-    EXIT_INITIALIZATION = "fmi2ExitInitializationMode"
-    GET_STATE = "fmi2GetFMUstate"
-    SET_STATE = "fmi2SetFMUstate"
-    PHYSICS = None  # the gmt module the slave imported
-    IMPORT_PROBLEM = None
-
-    def _init_transducer(self):
-        self._transducer = None  # gmt.Transducer, built on leaving initialisation
-        self._built_from = None  # parameter values it was built from
-        self._problem = self.IMPORT_PROBLEM or f"not initialised (call {self.EXIT_INITIALIZATION})"
-        self._told_stderr = False  # the unusable instance's reason goes to stderr once
-        if self.IMPORT_PROBLEM:
-            self._report(self.IMPORT_PROBLEM)
-
-    def _report(self, message: str, status=None):
-        self.log(message, self.STATUS_ERROR if status is None else status)
-
-    def _parameter_setter(self, name):
-        def setter(value):
-            try:
-                if self._transducer is not None:
-                    self._report(f"{name}: a fixed parameter cannot change after "
-                                 f"initialisation; {value!r} ignored (reset first)")
-                    return
-                setattr(self, name, coerce(name, value))
-            except Exception as exc:  # never raise into pythonfmu
-                self._report(f"{name} = {value!r} rejected: {exc}")
-        return setter
-
-    def _build(self, values: dict) -> bool:
-        """Build the gmt objects from parameter values; log and return False on error."""
-        try:
-            self._transducer = make_transducer(values)
-        except Exception as exc:
-            self._transducer, self._built_from = None, None
-            self._problem = f"initialisation failed: {type(exc).__name__}: {exc}"
-            self._report(self._problem)
-            return False
-        self._built_from = dict(values)
-        self._problem = None
-        return True
-
-    def _rest_outputs(self):
-        for name in OUTPUTS:
-            setattr(self, name, BY_NAME[name].initial_value)
-        forward = self._transducer.forward
-        self.displacement, self.velocity = float(forward.displacement), float(forward.velocity)
-        self.sensed_displacement = float(self._transducer.sensed_displacement)
-        for name, value in zip(MECHANICS, self._transducer.rod_mechanics()):
-            setattr(self, name, float(value))
-
-    def exit_initialization_mode(self):
-        from pathlib import Path
-        try:
-            if self._build(parameter_values(self)):
-                self._rest_outputs()
-                bundled = Path(self.resources or ".").resolve()
-                used = Path(self.PHYSICS.__file__).resolve()
-                if bundled not in used.parents:
-                    self._report(f"gmt is imported from {used.parent}, not from the FMU's "
-                                 f"resources: another FMU loaded smeha_fmu_gmt first",
-                                 self.STATUS_WARNING)
-        except Exception as exc:
-            self._transducer = None
-            self._problem = f"initialisation failed: {type(exc).__name__}: {exc}"
-            self._report(self._problem)
-
-    def do_step(self, current_time, step_size):
-        transducer = self._transducer
-        if transducer is None:
-            return self._refuse_step(current_time)
-        saved = transducer.get_state()
-        try:
-            out = transducer.step(self.u, step_size, self.external_force)
-            reals, self.saturated, self.saturation_count = output_values(out)
-        except Exception as exc:
-            try:
-                transducer.set_state(saved)
-            except Exception:  # pragma: no cover - defensive
-                self._transducer, self._problem = None, "state lost after a failed step"
-            self._report(f"doStep at t = {current_time!r} s, step {step_size!r} s discarded: "
-                         f"{type(exc).__name__}: {exc}", self.STATUS_DISCARD)
-            return False
-        for name, value in zip(REAL_OUTPUTS, reals):
-            setattr(self, name, value)
-        self._after_step(current_time, step_size)
-        return True
-
-    def _refuse_step(self, current_time):
-        """An unusable instance's step: log the reason (Error), tell stderr once, fail."""
-        import sys
-
-        message = f"doStep at t = {current_time!r} s refused: {self._problem}"
-        self._report(message)
-        if not self._told_stderr:
-            self._told_stderr = True
-            sys.stderr.write(f"{self.MODEL_NAME} instance {self.instance_name!r}: {message}\n")
-            sys.stderr.flush()
-        return self._fail_step(message)
-
-    def _fail_step(self, message: str):
-        """What ``do_step`` of an unusable instance returns (or raises): the slave's choice."""
-        raise NotImplementedError
-
-    def _after_step(self, current_time, step_size):
-        """Hook after a successful step (FMI 3.0 advances its ``time``)."""
-
-    def _extra_state(self) -> dict:
-        """State beyond the variables, the parameters and the transducer (FMI 3.0: time)."""
-        return {}
-
-    def _restore_extra(self, state: dict) -> None:
-        """Restore what :meth:`_extra_state` saved."""
-
-    def _get_fmu_state(self):
-        try:
-            transducer = self._transducer
-            state = {
-                "values": _all_values(self),
-                "built_from": self._built_from,
-                "transducer": list(transducer.get_state()) if transducer is not None else None,
-                "problem": self._problem,
-                # values are already of their variables' types (not so after a JSON
-                # round trip, which _fmu_state_from_bytes marks False)
-                "typed": True,
-            }
-            state.update(self._extra_state())
-            return state
-        except Exception as exc:
-            self._report(f"{self.GET_STATE} failed: {type(exc).__name__}: {exc}")
-            return {"invalid": str(exc)}
-
-    def _set_fmu_state(self, state):
-        try:
-            if "invalid" in state:
-                raise ValueError(f"the state is invalid: {state['invalid']}")
-            built_from = state["built_from"]
-            if built_from is None:
-                self._transducer, self._built_from = None, None
-            elif (self._transducer is None
-                  or (built_from is not self._built_from and built_from != self._built_from)):
-                if not self._build(built_from):
-                    return
-            if self._transducer is not None:
-                self._transducer.set_state(state["transducer"])
-            if state.get("typed"):
-                # only what changed since (inputs, outputs): the rest already holds these values
-                for name, now, value in zip(VARIABLE_NAMES, _all_values(self), state["values"]):
-                    if now is not value and now != value:
-                        setattr(self, name, value)
-            else:
-                for name, value in state["variables"].items():
-                    setattr(self, name, coerce(name, value))
-            self._restore_extra(state)
-            self._problem = state["problem"]
-        except Exception as exc:
-            self._report(f"{self.SET_STATE} failed: {type(exc).__name__}: {exc}")
-
-    @staticmethod
-    def _fmu_state_to_bytes(state):
-        import json
-        try:
-            # "typed" describes the in-memory copy, not the state: not serialised; the
-            # values are written by name
-            out = {k: v for k, v in state.items() if k not in ("typed", "values")}
-            if "values" in state:
-                out["variables"] = dict(zip(VARIABLE_NAMES, state["values"]))
-            return json.dumps(out).encode("utf-8")
-        except Exception as exc:
-            return json.dumps({"invalid": f"not serialisable: {exc}"}).encode("utf-8")
-
-    @classmethod
-    def _fmu_state_from_bytes(cls, state):
-        import json
-        try:
-            out = json.loads(bytes(state).decode("utf-8"))
-            if not isinstance(out, dict):
-                raise ValueError("not a JSON object")
-            out["typed"] = False  # coerce each value again on restore
-            return out
-        except Exception as exc:
-            return {"invalid": f"not a serialised {cls.__name__} state: {exc}"}

@@ -38,9 +38,10 @@ from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Status
 
 import smeha_fmu_interface as iface  # next to this file, in fmu_src/ and in the FMU's resources
+import smeha_fmu_slave as slave  # the callbacks both slaves share
 
 # resources/smeha_fmu_gmt: the FMU's own copy, unless a package it needs is missing
-gmt, _IMPORT_PROBLEM = iface.load_physics(smeha_fmu_runtime.missing_packages_message())
+gmt, _IMPORT_PROBLEM = slave.load_physics(smeha_fmu_runtime.missing_packages_message())
 
 _TYPES = {"Real": Real, "Integer": Integer, "Boolean": Boolean, "String": String}
 _CAUSALITY = {"input": Fmi2Causality.input, "parameter": Fmi2Causality.parameter,
@@ -50,10 +51,10 @@ _VARIABILITY = {"fixed": Fmi2Variability.fixed, "continuous": Fmi2Variability.co
                 "discrete": Fmi2Variability.discrete}
 
 
-class SmehaGmt(iface.TransducerSlave, Fmi2Slave):
+class SmehaGmt(slave.TransducerSlave, Fmi2Slave):
     """Giant magnetostrictive transducer with its amplifier and inverse compensator.
 
-    Every callback is :class:`smeha_fmu_interface.TransducerSlave`'s; this class
+    Every callback is :class:`smeha_fmu_slave.TransducerSlave`'s; this class
     names the FMI 2.0 flavour and registers the variables.
     """
 

@@ -24,9 +24,10 @@ from pythonfmu3 import (Boolean, DefaultExperiment, Float64, Fmi3Causality, Fmi3
                         Fmi3Status, Fmi3StepResult, Fmi3Variability, Int32, String, Unit)
 
 import smeha_fmu_interface as iface  # next to this file, in fmu_src/ and in the FMU's resources
+import smeha_fmu_slave as slave  # the callbacks both slaves share
 
 # resources/smeha_fmu_gmt: the FMU's own copy, unless a package it needs is missing
-gmt, _IMPORT_PROBLEM = iface.load_physics(smeha_fmu_runtime.missing_packages_message())
+gmt, _IMPORT_PROBLEM = slave.load_physics(smeha_fmu_runtime.missing_packages_message())
 
 _TYPES = {"Real": Float64, "Integer": Int32, "Boolean": Boolean, "String": String}
 _CAUSALITY = {"input": Fmi3Causality.input, "parameter": Fmi3Causality.parameter,
@@ -51,10 +52,10 @@ def _units(names):
     return out
 
 
-class SmehaGmt3(iface.TransducerSlave, Fmi3Slave):
+class SmehaGmt3(slave.TransducerSlave, Fmi3Slave):
     """Giant magnetostrictive transducer with its amplifier and inverse compensator.
 
-    Every callback is :class:`smeha_fmu_interface.TransducerSlave`'s; this class
+    Every callback is :class:`smeha_fmu_slave.TransducerSlave`'s; this class
     names the FMI 3.0 flavour, registers the variables with their units, and
     keeps the independent variable ``time`` (advanced by each step, saved with
     the FMU state).

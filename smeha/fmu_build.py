@@ -8,7 +8,7 @@ is the same command) calls :func:`build_all`, by default into :data:`DIST`. For 
    ``sys.modules``, and an FMU later loaded by the same process would run them
    instead of its bundled copies. So the builder runs in a fresh interpreter
    (:func:`_worker`), on a staging copy of the sources: the slave script,
-   ``fmu_src/gmt`` and ``fmu_src/smeha_fmu_interface.py``. The calling process
+   ``fmu_src/gmt`` and the FMU's other modules of ``fmu_src/`` (:data:`FMU_MODULES`). The calling process
    imports neither (it reads the variable table through :data:`iface`).
 2. **Patch the model description** (this process, XML only). FMI 2.0:
    pythonfmu 0.7 writes no units and no ``ModelStructure/InitialUnknowns``;
@@ -65,9 +65,12 @@ def _load_from_fmu_src(module: str):
     return loaded
 
 
-#: The FMU's variable table and slave logic (``fmu_src/smeha_fmu_interface.py``).
+#: The FMU's variable table (``fmu_src/smeha_fmu_interface.py``).
 iface = _load_from_fmu_src("smeha_fmu_interface")
-RUNTIME_MODULE = "smeha_fmu_runtime"
+RUNTIME_MODULE = iface.RUNTIME_MODULE
+#: The modules of fmu_src/ bundled next to the slave: the table, the callbacks both slaves
+#: share, the run-time set-up.
+FMU_MODULES = (iface.INTERFACE_MODULE, iface.SLAVE_LOGIC_MODULE, iface.RUNTIME_MODULE)
 #: The FMU's run-time set-up (``fmu_src/smeha_fmu_runtime.py``): what it needs, and the
 #: format of the build environment record.
 runtime = _load_from_fmu_src(RUNTIME_MODULE)
@@ -215,8 +218,8 @@ def _stage(fmi: str, staging: Path) -> Path:
                          "the smeha source tree (fmu_src/ is not installed)")
     staging.mkdir(parents=True)
     shutil.copy2(script, staging / script.name)
-    shutil.copy2(FMU_SRC / f"{iface.INTERFACE_MODULE}.py", staging)
-    shutil.copy2(FMU_SRC / f"{RUNTIME_MODULE}.py", staging)
+    for module in FMU_MODULES:
+        shutil.copy2(FMU_SRC / f"{module}.py", staging)
     (staging / runtime.ENVIRONMENT_FILE).write_text(runtime.format_environment(
         fmu_native.environment_record(runtime.REQUIRED_PACKAGES)), encoding="utf-8")
     shutil.copytree(FMU_SRC / "gmt", staging / iface.BUNDLED_PHYSICS_PACKAGE,
@@ -233,7 +236,7 @@ def _worker(fmi: str, workdir: str) -> None:
 
     smeha_fmu_interface.check_against_gmt()
     project_files = [script.parent / name for name in (
-        iface.BUNDLED_PHYSICS_PACKAGE, f"{iface.INTERFACE_MODULE}.py", f"{RUNTIME_MODULE}.py",
+        iface.BUNDLED_PHYSICS_PACKAGE, *(f"{m}.py" for m in FMU_MODULES),
         runtime.ENVIRONMENT_FILE)]
     if fmi == "2":
         from pythonfmu.builder import FmuBuilder

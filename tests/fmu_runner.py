@@ -573,8 +573,9 @@ def drive(out_path, fmu_path, steps, h, frequency, amplitude, offset, *settings)
                         if kind == "Boolean" else float(value))
     init = fmu.init(params)
     vrs = [fmu.vr[n] for n in DRIVE_OUTPUTS]
+    point = [fmu.vr["operating_frequency"], fmu.vr["operating_current_amplitude"]]
     get = fmu.s.getReal if fmu.fmi == "2" else fmu.s.getFloat64
-    rows, statuses = [], []
+    rows, statuses, flags, points = [], [], [], []
     for k in range(steps):
         t = k * h
         fmu.inputs(offset + amplitude * math.cos(2.0 * math.pi * frequency * t), 0.0)
@@ -582,7 +583,10 @@ def drive(out_path, fmu_path, steps, h, frequency, amplitude, offset, *settings)
         if statuses[-1] != 0:
             break
         rows.append([(k + 1) * h] + list(get(vrs)))
+        flags.append(bool(fmu.s.getBoolean([fmu.vr["outside_design_point"]])[0]))
+        points.append(list(get(point)))
     _write(out_path, {"init": init, "statuses": sorted(set(statuses)), "rows": rows,
+                      "outside_design_point": flags, "operating_point": points,
                       "logs": fmu.logs, "python": sys.version, "executable": sys.executable})
 
 

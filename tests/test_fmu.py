@@ -62,6 +62,8 @@ def test_build_writes_fmi2_fmu_with_bundled_gmt(fmu_dist):
         assert z.read("resources/slavemodule.txt").decode().strip() == "smeha_gmt_fmu"
     assert {"resources/smeha_fmu_gmt/__init__.py", "resources/smeha_fmu_gmt/transducer.py",
             "resources/smeha_gmt_fmu.py", "resources/smeha_fmu_interface.py",
+            "resources/smeha_fmu_slave.py", "resources/smeha_fmu_runtime.py",
+            "resources/smeha_fmu_environment.txt",
             "binaries/linux64/SmehaGmt.so"} <= names
     assert not any("__pycache__" in n for n in names)
     root = model_description(fmu)
@@ -93,13 +95,14 @@ def test_interface_names_causality_and_types(fmu_dist):
     outputs = {"current": "Real", "displacement": "Real", "velocity": "Real", "field": "Real",
                "flux_density": "Real", "magnetization": "Real", "strain": "Real",
                "force": "Real", "saturated": "Boolean", "saturation_count": "Integer",
-               "sensed_displacement": "Real"}
+               "sensed_displacement": "Real", "outside_design_point": "Boolean",
+               "operating_frequency": "Real", "operating_current_amplitude": "Real"}
     assert {n: got[n] for n in outputs} == {n: ("output", t) for n, t in outputs.items()}
     params = {n for n, (c, _) in got.items() if c == "parameter"}
     import gmt  # the pytest process may import gmt: it never loads an FMU
 
     expected = (set(gmt.TransducerParameters.field_names())
-                | {"frequency", "current_amplitude", "flux_density_amplitude",
+                | {"frequency", "current_amplitude", "flux_density_amplitude", "follow_drive",
                    "amplifier_gain", "current_limit", "compensated", "displacement_per_volt",
                    "control_offset", "branch_rule", "compensator_period", "model_variant",
                    "variant_parameters"})

@@ -181,6 +181,34 @@ def test_two_interpreters_in_one_process(fmu_dist, runner_dir, tmp_path):
     assert max_relative_difference(got["rows"], ref["rows"]) <= 1e-12
 
 
+# -- knows its design point (issue 13 item 5; gmt's side in tests/test_design_point.py) --------
+@pytest.mark.parametrize("fmi", ["2", "3"])
+def test_fmu_flags_a_drive_off_its_design_point_and_warns_once(fmi, fmu_dist, runner_dir):
+    # the issue's case: frequency left at 50 Hz, driven at 100 Hz (4000 steps, 40 ms)
+    res = run_runner("drive", runner_dir / f"design{fmi}", fmu_dist[fmi],
+                     "4000", "1e-5", "100", "1", "0")
+    assert res["statuses"] == [0]
+    flags = res["outside_design_point"]
+    # judged at the drive's first full period (upward crossings at 7.5 and 17.5 ms)
+    assert not any(flags[:1740]) and all(flags[1760:])
+    warnings = [m for s, _, m in res["logs"] if s == 1 and "design point" in m]
+    assert len(warnings) == 1 and "100 Hz" in warnings[0] and "50 Hz" in warnings[0]
+    assert res["operating_point"][-1] == [50.0, 1.0]
+
+
+@pytest.mark.parametrize("fmi", ["2", "3"])
+def test_fmu_follows_the_drive_with_follow_drive(fmi, fmu_dist, runner_dir):
+    res = run_runner("drive", runner_dir / f"follow{fmi}", fmu_dist[fmi],
+                     "4000", "1e-5", "100", "1", "0", "follow_drive=1")
+    assert res["statuses"] == [0] and not any(res["outside_design_point"])
+    f, i_m = res["operating_point"][-1]
+    assert f == pytest.approx(100.0, rel=1e-6) and i_m == pytest.approx(1.0, rel=1e-6)
+    y = [row[2] for row in res["rows"][3000:]]  # the last 10 ms: one 100 Hz period
+    # the model at 100 Hz: 36.0 um peak to peak (issue 13; tests/test_design_point.py
+    # checks it against the closed-form steady state)
+    assert max(y) - min(y) == pytest.approx(36.0e-6, rel=5e-3)
+
+
 # -- fails loudly -----------------------------------------------------------------------------
 @pytest.mark.parametrize("fmi", ["2", "3"])
 def test_c_host_gets_a_failing_status_and_the_reason_for_a_bad_parameter(fmi, c_host, unzipped):

@@ -48,17 +48,18 @@ _RUN_TIME_PATH = r"""
 import json, sys
 sys.path.insert(0, sys.argv[1])
 import smeha_fmu_interface as iface
-gmt, problem = iface.load_physics()
+import smeha_fmu_slave as slave
+gmt, problem = slave.load_physics()
 assert problem is None, problem
 values = {v.name: v.start for v in iface.VARIABLES if v.causality == "parameter"}
 for extra in ({}, {"compensated": True}, {"flux_density_amplitude": 0.0531, "frequency": 100.0},
               {"compensated": True, "branch_rule": "demand", "current_limit": 0.5}):
-    tr = iface.make_transducer(dict(values, **extra))
+    tr = slave.make_transducer(dict(values, **extra))
     for k in range(200):
         out = tr.step(1.0 + 0.5 * (k % 7), 1e-5 * (1 + k % 3), 3.0)
     tr.set_state(tr.get_state())
 try:
-    iface.make_transducer(dict(values, flux_density_amplitude=5.0))
+    slave.make_transducer(dict(values, flux_density_amplitude=5.0))
 except gmt.ParameterError as exc:
     assert "allowed range" in str(exc)
 print(json.dumps(sorted(sys.modules)))
@@ -80,3 +81,19 @@ def test_fmu_run_time_path_imports_numpy_only():
     top = {m.split(".")[0] for m in modules}
     assert not top & {"scipy", "control", "smeha", "matplotlib", "numba"}, sorted(
         top & {"scipy", "control", "smeha", "matplotlib", "numba"})
+
+
+def test_docs_list_every_fmu_variable_once():
+    # docs/FMU.md's interface table is the user's reference: one row per variable of the
+    # table the slaves register (names and causality)
+    from smeha.fmu_build import iface
+
+    doc = (FMU_SRC.parent / "docs" / "FMU.md").read_text()
+    rows = {}  # the first row naming each (later tables, e.g. the variants', come after)
+    for line in doc.splitlines():
+        if line.startswith("| `"):
+            rows.setdefault(line.split("|")[1].strip().strip("`"), line.split("|")[2].strip())
+    for v in iface.VARIABLES:
+        causality = {"calculatedParameter": "calculated parameter"}.get(v.causality,
+                                                                        v.causality)
+        assert rows.get(v.name) == causality, v.name

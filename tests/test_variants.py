@@ -17,6 +17,7 @@ import pytest
 
 import gmt
 from gmt import extensions as ext
+from gmt.design_point import DriveMonitor
 from gmt.extensions import FORMS, REGISTRY, VARIANTS, ModalBank, SectionBank
 from gmt.extensions.steady import mu_imag_from_losses, steady_state
 from gmt.variants import ModelVariant
@@ -246,7 +247,7 @@ def test_paper_variant_steps_bit_identically_to_the_default_and_to_simulate():
         assert type(tr.forward) is gmt.ForwardStepper
         y = [tr.forward.displacement] + [tr.step(float(u), H).displacement for u in i[:-1]]
         assert np.array_equal(np.array(y), ref["displacement"])
-        assert len(tr.get_state()) == 7
+        assert len(tr.get_state()) == 7 + DriveMonitor.STATE_SIZE  # + the design-point monitor
 
 
 # ------------------------------------------------------------------ stepped = periodic
@@ -395,9 +396,9 @@ def test_two_masses_carry_the_load_on_the_output():
     assert ends[1][0] - ends[0][0] == pytest.approx(-50.0 / P.stiffness, rel=1e-6)
     assert ends[1][1] - ends[0][1] == pytest.approx(-50.0 * (1 / P.stiffness + 1 / kj),
                                                     rel=1e-6)
-    # y, v, previous current and step, branch; saturation count, previous step; elapsed,
-    # sensed y; the rod's y_1, v_1
-    assert len(tr.get_state()) == 11
+    # y, v, previous current and step, branch; saturation count, previous step; the
+    # design-point monitor's; elapsed, sensed y; the rod's y_1, v_1
+    assert len(tr.get_state()) == 11 + DriveMonitor.STATE_SIZE
     # the force column of the two-input ZOH is TwoMassMechanics.zoh_matrices'
     ad, bd = tr.forward.form.zoh(H)
     ad0, bd0 = tr.forward.form.system.zoh_matrices(H)
@@ -485,7 +486,7 @@ def test_sensor_delay_moves_only_the_reading_by_the_fifo_of_delay_samples():
     assert np.abs(s[k] - fifo).max() <= 1e-12 * np.ptp(y)
     assert np.all(s[:n] == y[0])  # before t = tau: the rest reading
     # the delay line holds about tau / h samples
-    assert len(tr.get_state()) // 2 - 4 == pytest.approx(d, abs=2)
+    assert (len(tr.get_state()) - DriveMonitor.STATE_SIZE) // 2 - 4 == pytest.approx(d, abs=2)
 
 
 def test_reidentified_mechanics_rest_on_the_new_stiffness():
@@ -537,7 +538,7 @@ def test_a_state_of_the_wrong_size_is_refused():
         with pytest.raises(gmt.ParameterError, match="state"):
             tr.set_state(good[:-1] if form != "two_dof" else good[:-2])
         assert tr.get_state() == good  # nothing restored in part
-    with pytest.raises(gmt.ParameterError, match="needs 7"):
+    with pytest.raises(gmt.ParameterError, match=f"needs {7 + DriveMonitor.STATE_SIZE}"):
         gmt.Transducer().set_state(tr.get_state())
 
 

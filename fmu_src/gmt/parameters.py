@@ -178,11 +178,17 @@ class Excitation:
         Measured flux-density amplitude B_m, [T]. ``0`` (the default) means
         "not measured": the model then takes it from a calibration table
         (:mod:`gmt.calibration`, by default built from Table 1).
+    follow_drive : bool
+        ``False`` (default): the model stays at (f, I_m) and flags a drive that
+        departs from it (:mod:`gmt.design_point`). ``True``: the operating point
+        follows the sinusoid the transducer is driven with, measured over each
+        period (B_m then from the calibration); DC and steps stay flagged.
     """
 
     frequency: float = 50.0
     current_amplitude: float = 1.0
     flux_density_amplitude: float = 0.0
+    follow_drive: bool = False
 
     def __post_init__(self):
         check_range("frequency", self.frequency, 0.0, 1000.0, unit="Hz",
@@ -191,6 +197,8 @@ class Excitation:
                     unit="A", high_open=False)
         check_range("flux_density_amplitude", self.flux_density_amplitude, 0.0,
                     2.0, unit="T", low_open=False)
+        if not isinstance(self.follow_drive, bool):
+            raise ParameterError(f"follow_drive = {self.follow_drive!r} must be True or False")
 
     @property
     def angular_frequency(self) -> float:

@@ -17,6 +17,13 @@ t_n = n T_c from the start (the control signal held over a step is its value
 at every sample the step reaches) and its DAC holds the current until the
 next sample; a step that crosses a sample instant is split there. The
 uncompensated amplifier follows u continuously: i = K_a u over each step.
+
+A :class:`gmt.design_point.DriveMonitor` watches the coil current the model
+sees: ``outside_design_point`` in the output says when it departs from the
+sinusoid at (f, I_m) the complex permeability is defined for, and with
+``Excitation.follow_drive`` the operating point follows the measured drive
+(the paper's model only; the compensator keeps the parameters' point, as the
+product's compensator is designed on it).
 """
 from __future__ import annotations
 
@@ -24,6 +31,7 @@ import math
 from typing import NamedTuple
 
 from .calibration import DEFAULT_CALIBRATION
+from .design_point import DriveMonitor
 from .errors import ParameterError
 from .forward import ForwardStepper, Magnetics, operating_point
 from .inverse import InverseCompensator
@@ -44,6 +52,8 @@ class TransducerOutput(NamedTuple):
     #: what a displacement sensor on the rod reads at the end of the step, [m]: the
     #: displacement, except with a sensor delay (variant ``transport_delay``)
     sensed_displacement: float
+    #: the coil current departs from the model's operating point (gmt.design_point)
+    outside_design_point: bool = False
 
 
 class RodMechanics(NamedTuple):
@@ -91,7 +101,12 @@ class Transducer:
         self.variant = variant or ModelVariant()
         if not isinstance(self.variant, ModelVariant):
             raise ParameterError(f"variant = {variant!r} must be a gmt.ModelVariant")
+        if self.excitation.follow_drive and not self.variant.is_paper:
+            raise ParameterError("follow_drive = True needs the paper's model (model_variant "
+                                 f"'paper'), not {self.variant.name!r}")
+        self.calibration = calibration
         self.point = operating_point(self.params, self.excitation, calibration)
+        self.design_point = self.point
         self.forward = make_stepper(self.params, self.point, self.variant)
         self.compensator = (InverseCompensator(self.params, self.point, self.drive)
                             if self.drive.compensated else None)
@@ -103,6 +118,10 @@ class Transducer:
         self.sample_period = (self.drive.compensator_period if self.compensator is not None
                               else 0.0)
         self._ns = 4 if self.sample_period > 0.0 else 0
+        #: watches the coil current against the operating point (gmt.design_point)
+        self.monitor = DriveMonitor(self.point.frequency, self.point.current_amplitude,
+                                    steps=self.compensator is None,
+                                    follow=self.excitation.follow_drive)
         self.reset()
 
     def reset(self):
@@ -116,6 +135,31 @@ class Transducer:
         # what its DAC holds: current [A], demand [m], saturated (1/0)
         self._to_sample = 0.0
         self._held = (math.nan, math.nan, 0.0)
+        self.monitor.reset()
+        self._move_point(self.monitor.model)
+
+    def _move_point(self, model) -> None:
+        """Evaluate the forward model at the operating point (f, I_m) = ``model``."""
+        f, im = model
+        point = self.point
+        if (f, im) == (point.frequency, point.current_amplitude):
+            return
+        if (f, im) == self.monitor.design:
+            self.point = self.design_point
+        else:
+            self.point = operating_point(self.params, Excitation(f, im, follow_drive=True),
+                                         self.calibration)
+        self.forward.point = self.point
+
+    def _observe(self, current: float, duration: float) -> None:
+        """Show the monitor the current held over ``duration``; follow the drive if asked."""
+        model = self.monitor.observe(current, duration)
+        if model is not None:
+            try:
+                self._move_point(model)
+            except ParameterError:  # no operating point there: stay, and say so
+                self.monitor.set_model((self.point.frequency, self.point.current_amplitude))
+                self.monitor.depart(1)
 
     def get_state(self) -> tuple:
         """Every piece of state as a flat tuple of floats.
@@ -123,7 +167,8 @@ class Transducer:
         The paper stepper's values, the compensator's, the saturation count and
         the previous step, the sampled compensator's time to its next sample and
         held current, demand and saturation flag (with ``compensator_period`` > 0
-        only), then the variant's (none for the paper's model; for a sensor
+        only), the drive monitor's (which holds the operating point the model
+        follows), then the variant's (none for the paper's model; for a sensor
         delay their number varies with the delay line).
         """
         comp = self.compensator.get_state() if self.compensator is not None else ()
@@ -131,13 +176,13 @@ class Transducer:
         nf = self._nf
         sampler = (self._to_sample,) + self._held if self._ns else ()
         return (forward[:nf] + comp + (float(self.saturation_count), self.previous_step)
-                + sampler + forward[nf:])
+                + sampler + self.monitor.get_state() + forward[nf:])
 
     def set_state(self, state) -> None:
         """Restore a state from :meth:`get_state`."""
         state = tuple(map(float, state))
-        nf, nc, ns = self._nf, self._nc, self._ns
-        fixed = nf + nc + 2 + ns
+        nf, nc, ns, nm = self._nf, self._nc, self._ns, DriveMonitor.STATE_SIZE
+        fixed = nf + nc + 2 + ns + nm
         if self.variant.is_paper:
             bad, need = len(state) != fixed, f"{fixed}"
         else:  # the variant's elapsed time and sensed displacement, then its memory
@@ -152,7 +197,9 @@ class Transducer:
         self.previous_step = state[nf + nc + 1]
         if ns:
             self._to_sample = state[nf + nc + 2]
-            self._held = state[nf + nc + 3:fixed]
+            self._held = state[nf + nc + 3:nf + nc + 2 + ns]
+        self.monitor.set_state(state[fixed - nm:fixed])
+        self._move_point(self.monitor.model)
 
     def rod_mechanics(self) -> RodMechanics:
         """What the magnetostrictive force drives: eq 27's m, c, K or the variant's masses.
@@ -194,13 +241,15 @@ class Transducer:
             return self._sampled_step(control, step, external_force)
         elapsed = self.previous_step
         current, demand, saturated = self.coil_current(control, elapsed)
+        self._observe(current, step)
         res = self.forward.step(current, step, external_force)
         if saturated:
             self.saturation_count += 1
         self.previous_step = step
         sensed = getattr(res, "sensed_displacement", res.displacement)
         return TransducerOutput(current, res.magnetics, res.displacement, res.velocity,
-                                demand, saturated, self.saturation_count, sensed)
+                                demand, saturated, self.saturation_count, sensed,
+                                self.monitor.outside)
 
     def _sampled_step(self, control, step, external_force):
         """One step with the compensator sampled every T_c and its current held between.
@@ -226,6 +275,7 @@ class Transducer:
                     self.saturation_count += 1
                 self._to_sample += period
             piece = left if left - self._to_sample <= tol else self._to_sample
+            self._observe(self._held[0], piece)
             res = self.forward.step(self._held[0], piece, external_force, held=held)
             self._to_sample -= piece
             left -= piece
@@ -235,7 +285,7 @@ class Transducer:
         sensed = getattr(res, "sensed_displacement", res.displacement)
         return TransducerOutput(self._held[0], res.magnetics, res.displacement, res.velocity,
                                 self._held[1], bool(self._held[2]), self.saturation_count,
-                                sensed)
+                                sensed, self.monitor.outside)
 
     @property
     def sensed_displacement(self) -> float:

@@ -1,0 +1,331 @@
+"""The callbacks both FMU slaves share: build gmt's transducer, step it, save and restore it.
+
+``smeha_gmt_fmu.py`` (FMI 2.0) and ``smeha_gmt_fmu3.py`` (FMI 3.0) put
+:class:`TransducerSlave` before their pythonfmu base class and register the
+variables of ``smeha_fmu_interface``; this module holds everything they do alike:
+building :class:`gmt.Transducer` from the parameters (:func:`make_transducer`),
+the outputs of a step, the FMU state, and what an instance does when it cannot
+run (a bad parameter, a package missing). No physics here: gmt computes.
+
+Bundled in the FMU as ``resources/smeha_fmu_slave.py`` (a name unique to this
+project); imports nothing from ``smeha`` and gmt only through
+``smeha_fmu_interface.physics`` (inside an FMU, the bundled copy).
+"""
+from __future__ import annotations
+
+import operator
+
+from smeha_fmu_interface import (BY_NAME, DRIVE_PARAMETERS, EXCITATION_PARAMETERS, MECHANICS,
+                                 MODEL_VARIANTS, OUTPUTS, REAL_OUTPUTS, TRANSDUCER_PARAMETERS,
+                                 VARIABLE_NAMES, coerce, parameter_values, physics)
+
+#: One C-level getter of every variable's value, in VARIABLES order: a saved FMU state
+#: holds the values as a tuple in this order (a co-simulation master saves and restores
+#: the state at every step, and a dict of ~50 getattrs was most of it)
+_all_values = operator.attrgetter(*VARIABLE_NAMES)
+
+
+def make_transducer(values: dict):
+    """Build the ``gmt.Transducer`` for a set of parameter values.
+
+    Parameters
+    ----------
+    values : dict
+        Parameter name -> value, as :func:`parameter_values` returns.
+
+    Raises
+    ------
+    gmt.ParameterError
+        A value outside the range gmt accepts, or an unknown ``model_variant``.
+    """
+    gmt = physics()  # inside an FMU: the bundled copy (resources/smeha_fmu_gmt)
+
+    variant = model_variant(gmt, values["model_variant"], values["variant_parameters"])
+    params = gmt.TransducerParameters(**{n: values[n] for n in TRANSDUCER_PARAMETERS})
+    excitation = gmt.Excitation(**{n: values[n] for n in EXCITATION_PARAMETERS})
+    drive = gmt.DriveParameters(**{n: values[n] for n in DRIVE_PARAMETERS})
+    return gmt.Transducer(params, excitation, drive, variant=variant)
+
+
+def model_variant(gmt, name: str, parameters: str):
+    """The ``gmt.ModelVariant`` of the ``model_variant`` and ``variant_parameters`` strings.
+
+    Raises
+    ------
+    gmt.ParameterError
+        An unknown variant, parameters that are not a JSON object, or a
+        missing, unknown or out-of-range parameter; the message names
+        ``model_variant`` or ``variant_parameters`` and the offending key.
+    """
+    import json
+
+    if name not in MODEL_VARIANTS:  # a combination: members of MODEL_VARIANTS joined by "+"
+        try:
+            gmt.extensions.parse_name(name)
+        except gmt.ParameterError as exc:
+            raise gmt.ParameterError(f"model_variant = {name!r} is not one of {MODEL_VARIANTS} "
+                                     f"nor a combination of them joined by '+' ({exc})") from None
+    text = parameters.strip() or "{}"
+    try:
+        values = json.loads(text)
+    except ValueError as exc:
+        raise gmt.ParameterError(f"variant_parameters = {text!r} is not valid JSON "
+                                 f"({exc}); give a JSON object such as "
+                                 '{"delay_s": 0.0005}') from None
+    if not isinstance(values, dict):
+        raise gmt.ParameterError(f"variant_parameters = {text!r} is not a JSON object")
+    try:
+        return gmt.ModelVariant.from_name(name, values)
+    except gmt.ParameterError as exc:
+        raise gmt.ParameterError(f"variant_parameters = {text!r} for model_variant "
+                                 f"{name!r}: {exc}") from None
+
+
+def output_values(out, point) -> tuple:
+    """Real outputs (in :data:`REAL_OUTPUTS` order), ``saturated``, ``saturation_count`` and
+    ``outside_design_point``.
+
+    Parameters
+    ----------
+    out : gmt.TransducerOutput
+    point : gmt.OperatingPoint
+        The operating point the transducer's model runs at now.
+    """
+    m = out.magnetics
+    reals = (out.current, out.displacement, out.velocity, out.sensed_displacement, m.field,
+             m.flux_density, m.magnetization, m.strain, m.force, point.frequency,
+             point.current_amplitude)
+    return (tuple(float(x) for x in reals), bool(out.saturated), int(out.saturation_count),
+            bool(out.outside_design_point))
+
+
+def load_physics(problem: str | None = None):
+    """(gmt module, None), or (None, the problem) when it cannot be imported.
+
+    Parameters
+    ----------
+    problem : str, optional
+        A reason known beforehand (``smeha_fmu_runtime.missing_packages_message``):
+        gmt is then not imported. Every instance of the slave reports the problem
+        instead of crashing the host.
+    """
+    if problem:
+        return None, problem
+    try:
+        return physics(), None
+    except Exception as exc:
+        return None, (f"cannot import gmt ({type(exc).__name__}: {exc}); the FMU needs numpy "
+                      "importable by the Python of the host process")
+
+
+class TransducerSlave:
+    """The callbacks both slaves share: a mixin placed before the pythonfmu(3) base.
+
+    The slave class sets the FMI flavour (status values, function names for
+    messages, its physics module) and registers its variables; this class
+    builds :class:`gmt.Transducer` on leaving initialisation, steps it, and
+    saves and restores the FMU state. Exceptions do not reach pythonfmu
+    uninvited: each callback catches them and logs through the FMU logger.
+    A step with a bad input returns Discard with the state rolled back (the
+    host may retry). An *unusable* instance -- a bad parameter, a package
+    missing -- cannot return Error from initialisation (pythonfmu turns every
+    exception there into Fatal), so its first and every later ``doStep``
+    fails with what the slave's :meth:`_fail_step` returns, the strongest
+    status the FMI flavour can give, and the reason is also written once to
+    the process's stderr (a host may run without FMU logging). A slave with
+    more state than the variables (FMI 3.0's ``time``) extends
+    :meth:`_after_step`, :meth:`_extra_state` and :meth:`_restore_extra`.
+    """
+
+    MODEL_NAME = ""
+    STATUS_ERROR = STATUS_WARNING = STATUS_DISCARD = None
+    EXIT_INITIALIZATION = "fmi2ExitInitializationMode"
+    GET_STATE = "fmi2GetFMUstate"
+    SET_STATE = "fmi2SetFMUstate"
+    PHYSICS = None  # the gmt module the slave imported
+    IMPORT_PROBLEM = None
+
+    def _init_transducer(self):
+        self._transducer = None  # gmt.Transducer, built on leaving initialisation
+        self._built_from = None  # parameter values it was built from
+        self._problem = self.IMPORT_PROBLEM or f"not initialised (call {self.EXIT_INITIALIZATION})"
+        self._told_stderr = False  # the unusable instance's reason goes to stderr once
+        self._warned_design_point = False  # the design-point warning is logged once
+        if self.IMPORT_PROBLEM:
+            self._report(self.IMPORT_PROBLEM)
+
+    def _report(self, message: str, status=None):
+        self.log(message, self.STATUS_ERROR if status is None else status)
+
+    def _parameter_setter(self, name):
+        def setter(value):
+            try:
+                if self._transducer is not None:
+                    self._report(f"{name}: a fixed parameter cannot change after "
+                                 f"initialisation; {value!r} ignored (reset first)")
+                    return
+                setattr(self, name, coerce(name, value))
+            except Exception as exc:  # never raise into pythonfmu
+                self._report(f"{name} = {value!r} rejected: {exc}")
+        return setter
+
+    def _build(self, values: dict) -> bool:
+        """Build the gmt objects from parameter values; log and return False on error."""
+        try:
+            self._transducer = make_transducer(values)
+        except Exception as exc:
+            self._transducer, self._built_from = None, None
+            self._problem = f"initialisation failed: {type(exc).__name__}: {exc}"
+            self._report(self._problem)
+            return False
+        self._built_from = dict(values)
+        self._problem = None
+        return True
+
+    def _rest_outputs(self):
+        for name in OUTPUTS:
+            setattr(self, name, BY_NAME[name].initial_value)
+        forward = self._transducer.forward
+        self.displacement, self.velocity = float(forward.displacement), float(forward.velocity)
+        self.sensed_displacement = float(self._transducer.sensed_displacement)
+        point = self._transducer.point
+        self.operating_frequency = float(point.frequency)
+        self.operating_current_amplitude = float(point.current_amplitude)
+        for name, value in zip(MECHANICS, self._transducer.rod_mechanics()):
+            setattr(self, name, float(value))
+
+    def exit_initialization_mode(self):
+        from pathlib import Path
+        try:
+            if self._build(parameter_values(self)):
+                self._rest_outputs()
+                bundled = Path(self.resources or ".").resolve()
+                used = Path(self.PHYSICS.__file__).resolve()
+                if bundled not in used.parents:
+                    self._report(f"gmt is imported from {used.parent}, not from the FMU's "
+                                 f"resources: another FMU loaded smeha_fmu_gmt first",
+                                 self.STATUS_WARNING)
+        except Exception as exc:
+            self._transducer = None
+            self._problem = f"initialisation failed: {type(exc).__name__}: {exc}"
+            self._report(self._problem)
+
+    def do_step(self, current_time, step_size):
+        transducer = self._transducer
+        if transducer is None:
+            return self._refuse_step(current_time)
+        saved = transducer.get_state()
+        try:
+            out = transducer.step(self.u, step_size, self.external_force)
+            reals, self.saturated, self.saturation_count, self.outside_design_point = (
+                output_values(out, transducer.point))
+        except Exception as exc:
+            try:
+                transducer.set_state(saved)
+            except Exception:  # pragma: no cover - defensive
+                self._transducer, self._problem = None, "state lost after a failed step"
+            self._report(f"doStep at t = {current_time!r} s, step {step_size!r} s discarded: "
+                         f"{type(exc).__name__}: {exc}", self.STATUS_DISCARD)
+            return False
+        for name, value in zip(REAL_OUTPUTS, reals):
+            setattr(self, name, value)
+        if self.outside_design_point and not self._warned_design_point:
+            self._warned_design_point = True  # once per instance
+            self._report(transducer.monitor.describe(), self.STATUS_WARNING)
+        self._after_step(current_time, step_size)
+        return True
+
+    def _refuse_step(self, current_time):
+        """An unusable instance's step: log the reason (Error), tell stderr once, fail."""
+        import sys
+
+        message = f"doStep at t = {current_time!r} s refused: {self._problem}"
+        self._report(message)
+        if not self._told_stderr:
+            self._told_stderr = True
+            sys.stderr.write(f"{self.MODEL_NAME} instance {self.instance_name!r}: {message}\n")
+            sys.stderr.flush()
+        return self._fail_step(message)
+
+    def _fail_step(self, message: str):
+        """What ``do_step`` of an unusable instance returns (or raises): the slave's choice."""
+        raise NotImplementedError
+
+    def _after_step(self, current_time, step_size):
+        """Hook after a successful step (FMI 3.0 advances its ``time``)."""
+
+    def _extra_state(self) -> dict:
+        """State beyond the variables, the parameters and the transducer (FMI 3.0: time)."""
+        return {}
+
+    def _restore_extra(self, state: dict) -> None:
+        """Restore what :meth:`_extra_state` saved."""
+
+    def _get_fmu_state(self):
+        try:
+            transducer = self._transducer
+            state = {
+                "values": _all_values(self),
+                "built_from": self._built_from,
+                "transducer": list(transducer.get_state()) if transducer is not None else None,
+                "problem": self._problem,
+                # values are already of their variables' types (not so after a JSON
+                # round trip, which _fmu_state_from_bytes marks False)
+                "typed": True,
+            }
+            state.update(self._extra_state())
+            return state
+        except Exception as exc:
+            self._report(f"{self.GET_STATE} failed: {type(exc).__name__}: {exc}")
+            return {"invalid": str(exc)}
+
+    def _set_fmu_state(self, state):
+        try:
+            if "invalid" in state:
+                raise ValueError(f"the state is invalid: {state['invalid']}")
+            built_from = state["built_from"]
+            if built_from is None:
+                self._transducer, self._built_from = None, None
+            elif (self._transducer is None
+                  or (built_from is not self._built_from and built_from != self._built_from)):
+                if not self._build(built_from):
+                    return
+            if self._transducer is not None:
+                self._transducer.set_state(state["transducer"])
+            if state.get("typed"):
+                # only what changed since (inputs, outputs): the rest already holds these values
+                for name, now, value in zip(VARIABLE_NAMES, _all_values(self), state["values"]):
+                    if now is not value and now != value:
+                        setattr(self, name, value)
+            else:
+                for name, value in state["variables"].items():
+                    setattr(self, name, coerce(name, value))
+            self._restore_extra(state)
+            self._problem = state["problem"]
+        except Exception as exc:
+            self._report(f"{self.SET_STATE} failed: {type(exc).__name__}: {exc}")
+
+    @staticmethod
+    def _fmu_state_to_bytes(state):
+        import json
+        try:
+            # "typed" describes the in-memory copy, not the state: not serialised; the
+            # values are written by name
+            out = {k: v for k, v in state.items() if k not in ("typed", "values")}
+            if "values" in state:
+                out["variables"] = dict(zip(VARIABLE_NAMES, state["values"]))
+            return json.dumps(out).encode("utf-8")
+        except Exception as exc:
+            return json.dumps({"invalid": f"not serialisable: {exc}"}).encode("utf-8")
+
+    @classmethod
+    def _fmu_state_from_bytes(cls, state):
+        import json
+        try:
+            out = json.loads(bytes(state).decode("utf-8"))
+            if not isinstance(out, dict):
+                raise ValueError("not a JSON object")
+            out["typed"] = False  # coerce each value again on restore
+            return out
+        except Exception as exc:
+            return {"invalid": f"not a serialised {cls.__name__} state: {exc}"}
