@@ -97,3 +97,61 @@ def test_docs_list_every_fmu_variable_once():
         causality = {"calculatedParameter": "calculated parameter"}.get(v.causality,
                                                                         v.causality)
         assert rows.get(v.name) == causality, v.name
+
+
+# -- the run-time set-up (fmu_src/smeha_fmu_runtime.py) in pieces -------------------------------
+def _runtime():
+    from smeha.fmu_build import runtime
+    return runtime
+
+
+def test_environment_record_round_trips_through_its_text():
+    runtime = _runtime()
+    record = {"version": ["3.11.7 (main) [GCC 12.2.0]"], "base_prefix": ["/opt/py"],
+              "stdlib": ["/opt/py/lib/python311.zip", "/opt/py/lib/python3.11"],
+              "site": ["/venv/lib/python3.11/site-packages"]}
+    assert runtime.parse_environment(runtime.format_environment(record)) == record
+
+
+def test_the_build_records_this_python():
+    # what smeha.fmu_native writes: this interpreter, its shared libpython, numpy's site
+    import sys
+
+    import numpy
+
+    from smeha import fmu_native
+
+    record = fmu_native.environment_record(["numpy"])
+    assert record["version"] == [sys.version]
+    assert record["site"] == [str(Path(numpy.__file__).resolve().parents[1])]
+    assert Path(record["libpython"][0]).is_file()
+    assert all(p.startswith(sys.base_prefix) for p in record["stdlib"])
+
+
+def test_standard_locations_are_those_of_a_prefix():
+    runtime = _runtime()
+    roots = ["/usr"]
+    assert runtime._in_standard_location("/usr/lib/python3.11", roots)
+    assert runtime._in_standard_location("/usr/lib/python311.zip", roots)
+    assert runtime._in_standard_location("/usr/lib/python3/dist-packages", roots)
+    assert runtime._in_standard_location("/usr/local/lib/python3.11/dist-packages", roots)
+    assert not runtime._in_standard_location("/usr/share/fmu/resources", roots)
+    assert not runtime._in_standard_location("/usrx/lib/python3.11", roots)
+
+
+def test_a_missing_package_is_looked_for_in_the_build_environment_and_named(tmp_path,
+                                                                             monkeypatch):
+    import sys
+
+    runtime = _runtime()
+    site = tmp_path / "site"
+    (site / "smeha_probe_pkg").mkdir(parents=True)
+    (site / "smeha_probe_pkg" / "__init__.py").write_text("")
+    monkeypatch.setattr(sys, "path", list(sys.path))
+    assert runtime.find_packages({"site": [str(site)]}, ("smeha_probe_pkg",)) == []
+    assert str(site) == sys.path[-1]  # appended after the host's own
+    monkeypatch.setattr(runtime, "REPORT", {"missing": ["smeha_absent_pkg"],
+                                            "site": ["/nowhere"]})
+    message = runtime.missing_packages_message()
+    assert "smeha_absent_pkg" in message and "/nowhere" in message
+    assert runtime.find_packages({"site": []}, ("smeha_absent_pkg",)) == ["smeha_absent_pkg"]
