@@ -329,6 +329,27 @@ def _u(t):
     return 1.5 + 1.5 * math.cos(2.0 * math.pi * 100.0 * t)
 
 
+def test_rounding_does_not_pick_the_root(params):
+    """Figure 9's "else" branch for a tie: two samples equal to round-off (80 Hz at 10 kHz,
+    the minimum of u = a + a cos(2 pi f t) half-way between two samples) give the same current
+    whichever way the last bit falls (inverse.TIE = 1e-12 of u's size); a real rise of 1e-9
+    relative still takes eq 36's rising root."""
+    point = gmt.operating_point(params, gmt.Excitation(80.0, 1.0))
+    drive = gmt.DriveParameters(compensated=True)  # branch_rule "control", Figure 9's
+    u = 0.3
+
+    def second(value):
+        comp = inverse.InverseCompensator(params, point, drive)
+        comp.step(u, math.nan)
+        comp.step(u, 1e-4)  # rate 0: the demand coordinate follows u alone
+        return comp.step(value, 1e-4).current
+
+    falling = second(u)
+    assert second(u * (1 + 4e-16)) == falling
+    assert second(u * (1 - 4e-16)) == falling
+    assert second(u * (1 + 1e-9)) != falling
+
+
 def test_sampled_compensator_holds_its_current_between_samples():
     """T_c = 100 us stepped at 10 us: the current changes only at t = n T_c, and there it is
     the current of the same compensator stepped once per sample (T_c = 0 at h = T_c)."""

@@ -140,6 +140,18 @@ def stroke(params: TransducerParameters, point: OperatingPoint) -> tuple[float, 
     return low, scale * (mb + amp) ** 2
 
 
+#: Two samples closer than this, relative to their size, are a tie (Figure 9's "else"
+#: branch): exact arithmetic gives a tie for samples placed symmetrically about an extreme
+#: of u (80 Hz sampled at 10 kHz: the minimum falls half-way between two samples), and the
+#: last bits of two evaluations of u must not decide the root.
+TIE = 1e-12
+
+
+def _rises(value, previous) -> bool:
+    """value > previous by more than :data:`TIE` of their size."""
+    return value - previous > TIE * max(abs(value), abs(previous))
+
+
 class CompensatorOutput(NamedTuple):
     """One sample of the compensator."""
 
@@ -228,9 +240,9 @@ class InverseCompensator:
         roots = current_roots(self.point.mu_real, self.point.mu_imag, phi0,
                               self.point.current_amplitude)
         if self.drive.branch_rule == "control":  # Figure 9: u(n) > u(n-1)
-            rising = (not first) and control > self.previous_control
+            rising = (not first) and _rises(control, self.previous_control)
         else:  # "demand": direction of the magnetisation eq 34 asks for
-            rising = (not first) and phi0 > self.previous_phi0
+            rising = (not first) and _rises(phi0, self.previous_phi0)
         current = roots.rising if rising else roots.falling
         limit = self.drive.current_limit
         saturated = roots.out_of_reach or abs(current) > limit
