@@ -5,7 +5,7 @@ and the flow is accumulated on the fly (:class:`system_models.flowcheck.RunningF
 so resident memory should stay flat after the first cycles. Prints the RSS
 every ``--report-every`` simulated seconds, the peak RSS and the flow.
 
-Usage: python benchmarks/cosim_memory.py [--duration 10] [--step 25e-6] [--frequency 100]
+Usage: python benchmarks/cosim_memory.py [--duration 10] [--step S] [--frequency 100]
        [--mode compensated] [--branch-rule demand] [--backend fmu|direct] [--json]
 """
 from __future__ import annotations
@@ -20,6 +20,7 @@ from pathlib import Path
 import gmt
 from smeha import flowstudy
 from system_models import presets
+from system_models.defaults import DEFAULT_STEP
 from system_models.cosim import CosimSettings, DirectTransducer, FmuTransducer, cosimulate
 from system_models.flowcheck import RunningFlow
 
@@ -30,7 +31,7 @@ from fmu_memory import rss_mb  # noqa: E402
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=10.0)
-    ap.add_argument("--step", type=float, default=25e-6)
+    ap.add_argument("--step", type=float, default=DEFAULT_STEP)
     ap.add_argument("--frequency", type=float, default=100.0)
     ap.add_argument("--mode", choices=flowstudy.MODES, default="compensated")
     ap.add_argument("--branch-rule", choices=("control", "demand"), default="demand")
@@ -49,8 +50,7 @@ def main(argv=None):
                                  gmt.DriveParameters(compensated=compensated,
                                                      branch_rule=args.branch_rule))
     settings = CosimSettings(duration=args.duration, step=args.step,
-                             load_force=presets.REALISTIC_LOAD, controller_period=10e-6,
-                             hydraulic_step=10e-6)
+                             load_force=presets.REALISTIC_LOAD)
     flow = RunningFlow()
     samples = []
     next_report = [0.0]

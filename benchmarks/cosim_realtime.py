@@ -1,143 +1,185 @@
-"""Real-time factor of the EHA co-simulation at the step that keeps the flow within 0.5 %.
+"""Real-time factor of the EHA co-simulation at ``smeha simulate``'s defaults, and what it costs.
 
-1. A converged reference: the mean cylinder flow at a 2.5 us communication
-   step with 1.25 us hydraulic substeps (gmt coupled directly; the FMU gives
-   the same numbers bit for bit, ``tests/test_fmu_cosim.py``). Halving both
-   again moves it by ~0.05 %: the phase of the piston's ringing at the valve
-   switches.
-2. The flow at each candidate step and its difference from the reference;
-   the largest step within ``--tolerance`` (0.5 %) is the benchmark's step.
-3. Wall time of ``--duration`` simulated seconds at that step, through the FMU
-   with fmpy and with gmt coupled directly in one process, ``--repeats`` times
-   each (median): the real-time factor (simulated s per wall s), the FMI
-   overhead (FMU / direct) and the cost per communication step.
+1. Real time: the default case of ``smeha simulate`` (100 Hz, compensated, realistic
+   circuit, :class:`smeha.flowstudy.Case`'s defaults: the force port, its default step)
+   over ``--duration`` simulated seconds, timed by the run's own ``wall_s``, through the
+   FMU with fmpy and with gmt in one process, ``--repeats`` times each, interleaved
+   (median): the real-time factor (simulated s per wall s) and the FMI overhead (FMU /
+   direct, same run).
+2. The cost of a communication step, split by one instrumented run per backend: the
+   transducer (its steps through fmpy, or gmt's), the plant (the compiled kernel's calls)
+   and the master (the rest: the grid, the controller, the records); with the plant's work
+   per step (TR-BDF2 substeps, Newton iterations, Jacobians).
+3. The plant window: one compiled call per communication step against ``window`` steps a
+   call (CosimSettings.window), direct backend.
+4. Convergence: the flow at the default step h, h/2 and h/4 (both modes), and at h with
+   the plant's longest substep varied; against a fine reference (h/4, 5 us substeps).
 
-The valve controller samples at 10 us and the hydraulics take substeps of at
-most 10 us whatever the communication step (``CosimSettings.controller_period``
-and ``hydraulic_step``), so the step only sets how often the transducer and
-the circuit exchange force and motion -- and, compensated, how often the
-compensator samples u: its rate terms are backward differences of those
-samples (Figure 9), a first-order error in h of the compensator itself.
-
-Usage: python benchmarks/cosim_realtime.py [--frequency 100] [--mode compensated]
-       [--branch-rule demand] [--steps 10e-6,20e-6,...] [--duration 1] [--repeats 3] [--json]
+Usage: python benchmarks/cosim_realtime.py [--duration 2] [--repeats 3] [--cycles 8] [--json]
 """
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import resource
 import statistics
 import time
 
+import numpy as np
+
 import gmt
 from smeha import flowstudy
-from system_models import presets
-from system_models.cosim import CosimSettings, DirectTransducer, FmuTransducer, cosimulate
-from system_models.flowcheck import flow_check
-
-CONTROLLER_PERIOD = 10e-6
-HYDRAULIC_STEP = 10e-6
+from system_models import cosim, kernel, presets
+from system_models.defaults import DEFAULT_STEP, HYDRAULIC_STEP
 
 
-def run(args, step, duration, backend, fmu=None, hydraulic_step=None):
-    """(flow [m^3/s] or None, wall [s], communication steps) of one co-simulation."""
-    compensated = args.mode == "compensated"
-    control, _ = flowstudy.control_signal(args.mode, args.frequency)
-    if backend == "fmu":
-        trans = FmuTransducer(fmu, {"frequency": args.frequency, "current_amplitude": 1.0,
-                                    "compensated": compensated,
-                                    "branch_rule": args.branch_rule})
-    else:
-        trans = DirectTransducer(gmt.TransducerParameters(), gmt.Excitation(args.frequency, 1.0),
-                                 gmt.DriveParameters(compensated=compensated,
-                                                     branch_rule=args.branch_rule))
-    settings = CosimSettings(duration=duration, step=step, load_force=presets.REALISTIC_LOAD,
-                             controller_period=CONTROLLER_PERIOD,
-                             hydraulic_step=hydraulic_step or HYDRAULIC_STEP)
-    wall = time.perf_counter()
+def default_case(duration, **changes):
+    """smeha simulate --frequency 100 --mode compensated --duration D (its defaults)."""
+    case = flowstudy.Case(100.0, "compensated", cycles=duration * 100.0)
+    return dataclasses.replace(case, **changes)
+
+
+def timed(case, fmu):
+    """wall_s of one run (the run's own figure), its flow, and the process's CPU time over
+    the run (on a machine shared with other jobs the wall time includes waiting for a core;
+    the CPU time is what the run costs on one)."""
+    cpu = time.process_time()
+    _, _, row = flowstudy.run_case(case, fmu)
+    return row["wall_s"], row["flow_sim_m3_s"], time.process_time() - cpu
+
+
+def split(case, fmu):
+    """One run with its transducer and plant calls timed: per step figures [us]."""
+    acc = {"transducer": 0.0, "plant": 0.0}
+    counts = np.zeros(3, dtype=np.int64)
+    backend = cosim.FmuTransducer if case.backend == "fmu" else cosim.DirectTransducer
+    drive_step, plant_run = backend.drive_step, kernel.plant_run
+
+    def timed_drive(self, *args):
+        t0 = time.perf_counter()
+        out = drive_step(self, *args)
+        acc["transducer"] += time.perf_counter() - t0
+        return out
+
+    def timed_plant(*args, **kwargs):
+        t0 = time.perf_counter()
+        out = plant_run(*args, counts=counts, **kwargs)
+        acc["plant"] += time.perf_counter() - t0
+        return out
+
+    backend.drive_step, kernel.plant_run = timed_drive, timed_plant
     try:
-        rec = cosimulate(trans, control, presets.realistic_circuit(), settings)
+        record, _, row = flowstudy.run_case(case, fmu)
     finally:
-        trans.close()
-    wall = time.perf_counter() - wall
-    try:
-        q = flow_check(rec, args.frequency, presets.realistic_circuit().chamber.piston_area).flow_sim
-    except ValueError:
-        q = None
-    return q, wall, len(rec) - 1
+        backend.drive_step, kernel.plant_run = drive_step, plant_run
+    n = len(record) - 1
+    wall = row["wall_s"]
+    return {"steps": n, "wall_s": wall, "us_per_step": wall / n * 1e6,
+            "transducer_us": acc["transducer"] / n * 1e6, "plant_us": acc["plant"] / n * 1e6,
+            "master_us": (wall - acc["transducer"] - acc["plant"]) / n * 1e6,
+            "substeps_per_step": counts[0] / n, "newton_per_step": counts[1] / n,
+            "jacobians_per_step": counts[2] / n}
+
+
+def window_run(duration, window):
+    """Wall time of the default case, gmt in-process, with ``window`` steps a plant call."""
+    case = default_case(duration, backend="direct")
+    control, _ = flowstudy.control_signal(case.mode, case.frequency)
+    backend = cosim.DirectTransducer(gmt.TransducerParameters(),
+                                     gmt.Excitation(case.frequency, 1.0), case.drive())
+    settings = cosim.CosimSettings(duration=duration, load_force=case.load_force,
+                                   window=window)
+    t0 = time.perf_counter()
+    cosim.cosimulate(backend, control, presets.circuit(case.circuit), settings)
+    return time.perf_counter() - t0
+
+
+def convergence(cycles):
+    """Flows at h, h/2, h/4 (both modes) and at h with the plant's substep varied."""
+    out = []
+    for mode in flowstudy.MODES:
+        base = flowstudy.Case(100.0, mode, cycles=cycles, backend="direct")
+        ref = flowstudy.run_case(dataclasses.replace(base, step=DEFAULT_STEP / 4,
+                                                     hydraulic_step=5e-6))[2]["flow_sim_m3_s"]
+        rows = []
+        for label, changes in (("h", {}), ("h/2", {"step": DEFAULT_STEP / 2}),
+                               ("h/4", {"step": DEFAULT_STEP / 4}),
+                               ("substep 100 us", {"hydraulic_step": 1e-4}),
+                               ("substep 25 us", {"hydraulic_step": 2.5e-5}),
+                               ("substep 10 us", {"hydraulic_step": 1e-5})):
+            q = flowstudy.run_case(dataclasses.replace(base, **changes))[2]["flow_sim_m3_s"]
+            rows.append({"run": label, "flow_m3_s": q, "error_vs_reference": q / ref - 1})
+        h = {r["run"]: r["flow_m3_s"] for r in rows}
+        out.append({"mode": mode, "reference_m3_s": ref, "rows": rows,
+                    "change_h_to_h2": abs(h["h/2"] / h["h"] - 1),
+                    "change_h_to_h4": abs(h["h/4"] / h["h"] - 1)})
+    return out
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--frequency", type=float, default=100.0)
-    ap.add_argument("--mode", choices=flowstudy.MODES, default="compensated")
-    ap.add_argument("--branch-rule", choices=("control", "demand"), default="demand")
-    ap.add_argument("--reference-step", type=float, default=2.5e-6,
-                    help="communication step of the reference [s]; its hydraulic substeps "
-                         "are half of it")
-    ap.add_argument("--steps", default="10e-6,20e-6,25e-6,40e-6,50e-6,80e-6,100e-6,160e-6")
-    ap.add_argument("--cycles", type=float, default=6.0, help="cycles of the accuracy runs")
-    ap.add_argument("--tolerance", type=float, default=0.005)
-    ap.add_argument("--duration", type=float, default=1.0, help="simulated s of the timed runs")
+    ap.add_argument("--duration", type=float, default=2.0, help="simulated s of the timed runs")
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--cycles", type=float, default=8.0, help="cycles of the accuracy runs")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     say = (lambda *a: None) if args.json else (lambda *a: print(*a, flush=True))
-    accuracy_time = args.cycles / args.frequency
-    q_ref, _, _ = run(args, args.reference_step, accuracy_time, "direct",
-                      hydraulic_step=args.reference_step / 2)
-    say(f"{args.mode} ({args.branch_rule} rule) {args.frequency:g} Hz, realistic circuit: "
-        f"reference flow {q_ref:.6e} m^3/s at h = {args.reference_step * 1e6:g} us")
-    table = []
-    for h in (float(s) for s in args.steps.split(",")):
-        q, _, _ = run(args, h, accuracy_time, "direct")
-        err = None if q is None else (q - q_ref) / q_ref
-        table.append({"step_s": h, "flow_m3_s": q, "relative_error": err})
-        say(f"  h = {h * 1e6:6.1f} us  q = {q:.6e}  error {100 * err:+.3f} %")
-    within = [r["step_s"] for r in table
-              if r["relative_error"] is not None and abs(r["relative_error"]) <= args.tolerance]
-    # the largest step such that it and every smaller candidate are within tolerance
-    chosen = None
-    for r in table:
-        if r["relative_error"] is None or abs(r["relative_error"]) > args.tolerance:
-            break
-        chosen = r["step_s"]
-    if chosen is None:
-        chosen = min(within) if within else args.reference_step
-    say(f"step within {100 * args.tolerance:g} %: {chosen * 1e6:g} us")
     fmu = flowstudy.ensure_fmu(quiet=True)
-    walls = {"fmu": [], "direct": []}
-    steps_taken = {}
+    timed(default_case(0.05), fmu)  # compiled code loaded, FMU extracted
+    walls, cpus = {"fmu": [], "direct": []}, {"fmu": [], "direct": []}
+    flows = {}
     for _ in range(args.repeats):
         for backend in ("fmu", "direct"):
-            _, wall, n = run(args, chosen, args.duration, backend, fmu)
+            wall, flows[backend], cpu = timed(default_case(args.duration, backend=backend), fmu)
             walls[backend].append(wall)
-            steps_taken[backend] = n
+            cpus[backend].append(cpu)
     med = {k: statistics.median(v) for k, v in walls.items()}
+    med_cpu = {k: statistics.median(v) for k, v in cpus.items()}
+    rtf = {k: args.duration / v for k, v in med.items()}
+    say(f"smeha simulate's defaults (100 Hz compensated, realistic, step {DEFAULT_STEP:g} s, "
+        f"plant substeps <= {HYDRAULIC_STEP:g} s), {args.duration:g} s simulated:")
+    for k in ("fmu", "direct"):
+        say(f"  {k:<6} wall {med[k]:.3f} s (median of {args.repeats}): real-time factor "
+            f"{rtf[k]:.2f}; CPU {med_cpu[k]:.3f} s (real-time factor on one core "
+            f"{args.duration / med_cpu[k]:.2f}); flow {flows[k]:.6e} m^3/s")
+    say(f"  FMI overhead (fmu / direct): {med['fmu'] / med['direct']:.3f} wall, "
+        f"{med_cpu['fmu'] / med_cpu['direct']:.3f} CPU")
+    costs = {k: split(default_case(args.duration, backend=k), fmu) for k in ("fmu", "direct")}
+    for k, c in costs.items():
+        say(f"  per communication step, {k}: {c['us_per_step']:.1f} us = transducer "
+            f"{c['transducer_us']:.1f} + plant {c['plant_us']:.1f} + master "
+            f"{c['master_us']:.1f}; plant work {c['substeps_per_step']:.2f} substeps, "
+            f"{c['newton_per_step']:.1f} Newton iterations, {c['jacobians_per_step']:.2f} "
+            f"Jacobians a step")
+    window = {}
+    for w in (1, 64):
+        runs = [window_run(args.duration, w) for _ in range(args.repeats)]
+        window[w] = statistics.median(runs)
+    say(f"  plant window, direct: 1 step a call {window[1]:.3f} s, 64 steps a call "
+        f"{window[64]:.3f} s")
+    conv = convergence(args.cycles)
+    for c in conv:
+        say(f"  convergence, {c['mode']} (reference {c['reference_m3_s']:.6e} at h/4 with 5 us "
+            f"substeps): " + ", ".join(f"{r['run']} {100 * r['error_vs_reference']:+.3f} %"
+                                        for r in c["rows"])
+            + f"; change h -> h/2 {100 * c['change_h_to_h2']:.3f} %, h -> h/4 "
+              f"{100 * c['change_h_to_h4']:.3f} %")
     result = {
-        "case": {"frequency_Hz": args.frequency, "mode": args.mode,
-                 "branch_rule": args.branch_rule, "circuit": "realistic",
-                 "load_N": presets.REALISTIC_LOAD, "controller_period_s": CONTROLLER_PERIOD,
-                 "hydraulic_step_s": HYDRAULIC_STEP},
-        "reference": {"step_s": args.reference_step,
-                      "hydraulic_step_s": args.reference_step / 2, "flow_m3_s": q_ref},
-        "accuracy": table, "tolerance": args.tolerance, "chosen_step_s": chosen,
+        "case": {"frequency_Hz": 100.0, "mode": "compensated", "circuit": "realistic",
+                 "step_s": DEFAULT_STEP, "hydraulic_step_s": HYDRAULIC_STEP,
+                 "coupling": "force"},
         "simulated_s": args.duration, "wall_s": walls, "median_wall_s": med,
-        "real_time_factor": {k: args.duration / v for k, v in med.items()},
+        "cpu_s": cpus, "median_cpu_s": med_cpu,
+        "real_time_factor": rtf,
+        "real_time_factor_cpu": {k: args.duration / v for k, v in med_cpu.items()},
         "fmi_overhead_ratio": med["fmu"] / med["direct"],
-        "us_per_step": {k: med[k] / steps_taken[k] * 1e6 for k in med},
+        "fmi_overhead_ratio_cpu": med_cpu["fmu"] / med_cpu["direct"],
+        "cost_split": costs, "window_wall_s": window, "convergence": conv,
         "peak_rss_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
     }
     if args.json:
         print(json.dumps(result))
-        return
-    for k in ("fmu", "direct"):
-        print(f"  {k:<6} {args.duration:g} s simulated in {med[k]:.2f} s (median of "
-              f"{args.repeats}): real-time factor {result['real_time_factor'][k]:.3f}, "
-              f"{result['us_per_step'][k]:.1f} us per communication step")
-    print(f"  FMI overhead (fmu / direct, same process): {result['fmi_overhead_ratio']:.3f}")
-    print(f"  peak RSS: {result['peak_rss_MB']:.0f} MB")
 
 
 if __name__ == "__main__":

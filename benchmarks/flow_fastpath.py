@@ -3,11 +3,10 @@
 1. Fast path (:func:`smeha.fastpath.flow_table`): the whole table (default
    4 frequencies x 2 modes, realistic circuit, 150 N), ``--repeats`` times in
    one process. Prints the first (cold) and the median wall time.
-2. Time stepped (:func:`smeha.flowstudy.run_case`, gmt in-process,
-   ``backend="direct"``, ``--steps-cycles`` cycles at the study's 20 us step),
-   each case once. A small warm-up run first compiles the hydraulic kernel, so
-   the table's time is the co-simulations'. Prints the wall time of the table
-   and of each case.
+2. Time stepped (:func:`smeha.flowstudy.run_case` at the study's defaults: the
+   force port, gmt in-process, ``--steps-cycles`` cycles), each case once. A
+   small warm-up run first loads the compiled kernel, so the table's time is
+   the co-simulations'. Prints the wall time of the table and of each case.
 3. Per case: both flows, their relative difference, and both dy.
 
 ``--skip-timestepping`` takes the time-stepped figures from
@@ -17,7 +16,7 @@ for the default options only.
 One core: BLAS and OpenMP threads are held to 1 before numpy loads (SuperLU
 is single-threaded anyway).
 
-Usage: python benchmarks/flow_fastpath.py [--frequencies 50,70,80,100] [--ideal]
+Usage: python benchmarks/flow_fastpath.py [--frequencies 50,70,80,100] [--circuit NAME]
        [--load N] [--repeats 5] [--sampling-phases 1] [--steps-cycles 8]
        [--skip-timestepping] [--json]
 """
@@ -36,21 +35,21 @@ import time  # noqa: E402
 
 from smeha import fastpath, flowstudy  # noqa: E402
 
-#: Time-stepped flow table measured with this script on 2026-11-21: realistic circuit,
-#: 150 N, 20 us step, 8 cycles, gmt in-process (backend "direct", compiled hydraulic
-#: kernel), commit adeb037 with that day's working tree, on the 2-core machine with other
-#: jobs running (load average ~3.8): (frequency, mode) -> (flow [m^3/s], dy [um], wall [s]).
+#: Time-stepped flow table measured with this script on 2026-11-24: realistic circuit,
+#: 150 N, the study's defaults (the force port, 100 us step), 8 cycles, gmt in-process, on
+#: the 2-core machine with other jobs running (load average ~3.5): (frequency, mode) ->
+#: (flow [m^3/s], dy [um], wall [s]).
 MEASURED = {
-    "table_wall_s": 7.85,
+    "table_wall_s": 0.32,
     "cases": {
-        (50.0, "uncompensated"): (1.772552e-06, 28.520, 1.04),
-        (50.0, "compensated"): (2.333683e-06, 37.397, 1.27),
-        (70.0, "uncompensated"): (2.020744e-06, 23.297, 0.77),
-        (70.0, "compensated"): (2.975356e-06, 33.996, 0.93),
-        (80.0, "uncompensated"): (1.980363e-06, 19.997, 0.69),
-        (80.0, "compensated"): (3.091689e-06, 30.883, 0.83),
-        (100.0, "uncompensated"): (1.393367e-06, 11.550, 0.56),
-        (100.0, "compensated"): (3.149966e-06, 25.236, 0.67),
+        (50.0, "uncompensated"): (1.774323e-06, 28.522, 0.03),
+        (50.0, "compensated"): (2.379999e-06, 38.092, 0.04),
+        (70.0, "uncompensated"): (2.018339e-06, 23.223, 0.02),
+        (70.0, "compensated"): (2.924379e-06, 33.386, 0.02),
+        (80.0, "uncompensated"): (1.968684e-06, 19.880, 0.02),
+        (80.0, "compensated"): (2.628166e-06, 26.282, 0.02),
+        (100.0, "uncompensated"): (1.398711e-06, 11.544, 0.02),
+        (100.0, "compensated"): (3.227019e-06, 25.801, 0.02),
     },
 }
 
@@ -59,7 +58,7 @@ def fast_table(args):
     walls, rows = [], None
     for _ in range(args.repeats):
         start = time.perf_counter()
-        rows = fastpath.flow_table(args.frequencies, flowstudy.MODES, ideal=args.ideal,
+        rows = fastpath.flow_table(args.frequencies, flowstudy.MODES, circuit=args.circuit,
                                    load=args.load, sampling_phases=args.sampling_phases)
         walls.append(time.perf_counter() - start)
     return rows, walls
@@ -72,14 +71,14 @@ def stepped_table(args):
     start = time.perf_counter()
     for f in args.frequencies:
         for mode in flowstudy.MODES:
-            case = flowstudy.Case(f, mode, ideal=args.ideal, load=args.load,
+            case = flowstudy.Case(f, mode, circuit=args.circuit, load=args.load,
                                   cycles=args.steps_cycles, backend="direct")
             rows.append(flowstudy.run_case(case)[2])
     return rows, time.perf_counter() - start
 
 
 def measured_rows(args):
-    if args.ideal or args.load is not None or args.steps_cycles != 8.0:
+    if args.circuit != "realistic" or args.load is not None or args.steps_cycles != 8.0:
         raise SystemExit("--skip-timestepping: the stored figures are for the default realistic "
                          "circuit, 150 N and 8 cycles only")
     rows = []
@@ -97,9 +96,9 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frequencies", default="50,70,80,100",
                     type=lambda s: [float(x) for x in s.split(",")])
-    ap.add_argument("--ideal", action="store_true", help="the ideal circuit (default realistic)")
+    ap.add_argument("--circuit", choices=flowstudy.CIRCUITS, default="realistic")
     ap.add_argument("--load", type=float, default=None,
-                    help="cylinder load [N] (default 150 realistic, 0 ideal)")
+                    help="cylinder load [N] (default the circuit's: 150 realistic, else 0)")
     ap.add_argument("--repeats", type=int, default=5, help="fast-path tables timed")
     ap.add_argument("--sampling-phases", type=int, default=1,
                     help="fast path: grids offset by fractions of a step, averaged")
@@ -124,7 +123,7 @@ def main(argv=None):
             "newton_iterations": a["newton_iterations"],
         })
     result = {
-        "circuit": "ideal" if args.ideal else "realistic", "load_N": fast[0]["load_N"],
+        "circuit": args.circuit, "load_N": fast[0]["load_N"],
         "sampling_phases": args.sampling_phases,
         "fast_table_wall_s": walls, "fast_table_first_s": walls[0],
         "fast_table_median_s": statistics.median(walls),

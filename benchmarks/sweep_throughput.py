@@ -9,7 +9,7 @@ start-up (a spawned worker imports numpy, scipy, control, fmpy and numba and loa
 compiled kernel before its first point; one local worker runs in the calling process), FMU
 loading per point and the longest point's tail.
 
-Usage: python benchmarks/sweep_throughput.py [--cycles 16] [--step 20e-6] [--repeats 1]
+Usage: python benchmarks/sweep_throughput.py [--cycles 16] [--step S] [--repeats 1]
        [--no-dask] [--json]
 """
 from __future__ import annotations
@@ -21,6 +21,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from system_models.defaults import DEFAULT_STEP
 from smeha import flowstudy, sweep
 
 
@@ -28,7 +29,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frequencies", default="50,70,80,100")
     ap.add_argument("--cycles", type=float, default=16.0)
-    ap.add_argument("--step", type=float, default=20e-6)
+    ap.add_argument("--step", type=float, default=DEFAULT_STEP)
     ap.add_argument("--repeats", type=int, default=1)
     ap.add_argument("--no-dask", action="store_true")
     ap.add_argument("--json", action="store_true")

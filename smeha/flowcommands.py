@@ -16,6 +16,9 @@ import sys
 from pathlib import Path
 
 import gmt  # cheap: its names load on first use
+from gmt.parameters import COMPENSATOR_PERIOD
+from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_STEP, GRID_STEP,
+                                    HYDRAULIC_STEP, VALVE_CONTROLLER_PERIOD)
 
 from .cliargs import (UsageError, add_branch_rule, count, input_file, number, number_list,
                       output_file, scheduler_address, warn)
@@ -23,20 +26,20 @@ from .cliargs import (UsageError, add_branch_rule, count, input_file, number, nu
 #: Frequencies the study accepts, (0, 1000] Hz (gmt.Excitation's range).
 FREQUENCY = number(0.0, 1000.0, unit="Hz")
 
-#: Steps a pumping cycle at and above which the flow's convergence was measured:
-#: valves on the step grid, 40 us at 100 Hz (flow within 0.5 % uncompensated, 2.6 %
-#: compensated of the step halved; benchmarks/README.md, Convergence); with a controller
-#: period, 100 us at 100 Hz (within 0.5 % of a 2.5 us reference; tests/test_cosim_streaming.py).
-CONVERGED_STEPS_PER_CYCLE = 250
-CONVERGED_STEPS_PER_CYCLE_TIMED_VALVES = 100
+#: Steps a pumping cycle at and above which the flow was measured to converge, per
+#: coupling (benchmarks/README.md, convergence): the force port within 0.1 % at 100 steps a
+#: cycle (100 us at 100 Hz); the displacement port within 0.5 % at 250 (40 us at 100 Hz).
+CONVERGED_STEPS_PER_CYCLE = {"force": 100, "displacement": 250}
+#: The named circuits (system_models.presets.CIRCUITS, typed here so that --help loads no
+#: solver; tests/test_kernel.py checks the two agree).
+CIRCUITS = ("realistic", "ideal", "differential")
 
 
-def _check_step(command, step, frequency, controller_period) -> None:
+def _check_step(command, step, frequency, coupling) -> None:
     """Warn (stderr) when the communication step is coarser than any measured to converge."""
-    need = (CONVERGED_STEPS_PER_CYCLE if controller_period is None
-            else CONVERGED_STEPS_PER_CYCLE_TIMED_VALVES)
+    need = CONVERGED_STEPS_PER_CYCLE[coupling]
     per_cycle = 1.0 / (frequency * step)
-    if per_cycle < need:
+    if per_cycle < need * (1.0 - 1e-9):
         warn(command, f"--step {step:g} s is {per_cycle:.0f} steps a cycle at {frequency:g} Hz; "
                       f"the flow was measured to converge from {need} steps a cycle "
                       f"(--step {1.0 / (need * frequency):.2g} s) on (benchmarks/README.md): "
@@ -51,16 +54,24 @@ def _cycles(text):
 
 _cycles.numeric = True
 
-#: Defaults of the co-simulation options, shown in --help (flowstudy.Case's own defaults).
-DEFAULT_STEP, DEFAULT_CYCLES = 20e-6, 8.0
-
-
 def _add_cosim_options(p):
-    p.add_argument("--ideal", action="store_true",
-                   help="ideal limit: stiff oil, fast wide valves, no load (eqs 40/41 hold)")
-    p.add_argument("--step", type=number(0.0, unit="s"), default=DEFAULT_STEP, metavar="S",
-                   help=f"communication step [s] (default {DEFAULT_STEP:g}; a warning below "
-                        f"{CONVERGED_STEPS_PER_CYCLE} steps a cycle)")
+    p.add_argument("--circuit", choices=CIRCUITS,
+                   help="realistic (default: 0.5 %% air in the oil, 0.2 ms valve dead time, "
+                        "differential cylinder, 150 N load); ideal: the limit in which eqs "
+                        "40/41 hold (the chamber pressure constant: equal-area cylinder, "
+                        "stiff oil, instant valves, no load); differential: ideal oil and "
+                        "valves on the differential cylinder, whose rebound adds stroke")
+    p.add_argument("--ideal", action="store_true", help="the same as --circuit ideal")
+    p.add_argument("--step", type=number(0.0, 1.0, unit="s"), metavar="S",
+                   help=f"communication step [s] (default {DEFAULT_STEP:g}, with --fast the "
+                        f"fast path's grid {GRID_STEP:g}; a warning below "
+                        f"{CONVERGED_STEPS_PER_CYCLE['force']} steps a cycle); steps are also "
+                        "cut at the compensator's samples and the valve actions")
+    p.add_argument("--coupling", choices=("force", "displacement"),
+                   help="force (default): the FMU hands over the magnetostrictive force and "
+                        "the plant integrates the rod with the pump chamber; displacement: "
+                        "the FMU integrates the rod, the chamber force iterated through its "
+                        "state save/restore (the cross-check; needs smaller steps)")
     p.add_argument("--cycles", type=_cycles, metavar="N",
                    help=f"simulated pumping cycles, at least 4: the flow check discards the "
                         f"first 2 and averages the rest (default {DEFAULT_CYCLES:g})")
@@ -70,19 +81,25 @@ def _add_cosim_options(p):
                    help="transducer FMU (default dist/SmehaGmt.fmu of the source tree, built "
                         "if missing or out of date; see 'smeha build')")
     add_branch_rule(p)
-    p.add_argument("--controller-period", type=number(0.0, unit="s"), metavar="S",
-                   help="sample the valve controller every S seconds, act after the valves' "
-                        "exact dead times and put a communication point at each valve action "
-                        "(e.g. 1e-5; default: valves switch on the communication grid)")
-    p.add_argument("--hydraulic-step", type=number(0.0, unit="s"), metavar="S",
-                   help="longest hydraulic substep [s] (e.g. 1e-5; default one per step)")
+    p.add_argument("--compensator-period", type=number(0.0, 1.0, low_open=False, unit="s"),
+                   metavar="S",
+                   help=f"sample period of the digital compensator [s] (default "
+                        f"{COMPENSATOR_PERIOD:g}: 10 kHz); its current is held between "
+                        f"samples; 0: a sample every step")
+    p.add_argument("--controller-period", type=number(0.0, 1.0, unit="s"), metavar="S",
+                   help=f"sample period of the valve controller [s] (default "
+                        f"{VALVE_CONTROLLER_PERIOD:g}); the valves act after their exact dead "
+                        f"times, at communication points")
+    p.add_argument("--hydraulic-step", type=number(0.0, 1.0, unit="s"), metavar="S",
+                   help=f"longest hydraulic substep [s] (default {HYDRAULIC_STEP:g}; after "
+                        f"each valve action the substeps start at 1 us and grow fourfold)")
 
 
 def _add_load(p):
     p.add_argument("--load", type=number(unit="N"), metavar="N",
                    help="load on the cylinder [N]: positive opposes the pumped direction "
                         "(oil into the big cavity), negative assists it (default 150 "
-                        "realistic, 0 ideal)")
+                        "realistic, 0 ideal and differential)")
 
 
 MODE_HELP = ("uncompensated: u = I_m/K_a cos(2 pi f t), the coil current i = I_m cos(2 pi f t), "
@@ -120,11 +137,18 @@ def _case_from(args, frequency, mode, load=None, variant=None):
     cycles = getattr(args, "cycles", None)
     if getattr(args, "duration", None):
         cycles = args.duration * frequency
-    optional = {"cycles": cycles, "backend": args.backend}
-    return Case(frequency=frequency, mode=mode, ideal=args.ideal, load=load, step=args.step,
-                branch_rule=args.branch_rule, variant=variant,
-                controller_period=args.controller_period, hydraulic_step=args.hydraulic_step,
-                **{k: v for k, v in optional.items() if v is not None})
+    optional = {"cycles": cycles, "backend": args.backend, "coupling": args.coupling,
+                "step": args.step, "circuit": "ideal" if args.ideal else args.circuit,
+                "compensator_period": args.compensator_period,
+                "controller_period": args.controller_period,
+                "hydraulic_step": args.hydraulic_step}
+    return Case(frequency=frequency, mode=mode, load=load, branch_rule=args.branch_rule,
+                variant=variant, **{k: v for k, v in optional.items() if v is not None})
+
+
+def _check_circuit(args) -> None:
+    if args.ideal and args.circuit not in (None, "ideal"):
+        raise UsageError(f"--ideal is --circuit ideal; it contradicts --circuit {args.circuit}")
 
 
 def _fmu_for(args, cases):
@@ -166,7 +190,9 @@ def _check_simulate(args) -> None:
                 f"cycles at {args.frequency:g} Hz; the flow check discards the first 2 cycles "
                 f"and averages at least 2 more: give --duration "
                 f">= {MINIMUM_CYCLES / args.frequency:g} s")
-    _check_step("simulate", args.step, args.frequency, args.controller_period)
+    _check_circuit(args)
+    _check_step("simulate", args.step or DEFAULT_STEP, args.frequency,
+                args.coupling or DEFAULT_COUPLING)
 
 
 def _write_record_csv(record, path) -> None:
@@ -184,6 +210,9 @@ def _run_simulate(args) -> int:
     _check_simulate(args)
     case = _case_from(args, args.frequency, args.mode, args.load)
     fmu = _fmu_for(args, [case])
+    from system_models import kernel
+    kernel.ensure_compiled(None if args.json else (lambda m: print(m, file=sys.stderr,
+                                                                  flush=True)))
     n = int(round(case.cycles / case.frequency / case.step))
     bar, update = _progress_bar(n, f"{case.mode} {case.frequency:g} Hz", args.json)
     try:
@@ -270,9 +299,9 @@ def _read_variant(path):
 #: Options the periodic-steady-state fast path has no use for, and why.
 FAST_REFUSES = {
     "variant": "it solves the paper's model only",
-    "controller_period": "it solves the study's default discretisation (valves on the step "
-                         "grid)",
-    "hydraulic_step": "it solves the study's default discretisation (one hydraulic substep)",
+    "coupling": "it solves the displacement port's discrete equations on its own grid",
+    "controller_period": "its valves switch on its grid",
+    "hydraulic_step": "it takes one hydraulic step a grid step",
     "cycles": "it solves the periodic steady state, not a number of cycles",
     "workers": "it runs in this process (~0.1 s a case)",
     "backend": "it runs gmt in-process",
@@ -287,11 +316,16 @@ def _run_fast_flow(args) -> int:
         option = "--" + given[0].replace("_", "-")
         raise UsageError(f"--fast does not take {option}: {FAST_REFUSES[given[0]]}; "
                          f"drop --fast or {option}")
-    _check_step("flow", args.step, max(args.frequencies), None)
+    _check_circuit(args)
+    step = args.step or GRID_STEP
+    _check_step("flow", step, max(args.frequencies), "displacement")
     loads = [args.load] + (args.loads or [])
-    rows = fastpath.flow_table(args.frequencies, flowstudy.MODES, ideal=args.ideal,
-                               load=loads if len(loads) > 1 else args.load, step=args.step,
-                               branch_rule=args.branch_rule)
+    optional = {} if args.compensator_period is None else {
+        "compensator_period": args.compensator_period}
+    rows = fastpath.flow_table(args.frequencies, flowstudy.MODES,
+                               circuit="ideal" if args.ideal else (args.circuit or "realistic"),
+                               load=loads if len(loads) > 1 else args.load, step=step,
+                               branch_rule=args.branch_rule, **optional)
     if args.plot:
         from .flowplots import plot_flow
         plot_flow(rows, args.plot)
@@ -303,7 +337,8 @@ def _run_fast_flow(args) -> int:
     if args.loads:
         print()
         print(flowstudy.format_load_lines(rows))
-    print(f"\n(periodic-steady-state fast path, {sum(r['wall_s'] for r in rows):.2f} s)")
+    print(f"\n(periodic steady state solved directly, no co-simulation: "
+          f"{sum(r['wall_s'] for r in rows):.2f} s)")
     if args.plot:
         print(f"wrote {args.plot}")
     return 0
@@ -325,7 +360,9 @@ def _run_flow(args) -> int:
                 "compare: running the paper's model only")
         warn("flow", note)
         variant = None
-    _check_step("flow", args.step, max(args.frequencies), args.controller_period)
+    _check_circuit(args)
+    _check_step("flow", args.step or DEFAULT_STEP, max(args.frequencies),
+                args.coupling or DEFAULT_COUPLING)
     models = [None] if variant is None else [None, variant]
     cases = [_case_from(args, f, m, args.load, v) for v in models for f in args.frequencies
              for m in flowstudy.MODES]
@@ -407,12 +444,12 @@ def _run_sweep(args) -> int:
             out = output_file(str(default_sweep_table(args.spec)))
         except argparse.ArgumentTypeError as exc:
             raise UsageError(f"the default table (--out) {exc}") from None
-    highest = {}  # (step, controller period) -> the highest frequency swept with it
+    highest = {}  # (step, coupling) -> the highest frequency swept with it
     for q in points:
-        key = (q.step, q.controller_period)
+        key = (q.step, q.coupling)
         highest[key] = max(highest.get(key, 0.0), q.frequency)
-    for (step, period), frequency in highest.items():
-        _check_step("sweep", step, frequency, period)
+    for (step, coupling), frequency in highest.items():
+        _check_step("sweep", step, frequency, coupling)
     fmu = _fmu_for(args, points)
     try:
         result = sweep.run_sweep(points, out, fmu, workers=_workers(args),

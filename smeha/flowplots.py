@@ -155,6 +155,19 @@ def flow_figure(rows):
     if variant_name:
         styles.append(Line2D([], [], color="k", marker="D", ls="-.", mfc="white",
                              label=f"{simulated}, extended model\n{variant_name}"))
+    flagged = [r for r in rows if r.get("flow_reversed") and r["load_N"] == base]
+    if flagged:  # a reversed flow (smeha.flowstudy.flag_row): marked, with its reason
+        ax.axhline(0.0, color="k", lw=0.6)
+        for r in flagged:
+            q = r["flow_sim_m3_s"] * 1e6
+            ax.plot(r["frequency_Hz"], q, "X", color="k", ms=11, mfc="none", mew=1.5)
+            reason = ("the rod lags the valve switches\nby more than a quarter period"
+                      if r["dy_um"] < 0.0 else "the load is past\nthe pump's stall point")
+            ax.annotate(f"reversed: {reason}", (r["frequency_Hz"], q), xytext=(-30, 0),
+                        textcoords="offset points", ha="right", va="center", fontsize=7,
+                        arrowprops={"arrowstyle": "-", "color": "0.4", "lw": 0.6})
+        styles.append(Line2D([], [], color="k", marker="X", ls="none", mfc="none", ms=9,
+                             label="flow reversed (the table's note says why)"))
     _finish_flow_axes(ax, styles, 2, "pumping frequency f [Hz]",
                       f"Flow against frequency ({paper[0]['circuit']} circuit, load {base:g} N)")
     if ncols == 2:

@@ -7,9 +7,10 @@ against f A_d dy (:mod:`system_models.flowcheck`).
 Control signals: uncompensated, u = (I_m / K_a) cos(2 pi f t), so the coil
 current is i = I_m cos(2 pi f t) and the valves switch at i = -+I_m (eq 40);
 compensated, u = a + a cos(2 pi f t), the valves switch at u = 0 and u = 2a
-(eq 41), with a the paper's control amplitudes (2.2, 1.9, 1.7, 1.5 V at 50,
-70, 80, 100 Hz; interpolated linearly between) or, outside 50-100 Hz, 95 % of
-the half-stroke the transducer reaches at that frequency.
+(eq 41), with a the paper's control amplitudes (stated next to its Figure 10:
+2.2, 1.9, 1.7, 1.5 V at 50, 70, 80, 100 Hz, ``data/paper_table3.csv``;
+interpolated linearly between) or, outside 50-100 Hz, 95 % of the half-stroke
+the transducer reaches at that frequency.
 
 Model variants: a case with ``variant`` (a :class:`gmt.ModelVariant`, e.g. the
 extension ``smeha diagnose`` names) runs the transducer with that extension
@@ -18,44 +19,73 @@ added -- through the FMU's ``model_variant`` and ``variant_parameters``, or
 model and with the extended model can be compared (:func:`format_comparison`,
 ``smeha flow --variant FILE``). The compensator stays the paper's inverse
 model in both.
+
+Results a reader could misread are flagged (:func:`flag_row`): a reversed
+flow (the uncompensated pump above ~120 Hz: the rod lags the valve timing by
+more than a quarter period) carries ``flow_reversed`` and a ``note`` with the
+reason, in the table, the JSON and the plot.
 """
 from __future__ import annotations
 
 import json
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
 import gmt
+from gmt.parameters import COMPENSATOR_PERIOD
 from system_models import presets
-from system_models.cosim import (CosimSettings, DirectTransducer, FmuTransducer, cosimulate,
-                                 volume_balance)
+from system_models.cosim import (COUPLINGS, CosimSettings, DirectTransducer, FmuTransducer,
+                                 cosimulate, volume_balance)
+from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_STEP,
+                                    HYDRAULIC_STEP, VALVE_CONTROLLER_PERIOD)
 from system_models.flowcheck import flow_check
 
+from . import paperdata
+
 MODES = ("uncompensated", "compensated")
-
-#: Paper, inverse-compensation section: control amplitude a [V] of
-#: u = a + a cos(2 pi f t) at each frequency [Hz].
-PAPER_CONTROL_AMPLITUDE = {50.0: 2.2, 70.0: 1.9, 80.0: 1.7, 100.0: 1.5}
-
-#: Paper, Table 3: dy [um] between the valve switching instants,
-#: uncompensated y(i=1) - y(i=-1) and compensated y(u=u_m) - y(u=0).
-PAPER_DY_UM = {50.0: (42.0 - 1.8, 46.0), 70.0: (38.0 - 3.0, 42.0),
-               80.0: (36.0 - 4.0, 40.0), 100.0: (31.2 - 4.6, 35.2)}
+#: The named circuits (system_models.presets).
+CIRCUITS = tuple(presets.CIRCUITS)
 
 #: Current amplitude I_m of the study, [A] (the paper's 1 A).
 CURRENT_AMPLITUDE = 1.0
+
+
+@lru_cache(maxsize=1)
+def _table3():
+    return paperdata.table3()
+
+
+def paper_control_amplitudes() -> dict:
+    """Paper (text next to Figure 10, ``data/paper_table3.csv``): f [Hz] -> a [V]."""
+    t3 = _table3()
+    return {float(f): float(a) for f, a in zip(t3["frequency"], t3["control_amplitude"])}
+
+
+def paper_dy(frequency: float, mode: str) -> float | None:
+    """Paper, Table 3: dy [m] between the valve switching instants, or None off its rows.
+
+    Uncompensated y(i = 1) - y(i = -1) (eq 40), compensated y(u = u_m) - y(u = 0) (eq 41).
+    """
+    t3 = _table3()
+    rows = np.flatnonzero(t3["frequency"] == float(frequency))
+    if not rows.size:
+        return None
+    k = rows[0]
+    if mode == "uncompensated":
+        return float(t3["displacement_at_current_max"][k] - t3["displacement_at_current_min"][k])
+    return float(t3["displacement_at_control_max"][k] - t3["displacement_at_control_zero"][k])
 
 
 def control_amplitude(frequency: float, params: gmt.TransducerParameters | None = None,
                       drive: gmt.DriveParameters | None = None) -> float:
     """a [V] of the compensated control signal u = a + a cos(2 pi f t) (module docstring)."""
     f = float(frequency)
-    table = sorted(PAPER_CONTROL_AMPLITUDE.items())
+    table = sorted(paper_control_amplitudes().items())
     if table[0][0] <= f <= table[-1][0]:
         fs, amps = zip(*table)
         return float(np.interp(f, fs, amps))
@@ -66,35 +96,53 @@ def control_amplitude(frequency: float, params: gmt.TransducerParameters | None 
     return 0.95 * (high - low) / (2.0 * drive.displacement_per_volt)
 
 
+class Sinusoid:
+    """u(t) = offset + amplitude cos(2 pi f t), [V]: a float for a float t, an array for an array.
+
+    The valve controller samples u in blocks (vectorised); the master calls it
+    one instant at a time (plain floats).
+    """
+
+    def __init__(self, offset: float, amplitude: float, frequency: float):
+        self.offset, self.amplitude = float(offset), float(amplitude)
+        self.angular_frequency = 2.0 * math.pi * float(frequency)
+
+    def __call__(self, t):
+        if isinstance(t, np.ndarray):
+            return self.offset + self.amplitude * np.cos(self.angular_frequency * t)
+        return self.offset + self.amplitude * math.cos(self.angular_frequency * t)
+
+
 def control_signal(mode: str, frequency: float, amplitude: float | None = None):
-    """u(t) [V] for a mode; returns (callable, a or None)."""
-    w = 2.0 * math.pi * frequency
+    """u(t) [V] for a mode (a :class:`Sinusoid`); returns (u, a or None)."""
     if mode == "uncompensated":
-        return (lambda t: CURRENT_AMPLITUDE * math.cos(w * t)), None
+        return Sinusoid(0.0, CURRENT_AMPLITUDE, frequency), None
     if mode == "compensated":
         a = control_amplitude(frequency) if amplitude is None else amplitude
-        return (lambda t: a + a * math.cos(w * t)), a
+        return Sinusoid(a, a, frequency), a
     raise gmt.ParameterError(f"mode = {mode!r} is not one of {MODES}")
 
 
 @dataclass(frozen=True)
 class Case:
-    """One co-simulation of the study."""
+    """One co-simulation of the study (defaults: the package's, defined once each)."""
 
     frequency: float
     mode: str
-    ideal: bool = False
-    load: float | None = None  # [N]; None: 0 ideal, REALISTIC_LOAD otherwise
-    step: float = 20e-6  # communication step [s]
-    cycles: float = 8.0  # simulated time in pumping cycles
+    circuit: str = "realistic"  # a name of system_models.presets.CIRCUITS
+    load: float | None = None  # [N]; None: the circuit's (presets.default_load)
+    step: float = DEFAULT_STEP  # communication step [s]
+    cycles: float = DEFAULT_CYCLES  # simulated time in pumping cycles
     backend: str = "fmu"  # "fmu" or "direct"
     branch_rule: str = "control"
     variant: gmt.ModelVariant | None = None  # None: the paper's model
-    #: valve controller's own sample period [s]; None: it samples at the communication points
-    #: (system_models.cosim.CosimSettings.controller_period)
-    controller_period: float | None = None
-    #: longest hydraulic substep [s]; None: one substep a communication step
-    hydraulic_step: float | None = None
+    coupling: str = DEFAULT_COUPLING  # system_models.cosim.COUPLINGS
+    #: the valve controller's sample period [s] (CosimSettings.controller_period)
+    controller_period: float = VALVE_CONTROLLER_PERIOD
+    #: longest hydraulic substep [s] (CosimSettings.hydraulic_step); None: the step
+    hydraulic_step: float | None = HYDRAULIC_STEP
+    #: the digital compensator's sample period [s] (gmt.DriveParameters.compensator_period)
+    compensator_period: float = COMPENSATOR_PERIOD
 
     def __post_init__(self):
         from system_models.flowcheck import MINIMUM_CYCLES
@@ -110,17 +158,47 @@ class Case:
                 f"the flow check discards the first cycles and averages at least two more")
         if self.mode not in MODES:
             raise gmt.ParameterError(f"mode = {self.mode!r} is not one of {MODES}")
+        if self.circuit not in CIRCUITS:
+            raise gmt.ParameterError(f"circuit = {self.circuit!r} is not one of {CIRCUITS}")
+        if self.backend not in ("fmu", "direct"):
+            raise gmt.ParameterError(
+                f"backend = {self.backend!r} is not one of ('fmu', 'direct')")
+        if self.coupling not in COUPLINGS:
+            raise gmt.ParameterError(f"coupling = {self.coupling!r} is not one of {COUPLINGS}")
+        check_range = gmt.errors.check_range
+        check_range("step", self.step, 0.0, 1.0, unit="s", high_open=False)
+        check_range("controller_period", self.controller_period, 0.0, 1.0, unit="s",
+                    high_open=False)
+        if self.hydraulic_step is not None:
+            check_range("hydraulic_step", self.hydraulic_step, 0.0, 1.0, unit="s",
+                        high_open=False)
+        if self.load is not None:
+            check_range("load", self.load, -1e7, 1e7, unit="N")
+        self.drive()  # the drive's checks (compensator_period, branch_rule) before any run
+
+    @classmethod
+    def field_names(cls) -> tuple[str, ...]:
+        return tuple(f.name for f in fields(cls))
+
+    @property
+    def ideal(self) -> bool:
+        return self.circuit == "ideal"
 
     @property
     def load_force(self) -> float:
         if self.load is not None:
             return float(self.load)
-        return 0.0 if self.ideal else presets.REALISTIC_LOAD
+        return presets.default_load(self.circuit)
 
     @property
     def model(self) -> str:
         """"paper", or the variant's name (its cause, gmt.VARIANTS)."""
         return "paper" if self.variant is None else self.variant.name
+
+    def drive(self) -> gmt.DriveParameters:
+        return gmt.DriveParameters(compensated=self.mode == "compensated",
+                                   branch_rule=self.branch_rule,
+                                   compensator_period=self.compensator_period)
 
 
 def variant_start_values(variant: gmt.ModelVariant | None) -> dict:
@@ -129,13 +207,6 @@ def variant_start_values(variant: gmt.ModelVariant | None) -> dict:
         return {}
     return {"model_variant": variant.name,
             "variant_parameters": json.dumps(variant.as_dict()["parameters"])}
-
-
-class VariantDirectTransducer(DirectTransducer):
-    """:class:`system_models.cosim.DirectTransducer` with a model variant."""
-
-    def __init__(self, params=None, excitation=None, drive=None, variant=None):
-        self.model = gmt.Transducer(params, excitation, drive, variant=variant)
 
 
 def default_fmu_path() -> Path:
@@ -157,74 +228,113 @@ def ensure_fmu(path: Path | None = None, quiet: bool = False) -> Path:
     return fmu_build.build("2", out=path.parent)
 
 
-#: Free run of a model variant: samples a cycle and cycles (the dy is the last cycle's).
-FREE_SAMPLES_PER_CYCLE, FREE_CYCLES = 1000, 6
+#: Free runs, time-stepped: samples a cycle.
+FREE_SAMPLES_PER_CYCLE = 1000
 
 
 @lru_cache(maxsize=64)
 def free_dy(frequency: float, mode: str, branch_rule: str = "control",
-            variant: gmt.ModelVariant | None = None) -> float:
+            variant: gmt.ModelVariant | None = None,
+            compensator_period: float = COMPENSATOR_PERIOD,
+            cycles: float = DEFAULT_CYCLES) -> float:
     """dy of the transducer alone (no oil, no force) between the same instants, [m].
 
     Cached: a load line or a sweep asks for it once per case at the same
     frequency and mode.
 
-    Uncompensated: y(i = I_m) - y(i = -I_m) in steady state (eq 40);
-    compensated: y(u = 2a) - y(u = 0) of the compensated drive (eq 41).
-    With a model variant the transducer is time-stepped alone
-    (:data:`FREE_SAMPLES_PER_CYCLE` samples a cycle) and dy is read off the
-    last of :data:`FREE_CYCLES` cycles (a drifting variant has no steady
-    state: this is its dy after that many cycles).
+    Uncompensated, the paper's model: y(i = I_m) - y(i = -I_m) of eq 30's
+    periodic solution (closed form, eq 40). Otherwise (the compensated drive
+    with its sample period, eq 41, or a model variant) the transducer is
+    time-stepped alone (:data:`FREE_SAMPLES_PER_CYCLE` samples a cycle) for
+    ``cycles`` cycles and dy is the mean stroke from each minimum of u to the
+    next maximum over the compression windows the flow check of such a run
+    averages (:mod:`system_models.flowcheck`): a compensator sampling at a
+    rate the pump frequency does not divide (10 kHz against 70 Hz) samples
+    each cycle at other phases, and a drifting variant has no steady state.
     """
+    from system_models.flowcheck import SKIP_CYCLES
     params = gmt.TransducerParameters()
-    if variant is not None and not variant.is_paper:
-        return _stepped_free_dy(params, frequency, mode, branch_rule, variant)
-    if mode == "uncompensated":
+    if mode == "uncompensated" and (variant is None or variant.is_paper):
         point = gmt.operating_point(params, gmt.Excitation(frequency, CURRENT_AMPLITUDE))
         return gmt.loop_metrics(params, point)["dy"]
-    from .paper import compensated_run
-    run = compensated_run(params, frequency, control_amplitude(frequency), branch_rule)
-    half = run.displacement.size // 2  # u = 2a at the cycle's start, u = 0 half way
-    return float(run.displacement[0] - run.displacement[half])
-
-
-def _stepped_free_dy(params, frequency, mode, branch_rule, variant):
-    drive = gmt.DriveParameters(compensated=mode == "compensated", branch_rule=branch_rule)
+    drive = gmt.DriveParameters(compensated=mode == "compensated", branch_rule=branch_rule,
+                                compensator_period=compensator_period)
     unit = gmt.Transducer(params, gmt.Excitation(frequency, CURRENT_AMPLITUDE), drive,
                           variant=variant)
     control, _ = control_signal(mode, frequency)
     n_cycle = FREE_SAMPLES_PER_CYCLE
     h = 1.0 / (frequency * n_cycle)
-    n = n_cycle * FREE_CYCLES
+    whole = max(int(cycles), SKIP_CYCLES + 2)
+    n = n_cycle * whole
     y = np.empty(n + 1)
     y[0] = unit.forward.displacement
     for k in range(n):
         y[k + 1] = unit.step(control(k * h), h).displacement
-    start = n - n_cycle  # u at its maximum: i = +I_m, or u = 2a; half a cycle on: minimum
-    return float(y[start] - y[start + n_cycle // 2])
+    # u is at its maximum at each cycle's start and at its minimum half way: compression
+    # window k runs from (k + 1/2) T to (k + 1) T
+    lows = n_cycle * np.arange(SKIP_CYCLES, whole - 1) + n_cycle // 2
+    return float(np.mean(y[lows + n_cycle - n_cycle // 2] - y[lows]))
+
+
+def rod_lag_degrees(time, control, rod, frequency: float) -> float:
+    """Phase lag of the rod's fundamental behind the control signal's, [deg], in (-180, 180]."""
+    w = 2.0 * math.pi * frequency
+    phasor = [np.sum(np.asarray(x) * np.exp(-1j * w * np.asarray(time))) for x in (control, rod)]
+    return float(np.degrees(np.angle(phasor[0] / phasor[1])))
+
+
+def flag_row(row: dict, rod_lag_deg: float | None = None, dead_time: float = 0.0) -> dict:
+    """Add ``flow_reversed`` and, when reversed, a ``note`` with the reason (in place).
+
+    Two reasons a flow runs backwards. The valves switch at the control
+    signal's extremes (after their dead time) and eqs 40/41 count the rod's
+    stroke between those instants: when the rod lags that timing by more than
+    a quarter period (the uncompensated pump above ~120 Hz: the transducer's
+    lag, eq 29 and mu'', grows with f, and the chamber's load adds to it), it
+    travels backwards between the switches, dy < 0, and the pump draws from
+    the cylinder it should fill. Or the stroke is forward (dy > 0) but the load
+    needs a pressure above what the pump holds: the load drives the cylinder
+    back (a load line past its stall point).
+    """
+    reversed_ = row["flow_sim_m3_s"] < 0.0
+    row["flow_reversed"] = bool(reversed_)
+    if not reversed_:
+        return row
+    if row["dy_um"] < 0.0:
+        timing = dead_time * row["frequency_Hz"] * 360.0
+        lag = "" if rod_lag_deg is None else (
+            f": the rod lags the control signal by {rod_lag_deg:.0f} deg")
+        row["note"] = (f"flow reversed{lag}, the valves act {timing:.0f} deg after its "
+                       f"extremes (dead time): past a quarter period the rod moves backwards "
+                       f"between the valve switches (dy {row['dy_um']:.1f} um < 0), so the "
+                       f"pump empties the big cavity instead of filling it")
+    else:
+        row["note"] = (f"flow reversed: the load needs p_B - p_S = "
+                       f"{row['load_pressure_Pa'] / 1e6:.2f} MPa, more than the pump holds "
+                       f"at this stroke (dy {row['dy_um']:.1f} um): the load drives the "
+                       f"cylinder back (past the stall point of its load line)")
+    return row
 
 
 def run_case(case: Case, fmu_path: Path | None = None, progress=None):
     """Run one case; return (record, FlowCheck, row dict)."""
     params = gmt.TransducerParameters()
-    drive = gmt.DriveParameters(compensated=case.mode == "compensated",
-                                branch_rule=case.branch_rule)
+    drive = case.drive()
     control, a = control_signal(case.mode, case.frequency)
-    circuit = presets.ideal_circuit() if case.ideal else presets.realistic_circuit()
+    circuit = presets.circuit(case.circuit)
     settings = CosimSettings(duration=case.cycles / case.frequency, step=case.step,
-                             load_force=case.load_force, controller_period=case.controller_period,
+                             coupling=case.coupling, load_force=case.load_force,
+                             controller_period=case.controller_period,
                              hydraulic_step=case.hydraulic_step)
     start = {"frequency": case.frequency, "current_amplitude": CURRENT_AMPLITUDE,
              "compensated": drive.compensated, "branch_rule": drive.branch_rule,
+             "compensator_period": drive.compensator_period,
              **variant_start_values(case.variant)}
     if case.backend == "fmu":
         backend = FmuTransducer(fmu_path or default_fmu_path(), start)
-    elif case.backend == "direct":
-        excitation = gmt.Excitation(case.frequency, CURRENT_AMPLITUDE)
-        backend = (DirectTransducer(params, excitation, drive) if case.variant is None
-                   else VariantDirectTransducer(params, excitation, drive, case.variant))
     else:
-        raise gmt.ParameterError(f"backend = {case.backend!r} is not one of ('fmu', 'direct')")
+        backend = DirectTransducer(params, gmt.Excitation(case.frequency, CURRENT_AMPLITUDE),
+                                   drive, case.variant)
     wall = time.perf_counter()
     try:
         record = cosimulate(backend, control, circuit, settings, progress=progress)
@@ -234,30 +344,34 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
     check = flow_check(record, case.frequency, circuit.chamber.piston_area)
     imbalance, pumped = volume_balance(record, circuit)
     half = len(record) // 2
-    paper = PAPER_DY_UM.get(float(case.frequency))
-    paper_dy = None if paper is None else paper[MODES.index(case.mode)]
-    dy_free = free_dy(case.frequency, case.mode, case.branch_rule, case.variant)
+    paper = paper_dy(case.frequency, case.mode)
+    area = circuit.chamber.piston_area
+    dy_free = free_dy(case.frequency, case.mode, case.branch_rule, case.variant,
+                      case.compensator_period, case.cycles)
     row = {
         "frequency_Hz": case.frequency, "mode": case.mode, "model": case.model,
-        "circuit": "ideal" if case.ideal else "realistic", "load_N": case.load_force,
+        "circuit": case.circuit, "load_N": case.load_force,
         "flow_sim_m3_s": check.flow_sim, "flow_eq_m3_s": check.flow_eq,
         "flow_ratio": check.ratio, "dy_um": check.dy * 1e6,
         "flow_sim_L_min": check.flow_sim * 6e4,
-        "flow_paper_m3_s": (None if paper_dy is None
-                            else case.frequency * circuit.chamber.piston_area * paper_dy * 1e-6),
-        "dy_paper_um": paper_dy,
+        "flow_paper_m3_s": None if paper is None else case.frequency * area * paper,
+        "dy_paper_um": None if paper is None else paper * 1e6,
         "dy_free_um": dy_free * 1e6,
-        "flow_free_m3_s": case.frequency * circuit.chamber.piston_area * dy_free,
-        "delivered_fraction": check.flow_sim / (case.frequency * circuit.chamber.piston_area
-                                                * dy_free),
+        "flow_free_m3_s": case.frequency * area * dy_free,
+        "delivered_fraction": check.flow_sim / (case.frequency * area * dy_free),
         "control_amplitude_V": a,
         "load_pressure_Pa": float(np.mean(record["p_big"][half:] - record["p_small"][half:])),
         "p_pump_min_Pa": float(record["p_pump"][half:].min()),
         "p_pump_max_Pa": float(record["p_pump"][half:].max()),
         "volume_imbalance_m3": imbalance, "volume_pumped_m3": pumped,
-        "cycles_averaged": check.cycles, "step_s": case.step, "backend": case.backend,
-        "wall_s": wall,
+        "cycles_averaged": check.cycles, "step_s": case.step, "coupling": case.coupling,
+        "backend": case.backend, "wall_s": wall,
     }
+    window = slice(half, None)
+    lag = rod_lag_degrees(record["time"][window], record["control"][window],
+                          record["rod_displacement"][window], case.frequency)
+    flag_row(row, lag, max(v.opening_time if v.response == "delay" else 0.0
+                           for v in circuit.valves))
     return record, check, row
 
 
@@ -273,10 +387,16 @@ def run_cases(cases, fmu_path=None, workers: int = 1, quiet: bool = False) -> li
     Rows come back in the order of ``cases``. Each worker process loads its
     own FMU instances.
     """
+    import sys
+
     from tqdm import tqdm
+
+    from system_models import kernel
+    # compiled here once (or loaded from numba's cache), before any worker starts
+    kernel.ensure_compiled(None if quiet else (lambda m: print(m, file=sys.stderr, flush=True)))
     jobs = [(c, fmu_path) for c in cases]
     with tqdm(total=len(jobs), desc="co-simulations", unit="run", disable=quiet,
-              file=__import__("sys").stderr) as bar:
+              file=sys.stderr) as bar:
         if workers <= 1 or len(jobs) == 1:
             rows = []
             for job in jobs:
@@ -298,7 +418,9 @@ def format_table(rows) -> str:
     head = (f"{'f [Hz]':>6}  {'mode':<13}  {'circuit':<9}  {'load [N]':>8}  {'q sim [m3/s]':>12}  "
             f"{'q eq40/41':>10}  {'sim/eq':>6}  {'dy [um]':>7}  {'q paper':>10}  "
             f"{'dy paper':>8}  {'dy free':>7}  {'q/q free':>8}  {'q [L/min]':>9}")
-    lines = ["Cylinder flow: co-simulation against eqs 40/41 and the paper's Table 3",
+    source = ("periodic steady state (fast path)" if rows and rows[0].get("backend") == "fastpath"
+              else "co-simulation")
+    lines = [f"Cylinder flow: {source} against eqs 40/41 and the paper's Table 3",
              "(dy: the rod between the valve switching instants of this run; q paper: f A_d dy "
              "that the paper computes with eqs 40/41 from Table 3's measured dy (dy paper), not "
              "a measured flow; dy free: the transducer alone, no oil; q/q free: delivered flow "
@@ -311,14 +433,17 @@ def format_table(rows) -> str:
                      f"{r['load_N']:>8g}  {r['flow_sim_m3_s']:>12.4e}  {r['flow_eq_m3_s']:>10.4e}  "
                      f"{r['flow_ratio']:>6.3f}  {r['dy_um']:>7.2f}  {paper:>10}  {dyp:>8}  "
                      f"{r['dy_free_um']:>7.2f}  {r['delivered_fraction']:>8.3f}  "
-                     f"{r['flow_sim_L_min']:>9.4f}")
+                     f"{r['flow_sim_L_min']:>9.4f}{'  (!)' if r.get('flow_reversed') else ''}")
     by = {(r["frequency_Hz"], r["mode"]): r for r in rows}
-    gains = [f"{f:g} Hz: {by[(f, 'compensated')]['flow_sim_m3_s'] / by[(f, 'uncompensated')]['flow_sim_m3_s']:.3f}"
+    gains = [f"{f:g} Hz: {by[(f, MODES[1])]['flow_sim_m3_s'] / q:.3f}"
              for f in sorted({r["frequency_Hz"] for r in rows})
-             if (f, "compensated") in by and (f, "uncompensated") in by
-             and by[(f, "uncompensated")]["flow_sim_m3_s"] != 0]
+             if (f, MODES[1]) in by and (f, MODES[0]) in by
+             and (q := by[(f, MODES[0])]["flow_sim_m3_s"]) != 0]
     if gains:
         lines.append("compensated / uncompensated flow: " + ", ".join(gains))
+    for r in rows:
+        if r.get("note"):
+            lines.append(f"(!) {r['frequency_Hz']:g} Hz {r['mode']}: {r['note']}")
     return "\n".join(lines)
 
 
@@ -330,7 +455,11 @@ def format_load_lines(rows) -> str:
     for r in sorted(rows, key=lambda r: (r["frequency_Hz"], r["mode"], r["load_N"])):
         lines.append(f"{r['frequency_Hz']:>6g}  {r['mode']:<13}  {r['load_N']:>8g}  "
                      f"{r['load_pressure_Pa'] / 1e6:>15.3f}  {r['flow_sim_m3_s']:>12.4e}  "
-                     f"{r['flow_sim_L_min']:>9.4f}")
+                     f"{r['flow_sim_L_min']:>9.4f}{'  (!)' if r.get('flow_reversed') else ''}")
+    for r in rows:
+        if r.get("note"):
+            lines.append(f"(!) {r['frequency_Hz']:g} Hz {r['mode']}, {r['load_N']:g} N: "
+                         f"{r['note']}")
     return "\n".join(lines)
 
 

@@ -218,23 +218,22 @@ class CompensatedRun:
 def compensated_run(params: gmt.TransducerParameters, frequency: float,
                     control_amplitude: float, branch_rule: str = "control",
                     samples_per_cycle: int = SAMPLES_PER_CYCLE,
-                    cycles: int = CYCLES, compensator_period: float = 0.0) -> CompensatedRun:
+                    cycles: int = CYCLES) -> CompensatedRun:
     """Drive :class:`gmt.Transducer` through the compensator with u = a + a cos(2 pi f t).
 
     The operating point of the compensator's model is (f, I_m = 1 A), the
     amplitude the paper identified at. ``Transducer.step`` holds u(t_k) over
     [t_k, t_k + h) and returns y(t_k + h); y is paired with u at the same
-    instant. ``compensator_period`` is the compensator's sample period
-    (:class:`gmt.DriveParameters`); 0, the default here, samples it at every
-    step of the run, Figure 9 in its continuous-time limit (the paper gives
-    no rate).
+    instant. The compensator samples at every step of the run
+    (``compensator_period`` 0): Figure 9 in its continuous-time limit, the
+    paper giving no rate.
     """
     if samples_per_cycle < 4 or cycles < 2:
         raise gmt.ParameterError(
             f"samples_per_cycle = {samples_per_cycle} and cycles = {cycles} must be "
             ">= 4 and >= 2")
     drive = gmt.DriveParameters(compensated=True, branch_rule=branch_rule,
-                                compensator_period=compensator_period)
+                                compensator_period=0.0)
     unit = gmt.Transducer(params, gmt.Excitation(frequency, 1.0), drive)
     h = 1.0 / (frequency * samples_per_cycle)
     n = samples_per_cycle * cycles

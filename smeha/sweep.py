@@ -6,17 +6,15 @@ A sweep spec is a TOML file (docs/SWEEP.md)::
     frequency = [50, 100]                         # [Hz]
     mode = ["uncompensated", "compensated"]
     load = [0, 150]                               # [N], optional
-    ideal = [false]                               # optional
-    [settings]                                    # optional
-    step = 20e-6                                  # communication step [s]
+    circuit = ["realistic"]                       # optional: realistic, ideal, differential
+    [settings]                                    # optional; any other field of Case
     cycles = 6                                    # pumping cycles simulated
+    coupling = "force"                            # "force" or "displacement"
     backend = "fmu"                               # "fmu" or "direct"
-    branch_rule = "control"                       # "control" or "demand"
-    controller_period = 10e-6                     # optional: valve controller's sample period [s]
-    hydraulic_step = 10e-6                        # optional: longest hydraulic substep [s]
 
 Every point of the cartesian product of the grid is one
-:class:`smeha.flowstudy.Case`, run by :func:`smeha.flowstudy.run_case`. The
+:class:`smeha.flowstudy.Case` (the grid keys and settings are its fields, with
+its defaults), run by :func:`smeha.flowstudy.run_case`. The
 results form one table, one row per point (:data:`COLUMNS`), written as CSV.
 A point that fails is recorded with ``status = "failed"`` and its error; the
 others go on. A rerun onto the same table runs only the points that are
@@ -38,31 +36,33 @@ import sys
 import tempfile
 import tomllib
 from dataclasses import dataclass, field
+from dataclasses import fields as dataclass_fields
 from pathlib import Path
 
 import gmt
 
 from . import flowstudy
 
-#: Grid keys: the Case field each sets and the type check of its values.
-GRID_KEYS = ("frequency", "mode", "load", "ideal")
-#: Settings keys shared by every point, with their defaults (flowstudy.Case's).
-SETTINGS_DEFAULTS = {"step": 20e-6, "cycles": 8.0, "backend": "fmu", "branch_rule": "control",
-                     "controller_period": None, "hydraulic_step": None}
-#: Settings that may be absent (None: flowstudy.Case's default); tables written before they
-#: existed have no column for them and read as None.
-OPTIONAL_SETTINGS = ("controller_period", "hydraulic_step")
-BACKENDS = ("fmu", "direct")
+#: Grid keys: Case fields that take a list of values.
+GRID_KEYS = ("frequency", "mode", "load", "circuit")
+#: Settings keys shared by every point: the other Case fields, with Case's defaults.
+SETTINGS_DEFAULTS = {f.name: f.default for f in dataclass_fields(flowstudy.Case)
+                     if f.name not in GRID_KEYS + ("variant",)}
+#: Settings a table written before they existed has no column for (read as empty: such
+#: rows keep their own keys and never match a point of this version).
+OPTIONAL_SETTINGS = ("controller_period", "hydraulic_step", "coupling", "compensator_period")
 
 #: Result fields copied from flowstudy.run_case's row dict, SI with unit suffixes.
 RESULT_FIELDS = ("load_N", "flow_sim_m3_s", "flow_eq_m3_s", "flow_ratio", "dy_um",
                  "flow_sim_L_min", "flow_paper_m3_s", "dy_paper_um", "dy_free_um",
                  "flow_free_m3_s", "delivered_fraction", "control_amplitude_V",
                  "load_pressure_Pa", "p_pump_min_Pa", "p_pump_max_Pa", "volume_imbalance_m3",
-                 "volume_pumped_m3", "cycles_averaged", "wall_s")
+                 "volume_pumped_m3", "cycles_averaged", "flow_reversed", "wall_s")
 #: Columns of the sweep table: the point (grid values and settings), its status, its results.
 KEY_COLUMNS = GRID_KEYS + tuple(SETTINGS_DEFAULTS)
 COLUMNS = KEY_COLUMNS + ("status", "error") + RESULT_FIELDS
+#: Text columns (the others are numbers, or empty).
+TEXT_COLUMNS = ("mode", "circuit", "backend", "branch_rule", "coupling", "status", "error")
 
 
 class SpecError(ValueError):
@@ -73,43 +73,30 @@ class SweepError(RuntimeError):
     """The sweep cannot run at all, e.g. no scheduler at the address (exit status 1)."""
 
 
+def _key(values: dict) -> tuple:
+    """A point's key from its column values (numbers as floats, so CSV round-trips match)."""
+    return tuple(v if isinstance(v, str) or v is None else float(v)
+                 for v in (values.get(c) for c in KEY_COLUMNS))
+
+
 @dataclass(frozen=True)
 class Point:
-    """One grid point: the values as the spec gives them (``load`` None if not in the grid)."""
+    """One grid point: its :class:`smeha.flowstudy.Case` (``load`` None if not in the grid)."""
 
-    frequency: float
-    mode: str
-    load: float | None
-    ideal: bool
-    step: float
-    cycles: float
-    backend: str
-    branch_rule: str
-    controller_period: float | None = None
-    hydraulic_step: float | None = None
-
-    def case(self) -> flowstudy.Case:
-        return flowstudy.Case(frequency=self.frequency, mode=self.mode, ideal=self.ideal,
-                              load=self.load, step=self.step, cycles=self.cycles,
-                              backend=self.backend, branch_rule=self.branch_rule,
-                              controller_period=self.controller_period,
-                              hydraulic_step=self.hydraulic_step)
+    case: flowstudy.Case
 
     @property
     def key(self) -> tuple:
-        """The key of the point in a sweep table (floats normalised, so CSV round-trips match)."""
-        return (float(self.frequency), self.mode, None if self.load is None else float(self.load),
-                bool(self.ideal), float(self.step), float(self.cycles), self.backend,
-                self.branch_rule,
-                None if self.controller_period is None else float(self.controller_period),
-                None if self.hydraulic_step is None else float(self.hydraulic_step))
+        """The key of the point in a sweep table."""
+        return _key(self.columns())
 
     def columns(self) -> dict:
-        return {"frequency": self.frequency, "mode": self.mode, "load": self.load,
-                "ideal": self.ideal, "step": self.step, "cycles": self.cycles,
-                "backend": self.backend, "branch_rule": self.branch_rule,
-                "controller_period": self.controller_period,
-                "hydraulic_step": self.hydraulic_step}
+        return {name: getattr(self.case, name) for name in KEY_COLUMNS}
+
+    def __getattr__(self, name):  # the case's fields: point.frequency, point.backend ...
+        if name in KEY_COLUMNS:
+            return getattr(self.case, name)
+        raise AttributeError(name)
 
 
 @dataclass
@@ -172,6 +159,9 @@ def parse_spec(spec: dict) -> list[Point]:
     grid = spec.get("grid")
     if not isinstance(grid, dict):
         raise SpecError("the spec has no [grid] table")
+    if "ideal" in grid:
+        raise SpecError("grid.ideal: the circuits are named now: grid.circuit = "
+                        f"[...], each one of {flowstudy.CIRCUITS}")
     _reject_unknown("grid", grid, GRID_KEYS)
     for key in ("frequency", "mode"):
         if key not in grid:
@@ -182,35 +172,29 @@ def parse_spec(spec: dict) -> list[Point]:
                         lambda v: v in flowstudy.MODES)
     loads = (_check_list("grid", "load", grid["load"], "a finite number [N]", _is_number)
              if "load" in grid else [None])
-    ideals = (_check_list("grid", "ideal", grid["ideal"], "true or false",
-                          lambda v: isinstance(v, bool)) if "ideal" in grid else [False])
+    circuits = (_check_list("grid", "circuit", grid["circuit"],
+                            f"one of {flowstudy.CIRCUITS}", lambda v: v in flowstudy.CIRCUITS)
+                if "circuit" in grid else ["realistic"])
 
     settings = spec.get("settings", {})
     if not isinstance(settings, dict):
         raise SpecError("[settings] must be a table")
     _reject_unknown("settings", settings, tuple(SETTINGS_DEFAULTS))
-    s = {**SETTINGS_DEFAULTS, **settings}
-    if not (_is_number(s["step"]) and s["step"] > 0):
-        raise SpecError(f"settings.step = {s['step']!r}: must be a positive number [s]")
-    for key in OPTIONAL_SETTINGS:
-        if s[key] is not None and not (_is_number(s[key]) and 0 < s[key] <= 1.0):
-            raise SpecError(f"settings.{key} = {s[key]!r}: must be a number in (0, 1] [s]")
-    if not _is_number(s["cycles"]):
-        raise SpecError(f"settings.cycles = {s['cycles']!r}: must be a number")
-    if s["backend"] not in BACKENDS:
-        raise SpecError(f"settings.backend = {s['backend']!r} is not one of {BACKENDS}")
-    if s["branch_rule"] not in gmt.parameters.BRANCH_RULES:
-        raise SpecError(f"settings.branch_rule = {s['branch_rule']!r} is not one of "
-                        f"{gmt.parameters.BRANCH_RULES}")
-    optional = [None if s[k] is None else float(s[k]) for k in OPTIONAL_SETTINGS]
-    points = [Point(float(f), m, None if ld is None else float(ld), i, float(s["step"]),
-                    float(s["cycles"]), s["backend"], s["branch_rule"], *optional)
-              for f, m, ld, i in itertools.product(freqs, modes, loads, ideals)]
-    try:
-        points[0].case()  # the settings checks of Case (cycles) apply to every point alike
-    except gmt.ParameterError as exc:
-        raise SpecError(f"settings: {exc}") from None
-    return points
+    values = {}
+    for key, value in settings.items():
+        if isinstance(SETTINGS_DEFAULTS[key], str):
+            if not isinstance(value, str):
+                raise SpecError(f"settings.{key} = {value!r}: must be a string")
+        elif not _is_number(value):
+            raise SpecError(f"settings.{key} = {value!r}: must be a number")
+        values[key] = value if isinstance(value, str) else float(value)
+        try:  # Case's own check of this setting (its range, its allowed names)
+            flowstudy.Case(frequency=float(freqs[0]), mode=modes[0], **{key: values[key]})
+        except gmt.ParameterError as exc:
+            raise SpecError(f"settings.{key} = {value!r}: {exc}") from None
+    return [Point(flowstudy.Case(frequency=float(f), mode=m,
+                                 load=None if ld is None else float(ld), circuit=c, **values))
+            for f, m, ld, c in itertools.product(freqs, modes, loads, circuits)]
 
 
 def read_spec(path) -> list[Point]:
@@ -256,13 +240,15 @@ def write_table(rows, path) -> Path:
 
 
 def _parse_cell(column: str, text: str):
-    if column in ("mode", "backend", "branch_rule", "status", "error"):
+    if column in ("status", "error"):
         return text
+    if column in TEXT_COLUMNS:
+        return text or None
     if text == "":
         return None
-    if column == "ideal":
+    if column == "flow_reversed":
         if text.lower() not in ("true", "false"):
-            raise ValueError(f"ideal = {text!r}")
+            raise ValueError(f"{column} = {text!r}")
         return text.lower() == "true"
     return float(text)
 
@@ -274,13 +260,18 @@ def read_table(path) -> list[dict]:
         return []
     with open(path, newline="") as fh:
         reader = csv.DictReader(fh)
+        names = reader.fieldnames or []
+        legacy = "circuit" not in names and "ideal" in names  # tables before named circuits
         missing = [c for c in KEY_COLUMNS + ("status",)
-                   if c not in (reader.fieldnames or []) and c not in OPTIONAL_SETTINGS]
+                   if c not in names and c not in OPTIONAL_SETTINGS
+                   and not (legacy and c == "circuit")]
         if missing:
             raise SpecError(f"{path}: not a sweep table (no column(s) {missing}); "
                             "give another --out")
         rows = []
         for n, raw in enumerate(reader, start=2):
+            if legacy:
+                raw["circuit"] = "ideal" if raw.get("ideal", "").lower() == "true" else "realistic"
             try:
                 rows.append({c: _parse_cell(c, raw.get(c) or "") for c in COLUMNS})
             except ValueError as exc:
@@ -290,9 +281,7 @@ def read_table(path) -> list[dict]:
 
 def row_key(row: dict) -> tuple:
     """The point key (:attr:`Point.key`) of a table row."""
-    return Point(row["frequency"], row["mode"], row["load"], row["ideal"], row["step"],
-                 row["cycles"], row["backend"], row["branch_rule"],
-                 row.get("controller_period"), row.get("hydraulic_step")).key
+    return _key({c: row.get(c) for c in KEY_COLUMNS})
 
 
 # --------------------------------------------------------------------------- tasks
@@ -304,14 +293,14 @@ def _result_row(point: Point, row: dict | None, error: str | None) -> dict:
     out["error"] = "" if error is None else error
     for name in RESULT_FIELDS:
         value = None if row is None else row.get(name)
-        out[name] = None if value is None else float(value)
+        out[name] = value if value is None or isinstance(value, bool) else float(value)
     return out
 
 
 def run_point(point: Point, fmu_path=None) -> dict:
     """Run one point; a failure becomes a row with status "failed" and the error message."""
     try:
-        _, _, row = flowstudy.run_case(point.case(), fmu_path)
+        _, _, row = flowstudy.run_case(point.case, fmu_path)
     except Exception as exc:  # noqa: BLE001 -- any failure of one point is recorded, not raised
         return _result_row(point, None, f"{type(exc).__name__}: {exc}")
     return _result_row(point, row, None)
@@ -370,6 +359,8 @@ def _run_local(points, fmu_path, workers: int, quiet: bool, on_result=None) -> l
     import concurrent.futures as cf
     import multiprocessing
 
+    from system_models import kernel
+    kernel.ensure_compiled(None if quiet else (lambda m: print(m, file=sys.stderr, flush=True)))
     results = [None] * len(points)
     with _progress(len(points), quiet) as bar:
         if workers <= 1 or len(points) == 1:
@@ -452,7 +443,7 @@ def run_sweep(points, out, fmu_path=None, workers: int = 2, scheduler: str | Non
 
 def format_summary(result: SweepResult, out) -> str:
     """A short table of the sweep for the terminal."""
-    lines = [f"{'f [Hz]':>7}  {'mode':<13}  {'load [N]':>8}  {'ideal':<5}  {'status':<6}  "
+    lines = [f"{'f [Hz]':>7}  {'mode':<13}  {'load [N]':>8}  {'circuit':<12}  {'status':<6}  "
              f"{'q sim [m3/s]':>12}  {'sim/eq':>6}  {'dy [um]':>7}  {'wall [s]':>8}"]
     for r in result.rows:
         if r["status"] == "ok":
@@ -462,7 +453,7 @@ def format_summary(result: SweepResult, out) -> str:
             tail = r["error"]
         load = "-" if r["load"] is None else f"{r['load']:g}"
         lines.append(f"{r['frequency']:>7g}  {r['mode']:<13}  {load:>8}  "
-                     f"{str(r['ideal']).lower():<5}  {r['status']:<6}  {tail}")
+                     f"{r['circuit']:<12}  {r['status']:<6}  {tail}")
     lines.append(f"{len(result.rows)} points: {result.ran} run, {result.skipped} skipped "
                  f"(finished earlier), {result.failed} failed; table {out}")
     return "\n".join(lines)
@@ -478,17 +469,17 @@ def plot_sweep(rows, path) -> Path:
 
     ok = [r for r in rows if r["status"] == "ok"]
     fig, ax = plt.subplots(figsize=(6.5, 4.8))
-    groups = sorted({(r["mode"], r["load_N"], r["ideal"]) for r in ok})
+    groups = sorted({(r["mode"], r["load_N"], r["circuit"]) for r in ok})
     # colour = mode, as in every flow figure (smeha.flowplots); marker and line = load, circuit
-    cases = sorted({(load, ideal) for _, load, ideal in groups})
-    for mode, load, ideal in groups:
-        rs = sorted((r for r in ok if (r["mode"], r["load_N"], r["ideal"]) == (mode, load, ideal)),
+    cases = sorted({(load, circuit) for _, load, circuit in groups})
+    for mode, load, circuit in groups:
+        rs = sorted((r for r in ok if (r["mode"], r["load_N"], r["circuit"]) == (mode, load,
+                                                                                 circuit)),
                     key=lambda r: r["frequency"])
-        k = cases.index((load, ideal))
+        k = cases.index((load, circuit))
         ax.plot([r["frequency"] for r in rs], [r["flow_sim_m3_s"] * 1e6 for r in rs],
                 color=MODE_COLOURS[mode], marker=MARKERS[k % len(MARKERS)],
-                ls=("-", "--", "-.", ":")[k % 4],
-                label=f"{mode}, {load:g} N, {'ideal' if ideal else 'realistic'}")
+                ls=("-", "--", "-.", ":")[k % 4], label=f"{mode}, {load:g} N, {circuit}")
     ax.set_xlabel("pumping frequency f [Hz]")
     ax.set_ylabel("mean cylinder flow [cm^3/s]")
     ax.set_title("Sweep: flow against frequency")

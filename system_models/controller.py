@@ -7,12 +7,17 @@
 | 3     | up       | compressing  | V2, V3 | V1, V4 |
 | 4     | up       | expanding    | V1, V2 | V3, V4 |
 
-(the paper's Figure 2 and its text). The chamber is compressing while the control signal
-rises and expanding while it falls, so the valves' square wave switches at the
-extremes of the control signal: at i = +-I_m uncompensated (eq 40), at u = 0
-and u = u_m compensated (eq 41).
+(the paper's Figure 2 and its text). The valves' square wave follows the
+control signal: the chamber is compressing while the control signal rises and
+expanding while it falls, so the valves switch at the extremes of the control
+signal: at i = +-I_m uncompensated (eq 40), at u = 0 and u = u_m compensated
+(eq 41).
 """
 from __future__ import annotations
+
+from bisect import bisect_right
+
+import numpy as np
 
 from gmt.errors import ParameterError
 
@@ -64,6 +69,9 @@ def pump_phase(control, previous_control, previous_compressing: bool) -> bool:
 #: Valve actions closer than this to a step's ends count as at the end, [s].
 TIME_TOLERANCE = 1e-9
 
+#: Controller samples taken at once (vectorised) when the controller looks ahead.
+_BLOCK = 2048
+
 
 class SampledValveController:
     """Figure 2's stage logic as a digital controller with its own sample period.
@@ -72,15 +80,20 @@ class SampledValveController:
     (:func:`pump_phase`; the controller generates u, so it knows where u goes
     next) and commands the valves of that stage; valve k then acts a dead time
     d_k later. Both the switching instants (multiples of T) and the dead times
-    are therefore independent of the co-simulation's communication step: a
-    step only asks which commands are in force over its interval
-    (:meth:`segments`), and is split where they change.
+    are therefore independent of the co-simulation's communication step: the
+    master puts a communication point at every valve action
+    (:meth:`next_action`), so the commands are constant over each step
+    (:meth:`commands_at`).
+
+    Samples are taken in blocks ahead of the queries, u evaluated on a whole
+    block at once when it accepts an array of times (a 10 us controller takes
+    10^5 samples per simulated second).
 
     Parameters
     ----------
     direction : {"down", "up"}
     control : callable
-        u(t), [V].
+        u(t), [V]; vectorised over an array of times if it can be.
     period : float
         Sample period T of the controller, [s], > 0.
     dead_times : sequence of 4 floats
@@ -88,79 +101,121 @@ class SampledValveController:
     """
 
     def __init__(self, direction, control, period, dead_times):
-        from collections import deque
-
         from gmt.errors import check_range
         check_range("period", period, 0.0, 1.0, unit="s")
         if len(dead_times) != 4 or min(dead_times) < 0.0:
             raise ParameterError(f"dead_times = {tuple(dead_times)!r} must be 4 values >= 0 s")
+        if direction not in DIRECTIONS:
+            raise ParameterError(f"direction = {direction!r} is not one of {DIRECTIONS}")
         self.direction = direction
         self.control = control
         self.period = float(period)
         self.dead_times = tuple(float(d) for d in dead_times)
-        self.compressing = pump_phase(control(self.period), control(0.0), True)
-        first = valve_commands(direction, self.compressing)
-        self.in_force = list(first)  # commands acting now
-        self._issued = list(first)  # last command issued per valve
-        self._pending = deque()  # (time, valve, command), in time order per valve
-        self._next = 1  # index of the next sample (sample 0 set the start)
-        self._phase_times = deque([(0.0, self.compressing)])
+        first = pump_phase(control(self.period), control(0.0), True)
+        self._phase_times, self._phases = [0.0], [first]  # phase from each change on
+        cmds = valve_commands(direction, first)
+        # per valve: the times its command changes and the command from then on
+        self._action_times = [[0.0] for _ in range(4)]
+        self._action_commands = [[1.0 if c else 0.0] for c in cmds]
+        self._issued = list(cmds)
+        self._next = 1  # index of the next sample to take (sample 0 set the start)
+
+    def _u(self, times):
+        try:
+            values = np.asarray(self.control(times), dtype=float)
+            if values.shape == times.shape:
+                return values
+        except TypeError:  # a scalar-only u (math functions)
+            pass
+        return np.fromiter((self.control(float(t)) for t in times), float, times.size)
 
     def _sample_until(self, time):
-        """Take every controller sample t_j < time."""
-        t_j = self._next * self.period
-        while t_j < time - 1e-15:
-            self.compressing = pump_phase(self.control(t_j + self.period), self.control(t_j),
-                                          self.compressing)
-            self._phase_times.append((t_j, self.compressing))
-            for k, c in enumerate(valve_commands(self.direction, self.compressing)):
-                if c != self._issued[k]:
-                    self._issued[k] = c
-                    self._pending.append((t_j + self.dead_times[k], k, c))
-            self._next += 1
-            t_j = self._next * self.period
+        """Take every controller sample t_j < ``time`` (in blocks; may take more)."""
+        period = self.period
+        while self._next * period < time - 1e-15:
+            j = np.arange(self._next, self._next + _BLOCK + 1)
+            u = self._u(j * period)
+            rise = np.sign(u[1:] - u[:-1])  # sample j's phase: sign of u(t_j + T) - u(t_j)
+            keep = rise != 0.0
+            if not keep.all():  # u standing still keeps the phase
+                last = np.maximum.accumulate(np.where(keep, np.arange(rise.size), -1))
+                rise = np.where(last >= 0, rise[np.maximum(last, 0)],
+                                1.0 if self._phases[-1] else -1.0)
+            phase = rise > 0.0
+            before = np.concatenate(([self._phases[-1]], phase[:-1]))
+            for i in np.flatnonzero(phase != before):
+                t_j = float(j[i] * period)
+                self._phase_times.append(t_j)
+                self._phases.append(bool(phase[i]))
+                for k, c in enumerate(valve_commands(self.direction, bool(phase[i]))):
+                    if c != self._issued[k]:
+                        self._issued[k] = c
+                        self._action_times[k].append(t_j + self.dead_times[k])
+                        self._action_commands[k].append(1.0 if c else 0.0)
+            self._next += _BLOCK
+
+    def _covered(self, time):
+        """Sample far enough that every action up to ``time`` is known."""
+        self._sample_until(time + TIME_TOLERANCE)
 
     def phase_at(self, time) -> bool:
         """Phase the controller commands at ``time`` (its last sample at or before it)."""
-        self._sample_until(time + 1e-15)
-        while len(self._phase_times) > 1 and self._phase_times[1][0] <= time + 1e-15:
-            self._phase_times.popleft()
-        return self._phase_times[0][1]
+        self._covered(time)
+        return self._phases[bisect_right(self._phase_times, time + 1e-15) - 1]
 
-    def next_event(self, start, end):
-        """Earliest instant in (start, end) at which a valve acts, or None, [s]."""
-        self._sample_until(end)
-        inside = [t for t, _, _ in self._pending
-                  if start + TIME_TOLERANCE < t < end - TIME_TOLERANCE]
-        return min(inside) if inside else None
+    def commands_at(self, time) -> tuple:
+        """Valve commands in force at ``time`` (1.0 open, 0.0 closed), actions at ``time``
+        (within :data:`TIME_TOLERANCE`) included."""
+        self._covered(time)
+        return tuple(self._action_commands[k][bisect_right(self._action_times[k],
+                                                           time + TIME_TOLERANCE) - 1]
+                     for k in range(4))
 
-    def segments(self, start, end):
-        """Commands in force over [start, end): a list of (time, (c1, c2, c3, c4)).
+    def next_action(self, start, end):
+        """Earliest instant in (start, end) at which a valve acts, or None, [s].
 
-        The first entry is at ``start``; each further one where a valve acts,
-        strictly inside the interval. Commands are 1.0 (open) or 0.0. Calls
-        must cover consecutive intervals.
+        Instants within :data:`TIME_TOLERANCE` of either end do not count.
         """
-        # every sample that can act before ``end`` (dead times are >= 0)
-        self._sample_until(end)
-        events = sorted(self._pending)
-        self._pending.clear()
-        out = []
-        for t, k, c in events:
-            if t >= end - TIME_TOLERANCE:
-                self._pending.append((t, k, c))
-                continue
-            if t > start + TIME_TOLERANCE and not out:
-                out.append((start, _as_floats(self.in_force)))
-            self.in_force[k] = c
-            if t > start + TIME_TOLERANCE:
-                if out[-1][0] != t:
-                    out.append((t, None))
-                out[-1] = (t, _as_floats(self.in_force))
-        if not out:
-            out.append((start, _as_floats(self.in_force)))
+        self._covered(end)
+        best = None
+        for k in range(4):
+            times = self._action_times[k]
+            i = bisect_right(times, start + TIME_TOLERANCE)
+            if i < len(times) and times[i] < end - TIME_TOLERANCE:
+                best = times[i] if best is None else min(best, times[i])
+        return best
+
+    def actions_between(self, start, end) -> np.ndarray:
+        """Every instant in (start, end) at which a valve acts, sorted, [s] (as
+        :meth:`next_action`, all at once)."""
+        self._covered(end)
+        found = [t for k in range(4) for t in self._action_times[k]
+                 if start + TIME_TOLERANCE < t < end - TIME_TOLERANCE]
+        return np.unique(np.array(found, dtype=float))
+
+    def commands_over(self, times) -> np.ndarray:
+        """:meth:`commands_at` at each of ``times`` (ascending), (n, 4)."""
+        times = np.asarray(times, dtype=float)
+        self._covered(float(times[-1]) if times.size else 0.0)
+        out = np.empty((times.size, 4))
+        for k in range(4):
+            i = np.searchsorted(self._action_times[k], times + TIME_TOLERANCE, side="right")
+            out[:, k] = np.asarray(self._action_commands[k])[i - 1]
         return out
 
+    def phases_over(self, times) -> np.ndarray:
+        """:meth:`phase_at` at each of ``times`` (ascending), 1.0 compressing, 0.0 not."""
+        times = np.asarray(times, dtype=float)
+        self._covered(float(times[-1]) if times.size else 0.0)
+        i = np.searchsorted(self._phase_times, times + 1e-15, side="right")
+        return np.asarray(self._phases, dtype=float)[i - 1]
 
-def _as_floats(flags):
-    return tuple(1.0 if f else 0.0 for f in flags)
+    def forget_before(self, time) -> None:
+        """Drop what only matters before ``time`` (a long run keeps flat memory and fast
+        look-ups): for each valve and the phase, all but the last change at or before it."""
+        for times, values in zip(self._action_times + [self._phase_times],
+                                 self._action_commands + [self._phases]):
+            i = bisect_right(times, time) - 1
+            if i > 0:
+                del times[:i]
+                del values[:i]

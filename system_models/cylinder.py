@@ -1,4 +1,4 @@
-"""Two-cavity (differential) cylinder with its load.
+"""Two-cavity cylinder with its load: differential (single rod) or equal-area (through rod).
 
 The piston position x is measured from the end where the big (cap) cavity is
 smallest; x grows as the cylinder moves "down" (Figure 2: oil into the big
@@ -33,6 +33,10 @@ class CylinderParameters:
         Viscous friction coefficient, [N s/m].
     stop_stiffness, stop_damping : float
         End-stop contact stiffness [N/m] and damping [N s/m].
+    through_rod : bool
+        False: a differential cylinder (the rod on the small cavity's side
+        only, A_B > A_S). True: the rod runs through both cavities, so both
+        have the annulus area (an equal-area, "double-rod" cylinder).
     """
 
     bore_diameter: float = 20e-3
@@ -44,6 +48,7 @@ class CylinderParameters:
     friction: float = 500.0
     stop_stiffness: float = 1.0e8
     stop_damping: float = 1.0e4
+    through_rod: bool = False
 
     def __post_init__(self):
         check_range("bore_diameter", self.bore_diameter, 0.0, 1.0, unit="m")
@@ -58,7 +63,9 @@ class CylinderParameters:
 
     @property
     def big_area(self) -> float:
-        """Piston area on the cap side A_B, [m^2]."""
+        """Piston area on the big cavity's side A_B, [m^2] (the annulus with a through rod)."""
+        if self.through_rod:
+            return self.small_area
         return math.pi * self.bore_diameter ** 2 / 4.0
 
     @property

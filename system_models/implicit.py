@@ -1,19 +1,18 @@
-"""Implicit integration of the hydraulic circuit over one communication step.
+"""Implicit integration of the hydraulic circuit over one step: the readable reference.
 
 The orifices and the stiff oil give the circuit time constants near 1 us
 (V / (beta dQ/dp) for an open valve and a 2.5 cm^3 chamber), far below a
-20 us communication step: only an L-stable implicit method can step it. Two
-are here, both with damped Newton on the analytic Jacobian
-(:func:`system_models.circuit.jacobian`) and recursive halving of a substep
-whose Newton iteration fails:
+communication step: only an L-stable implicit method can step it.
+:func:`tr_bdf2` (second order, L-stable) with damped Newton on the analytic
+Jacobian (:func:`system_models.circuit.jacobian`) and recursive halving of a
+substep whose Newton iteration fails. It feeds the chamber the rod velocity
+its own formula implies, so the volume the rod sweeps is exact, and returns
+the flow and compression volumes as quadratures of the same method, so the
+oil volume balance closes to the Newton tolerance.
 
-* :func:`tr_bdf2` (the co-simulation's default): second order, L-stable;
-* :func:`backward_euler`: first order, L-stable, the most damping.
-
-Both feed the chamber the rod velocity their own formula implies, so the
-volume the rod sweeps is exact, and both return the flow and compression
-volumes as quadratures of the same method, so the oil volume balance closes
-(to round-off with backward Euler, to the Newton tolerance with TR-BDF2).
+The co-simulation runs the same method compiled (:mod:`system_models.kernel`,
+held to this one by ``tests/test_kernel.py``); this module keeps it readable
+and sets the tolerances both use.
 """
 from __future__ import annotations
 
@@ -38,61 +37,6 @@ def _norm(residual):
 
 class IntegrationError(RuntimeError):
     """Newton's method did not converge within a substep."""
-
-
-def backward_euler(x0, h, inputs_over, params: CircuitParameters, substeps: int = 1,
-                   max_newton: int = 60, max_halvings: int = 10):
-    """Advance the circuit by h in ``substeps`` backward-Euler steps.
-
-    Parameters
-    ----------
-    x0 : array
-        State at the start, (see :data:`system_models.circuit.STATE_NAMES`).
-    h : float
-        Step, [s].
-    inputs_over : callable
-        (s0, s1) -> CircuitInputs for the substep from s0 to s1 (times into
-        the step). Giving the rod's secant velocity (y(s1) - y(s0)) / (s1 - s0)
-        there makes the volume the rod sweeps exact, A_d (y(s1) - y(s0)),
-        whatever the step: the pumped volume then carries no first-order
-        error.
-    params : CircuitParameters
-    substeps : int
-        Substeps per step.
-    max_newton : int
-        Newton iterations per substep before that substep is halved.
-    max_halvings : int
-        How often a substep may be halved (a valve snapping open across a
-        large pressure difference can need it) before giving up.
-
-    Returns
-    -------
-    (array, float, float, float, int)
-        State at h; the time integral of p_P over the step [Pa s]; the net
-        volume into the big cavity (V1 in, V2 out) [m^3]; and the oil volume
-        taken up by compression in the chamber and both cavities,
-        sum(V / beta dp) [m^3] -- all by the same backward-Euler quadrature as
-        the states, so the volume balance closes to round-off; and the most
-        halvings any substep needed (0 when none). A caller that repeats the
-        step (the co-simulation's interface iteration) should repeat it with
-        ``substeps * 2**halvings`` uniform substeps, so that every repetition
-        uses the same discretisation.
-
-    Raises
-    ------
-    IntegrationError
-        Newton failed even on the smallest substep.
-    """
-    def substep(x, s0, s1):
-        inputs = inputs_over(s0, s1)
-        xn = _newton(x, s1 - s0, inputs, params, max_newton)
-        if xn is None:
-            return None
-        q = valve_flows(xn, params)
-        return xn, np.array([(s1 - s0) * xn[0], (s1 - s0) * (q.v1 - q.v2),
-                             compression_volume(x, xn, inputs, params)])
-
-    return _integrate(x0, h, substeps, substep, max_halvings)
 
 
 def _integrate(x0, h, substeps, substep, max_halvings):
@@ -124,19 +68,6 @@ def _integrate(x0, h, substeps, substep, max_halvings):
     for j in range(substeps):
         x = advance(x, j * dt, (j + 1) * dt, max_halvings, 0)
     return x, float(totals[0]), float(totals[1]), float(totals[2]), deepest
-
-
-def compression_volume(x_old, x_new, inputs, params: CircuitParameters) -> float:
-    """Oil volume absorbed by compression over a substep, sum(V/beta (p_new - p_old)), [m^3].
-
-    Evaluated at the end of the substep, as backward Euler evaluates the
-    pressure equations: chamber, big cavity, small cavity.
-    """
-    fl = params.fluid
-    vb, vs = cavity_volumes(params.cylinder, x_new[4])
-    vp = chamber_volume(params.chamber, inputs.rod_displacement)
-    return sum(vol / effective_bulk_modulus(fl, x_new[i]) * (x_new[i] - x_old[i])
-               for i, vol in ((0, vp), (1, vb), (2, vs)))
 
 
 def _newton(x, dt, inputs, params, max_newton, rhs_vector=None, guess=None):
@@ -190,14 +121,24 @@ def tr_bdf2(x0, h, inputs_at, params: CircuitParameters, substeps: int = 1,
             max_newton: int = 60, max_halvings: int = 10):
     """Advance the circuit by h with TR-BDF2: second order and L-stable.
 
-    Backward Euler's first-order error on the valve and oil transients costs
+    Backward Euler's first-order error on the valve and oil transients cost
     about 2 % of the delivered flow at a 20 us step (realistic circuit,
     100 Hz); TR-BDF2 removes it at twice the work of one backward-Euler step.
 
     Parameters
     ----------
-    x0, h, params, substeps, max_newton, max_halvings
-        As :func:`backward_euler`.
+    x0 : array
+        State at the start (see :data:`system_models.circuit.STATE_NAMES`).
+    h : float
+        Step, [s].
+    params : CircuitParameters
+    substeps : int
+        Substeps per step.
+    max_newton : int
+        Newton iterations per substep before that substep is halved.
+    max_halvings : int
+        How often a substep may be halved (a valve snapping open across a
+        large pressure difference can need it) before giving up.
     inputs_at : callable
         (s, velocity) -> CircuitInputs at time s into the step with the rod's
         velocity as given. The caller's rod position y(s) is read from
@@ -209,9 +150,15 @@ def tr_bdf2(x0, h, inputs_at, params: CircuitParameters, substeps: int = 1,
     Returns
     -------
     (array, float, float, float, int)
-        As :func:`backward_euler`: state at h; integral of p_P [Pa s]; net
-        volume into the big cavity [m^3]; oil volume taken up by
-        compression [m^3]; the most halvings any substep needed.
+        State at h; integral of p_P [Pa s]; net volume into the big cavity
+        (V1 in, V2 out) [m^3]; oil volume taken up by compression in the
+        chamber and both cavities, sum(V / beta dp) [m^3]; the most halvings
+        any substep needed (0 when none).
+
+    Raises
+    ------
+    IntegrationError
+        Newton failed even on the smallest substep.
     """
     return _integrate(x0, h, substeps,
                       lambda x, s0, s1: _trbdf2_substep(x, s0, s1, inputs_at, params, max_newton),

@@ -76,31 +76,34 @@ guess. It enforces the same relation in the time domain, as the step
 recursion y_{n+1} = a11 y_n + a12 v_n + b1 F_n
 (:func:`gmt.mechanics.zoh_matrices`), which keeps the Jacobian sparse.
 
-Discretisation: the co-simulation's own
----------------------------------------
-So that the fast path and the time-stepped study answer the same question,
-the equations are those the co-simulation takes (its default valve timing,
-``controller_period=None``). The grid has N = round(T / h) steps of h = T / N:
-the requested step, adjusted so a period holds whole steps.
+Discretisation: the displacement port's, on a grid
+---------------------------------------------------
+So that the fast path and a time-stepped run answer the same question, the
+equations are those the co-simulation's displacement port takes
+(:mod:`.cosim`, ``coupling="displacement"``) with the valve controller
+sampling at the grid step. The grid has N = round(T / h) steps of h = T / N:
+the requested step (default :data:`GRID_STEP`), adjusted so a period holds
+whole steps.
 
-* The drive holds u(t_n + h/2) over [t_n, t_n + h) (cosim docstring). The
-  transducer's current, and so its magnetostrictive force, depend on u alone
-  (:meth:`gmt.Transducer.coil_current` and :func:`gmt.simulate` apply the
-  compensator's and eq 31's sample-by-sample rules unchanged).
-* The rod's step holds the force at A_d p_P(t_{n+1}), the co-simulation's
-  implicit interface (cosim docstring, step 5).
+* The transducer is stepped over the grid as the co-simulation steps it
+  (:func:`periodic_drive`): the digital compensator samples u(t_n), the
+  continuous uncompensated drive holds u(t_n + h/2); its current, and so its
+  magnetostrictive force, depend on u alone.
+* The rod's step holds the force at A_d p_P(t_{n+1}), the displacement
+  port's implicit interface (cosim docstring, step 5).
 * The controller switches at grid points, from u(t_{n+1}) - u(t_n)
-  (:func:`.controller.pump_phase`). Each valve acts a dead time later,
-  rounded up to whole steps, as the co-simulation's command history does.
+  (:func:`.controller.pump_phase`; a :class:`.controller.SampledValveController`
+  sampling at h). Each valve acts a dead time later, rounded up to whole steps.
 * The circuit takes one TR-BDF2 step per grid step (:func:`.implicit.tr_bdf2`:
   a trapezoidal stage to t_n + gamma h, then BDF2). The rod moves along the
   cubic Hermite path through (y, v) at both ends, and each stage gets the rod
   velocity its own formula implies. The volume into the big cavity uses the
   same quadrature.
 
-The fast path is then the periodic limit of the time-stepped study, less the
-two drifts above and whatever transient is left in the study's averaging
-window (``tests/test_periodic.py``, ``benchmarks/flow_fastpath.py``).
+The fast path is then the periodic limit of that time-stepped run, less the
+two drifts above and whatever transient is left in the run's averaging
+window (``tests/test_periodic.py``, ``benchmarks/flow_fastpath.py``); the
+force port (the co-simulation's default) converges to the same flow.
 
 Unknowns and equations
 ----------------------
@@ -133,6 +136,7 @@ from .accumulator import accumulator_pressure, oil_volume_at
 from .chamber import chamber_volume
 from .circuit import CircuitParameters, initial_state
 from .controller import pump_phase, valve_commands
+from .defaults import GRID_STEP
 from .cylinder import cavity_volumes, piston_acceleration
 from .flowcheck import FlowCheck
 from .fluid import effective_bulk_modulus
@@ -164,10 +168,9 @@ NEWTON_RTOL = 1e-10
 RESIDUAL_SCALE = np.array([1e-9, 1e-6] + [1e3] * 4 + [1e-6] + [1e3] * 4 + [1e-6])
 CHARGE_SCALE = 1e-12
 
-#: Samples of the period's end run through the compensator before t = 0: its
-#: state (:meth:`gmt.InverseCompensator.get_state`) is the last sample's u, its
-#: demand, rate and phi_0, which reach three samples back.
-_DRIVE_SETTLE = 8
+#: Periods the transducer is stepped to reach its periodic drive: the
+#: compensator's memory reaches three samples back, eq 31's branch one.
+_DRIVE_PERIODS = 3
 
 #: Gauss-Legendre rule for the compressed volume int dp / beta_e(p).
 _GAUSS = np.polynomial.legendre.leggauss(6)
@@ -184,8 +187,8 @@ class PeriodicSettings:
     Attributes
     ----------
     step : float
-        Requested grid step h, [s]. The grid uses T / round(T / h). 20 us is
-        the flow study's communication step.
+        Requested grid step h, [s] (default :data:`GRID_STEP`). The grid uses
+        T / round(T / h).
     direction : {"down", "up"}
         Commanded cylinder direction (Figure 2).
     load_force : float
@@ -200,7 +203,7 @@ class PeriodicSettings:
         Newton iterations before giving up.
     """
 
-    step: float = 20e-6
+    step: float = GRID_STEP
     direction: str = "down"
     load_force: float = 0.0
     accumulator_pressure: float | None = None
@@ -312,20 +315,25 @@ def periodic_drive(transducer: gmt.Transducer, control, n: int, step: float):
     Returns
     -------
     (array, array, array)
-        The u held over each step (u(t_n + h/2), as the co-simulation holds
-        it) [V], the coil current [A] and the magnetostrictive force (eq 28)
-        [N]. The compensator's memory (its backward differences and last
-        sample) is settled by running it over the samples before t = 0, and
-        eq 31's branch memory by taking the force over a second period.
+        The u held over each step [V] -- u(t_n) for the digital compensator,
+        which samples it there; u(t_n + h/2) for the continuous uncompensated
+        drive (as the co-simulation's displacement port holds them) -- the
+        coil current [A] and the magnetostrictive force (eq 28) [N] over each
+        step. The transducer itself is stepped over :data:`_DRIVE_PERIODS`
+        periods and the last is kept: the compensator's memory, its sampling
+        and eq 31's branch settle as in the co-simulation. A compensator
+        period that does not divide the pump period (70 Hz at 10 kHz) samples
+        at other phases each period; the last period is then one of them.
     """
-    u = np.array([control((k + 0.5) * step) for k in range(n)])
+    sampled = transducer.compensator is not None
+    u = np.array([control((k if sampled else k + 0.5) * step) for k in range(n)])
     transducer.reset()
-    # the compensator remembers u over its last three samples: a few samples to settle
-    order = np.arange(-_DRIVE_SETTLE, n) % n
-    current = np.array([transducer.coil_current(float(u[k]), step)[0] for k in order])[-n:]
-    # eq 31's branch follows the current's direction (ties keep the last one): two periods
-    force = gmt.simulate(transducer.params, transducer.point, np.tile(current, 2), step)["force"]
-    return u, current, np.asarray(force[n:], dtype=float)
+    current, force = np.empty(n), np.empty(n)
+    for _ in range(_DRIVE_PERIODS):
+        for k in range(n):
+            out = transducer.step(float(u[k]), step)
+            current[k], force[k] = out.current, out.magnetics.force
+    return u, current, force
 
 
 def valve_schedule(control, circuit: CircuitParameters, direction: str, n: int, step: float):

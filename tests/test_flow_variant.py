@@ -89,7 +89,8 @@ def test_cli_flow_variant_json_pairs_the_models(tmp_path, capsys):
 def test_fmu_and_direct_backends_agree_with_the_paper_variant():
     # the FMU's model_variant/variant_parameters start values give gmt.Transducer(variant=..)
     variant = gmt.ModelVariant.from_json(PAPER_VARIANT.read_text())
-    case = Case(100.0, "compensated", ideal=True, cycles=4, backend="direct", variant=variant)
+    case = Case(100.0, "compensated", circuit="ideal", cycles=4, backend="direct",
+                variant=variant)
     direct = run_case(case)[2]
     fmu = run_case(dataclasses.replace(case, backend="fmu"), ensure_fmu(quiet=True))[2]
     for key in ("flow_sim_m3_s", "dy_um", "load_pressure_Pa", "p_pump_max_Pa"):

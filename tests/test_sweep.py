@@ -1,7 +1,7 @@
 """`smeha sweep`: spec checks (fast), local and Dask sweeps, resume, failed points.
 
-The sweeps are tiny (100 Hz, ideal circuit, 4 cycles, about 8 s a point) to
-keep the file under a minute; they check the machinery, not the physics.
+The sweeps are tiny (100 Hz, ideal circuit, 4 cycles, well under a second a point);
+they check the machinery, not the physics.
 """
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ TINY = """
 [grid]
 frequency = {frequency}
 mode = {mode}
-ideal = [true]
+circuit = ["ideal"]
 [settings]
 cycles = 4
 backend = "{backend}"
@@ -78,25 +78,29 @@ def test_grid_is_the_cartesian_product():
     assert len(points) == 8
     assert {(p.frequency, p.mode, p.load) for p in points} == {
         (f, m, ld) for f in (50.0, 100.0) for m in sweep.flowstudy.MODES for ld in (0.0, 150.0)}
-    assert all(p.cycles == 6 and p.backend == "fmu" and not p.ideal for p in points)
+    assert all(p.cycles == 6 and p.backend == "fmu" and p.circuit == "realistic"
+               for p in points)
 
 
-def test_controller_period_and_hydraulic_step_reach_the_case():
-    # the two CosimSettings options of `smeha flow` are sweep settings too; absent -> None
-    # (Case's default), and they are part of the point's key, so a table swept without them
-    # does not count as done for a sweep with them
+def test_points_are_cases_with_their_defaults():
+    """A point is a flowstudy.Case: the settings a spec leaves out are Case's defaults, and
+    every setting is part of the point's key, so a table swept with other settings does not
+    count as done."""
+    from smeha.flowstudy import Case
     plain, timed = (sweep.parse_spec({"grid": {"frequency": [100], "mode": ["compensated"]},
                                       "settings": extra})[0]
-                    for extra in ({}, {"controller_period": 1e-5, "hydraulic_step": 2e-5}))
-    assert (plain.case().controller_period, plain.case().hydraulic_step) == (None, None)
-    assert (timed.case().controller_period, timed.case().hydraulic_step) == (1e-5, 2e-5)
+                    for extra in ({}, {"controller_period": 2e-5, "hydraulic_step": 2e-5,
+                                       "coupling": "displacement"}))
+    assert plain.case == Case(100.0, "compensated")
+    assert (timed.case.controller_period, timed.case.hydraulic_step, timed.case.coupling) == (
+        2e-5, 2e-5, "displacement")
     assert plain.key != timed.key
     row = {**timed.columns(), "status": "ok"}
     assert sweep.row_key(row) == timed.key
 
 
 def test_table_without_the_optional_columns_still_reads(tmp_path):
-    # a table written before controller_period/hydraulic_step existed: those cells read as None
+    # a table written before those settings existed reads, its points keyed without them
     point = sweep.parse_spec({"grid": {"frequency": [100], "mode": ["compensated"]}})[0]
     table = sweep.write_table([{**point.columns(), "status": "ok", "error": ""}],
                               tmp_path / "t.csv")
@@ -106,11 +110,25 @@ def test_table_without_the_optional_columns_still_reads(tmp_path):
     table.write_text("\n".join(",".join(c for i, c in enumerate(line.split(","))
                                         if i not in drop) for line in lines) + "\n")
     rows = sweep.read_table(table)
-    assert sweep.row_key(rows[0]) == point.key
+    assert all(rows[0][c] is None for c in sweep.OPTIONAL_SETTINGS)
+    assert sweep.row_key(rows[0]) != point.key  # swept otherwise: not done for this spec
 
 
-@pytest.mark.parametrize("key", ["controller_period", "hydraulic_step"])
-def test_bad_optional_setting_names_the_key(key):
+def test_table_with_the_ideal_column_reads_as_named_circuits(tmp_path):
+    """Tables from before the circuits were named (an ``ideal`` column) still read."""
+    point = sweep.parse_spec({"grid": {"frequency": [100], "mode": ["compensated"],
+                                       "circuit": ["ideal"]}})[0]
+    table = sweep.write_table([{**point.columns(), "status": "ok", "error": ""}],
+                              tmp_path / "t.csv")
+    header, row = table.read_text().splitlines()
+    table.write_text(header.replace(",circuit,", ",ideal,") + "\n"
+                     + row.replace(",ideal,", ",true,") + "\n")
+    assert sweep.read_table(table)[0]["circuit"] == "ideal"
+
+
+@pytest.mark.parametrize("key", ["controller_period", "hydraulic_step", "compensator_period",
+                                 "step"])
+def test_bad_setting_names_the_key(key):
     with pytest.raises(sweep.SpecError, match=f"settings.{key}"):
         sweep.parse_spec({"grid": {"frequency": [100], "mode": ["compensated"]},
                           "settings": {key: -1e-5}})

@@ -1,0 +1,35 @@
+"""The co-simulation's default settings, each defined once (plain numbers: importing this
+costs nothing, so the command line shows them in its help without loading the solver).
+
+Every default of the package (:class:`system_models.cosim.CosimSettings`,
+:class:`smeha.flowstudy.Case`, ``smeha simulate/flow/sweep``) reads these.
+"""
+
+#: Communication step, [s]: the largest that keeps the flow of ``smeha simulate``'s
+#: default run (100 Hz, compensated, realistic circuit) within 0.5 % of the same run at
+#: a quarter of the step (benchmarks/README.md, convergence: +0.07 %). With the digital
+#: compensator's 100 us sample period (gmt.parameters.COMPENSATOR_PERIOD) a step is at
+#: most one sample anyway: communication points fall on its samples.
+DEFAULT_STEP = 1e-4
+
+#: Longest substep of the plant's TR-BDF2, [s]. The digital compensator's force steps
+#: at every sample (100 us) and the rod answers each step through its 7 us pole and the
+#: ~30 kHz rod-oil mode; with 100 us substeps that costs up to 0.7 % of the flow (50 Hz
+#: compensated, Figure 9's rule), with 50 us 0.05 % (benchmarks/README.md).
+HYDRAULIC_STEP = 5e-5
+
+#: Sample period of the valve controller, [s]: 10 us puts each switch within 5 us of the
+#: drive's extreme (0.18 deg at 100 Hz), so the valve timing, and with it dy (eqs 40/41),
+#: does not depend on the communication step.
+VALVE_CONTROLLER_PERIOD = 1e-5
+
+#: The fast path's grid step, [s] (system_models.periodic): the displacement port it
+#: solves needs ~250 steps a cycle for the flow within 0.5 % (40 us at 100 Hz;
+#: benchmarks/README.md); 20 us.
+GRID_STEP = 20e-6
+
+#: Pumping cycles simulated by default (the flow check discards 2, averages the rest).
+DEFAULT_CYCLES = 8.0
+
+#: Coupling of the transducer to the plant (system_models.cosim): the force port.
+DEFAULT_COUPLING = "force"
