@@ -26,7 +26,6 @@ BENCHMARKS = {
     "cli_startup": ([], ["--repeats", "3"]),
     "fmu_step_cost": ([], ["--runs", "2", "--steps", "5000", "--memory-steps", "0"]),
     "fmu_exit_crashes": ([], ["--runs", "2", "--steps", "200"]),
-    "flow_fastpath": ([], ["--skip-timestepping", "--repeats", "1"]),
     "cosim_realtime": (["--duration", "2", "--repeats", "3"],
                        ["--duration", "0.05", "--repeats", "1", "--cycles", "4"]),
     "cosim_memory": (["--duration", "10"], ["--duration", "0.2", "--report-every", "0.05"]),

@@ -9,7 +9,7 @@ Subcommands
     One co-simulation of the EHA (transducer FMU + hydraulics) with the flow
     check of eqs 40/41 (:mod:`smeha.flowstudy`). ``simulate``, ``flow`` and
     ``sweep`` live in :mod:`smeha.flowcommands`.
-``smeha flow [--frequencies 50,70,80,100] [--ideal] [--variant FILE] [--fast] [--json] [--plot FILE]``
+``smeha flow [--frequencies 50,70,80,100] [--ideal] [--variant FILE] [--json] [--plot FILE]``
     The flow study: both modes at each frequency, against eqs 40/41 and the
     paper's Table 3; ``--loads`` adds the load lines; ``--variant`` runs every
     case again with the extended model (a diagnosis or a small variant JSON)

@@ -1,7 +1,7 @@
 """The flow-study commands of ``smeha``: ``simulate``, ``flow`` and ``sweep``.
 
 One co-simulation, the flow study (both modes at each frequency, load lines, a model
-variant next to the paper's model, the fast path) and a grid of co-simulations, with
+variant next to the paper's model) and a grid of co-simulations, with
 the rules their options share: the co-simulation options, the step's accuracy
 warning, the cases built from the options (:class:`smeha.flowstudy.Case`), the FMU
 used. Registered by :mod:`smeha.cli`; option types from :mod:`smeha.cliargs`.
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import gmt  # cheap: its names load on first use
 from gmt.parameters import COMPENSATOR_PERIOD
-from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_STEP, GRID_STEP,
+from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_STEP,
                                     HYDRAULIC_STEP, VALVE_CONTROLLER_PERIOD)
 
 from .cliargs import (UsageError, add_branch_rule, count, input_file, number, number_list,
@@ -63,8 +63,7 @@ def _add_cosim_options(p):
                         "valves on the differential cylinder, whose rebound adds stroke")
     p.add_argument("--ideal", action="store_true", help="the same as --circuit ideal")
     p.add_argument("--step", type=number(0.0, 1.0, unit="s"), metavar="S",
-                   help=f"communication step [s] (default {DEFAULT_STEP:g}, with --fast the "
-                        f"fast path's grid {GRID_STEP:g}; a warning below "
+                   help=f"communication step [s] (default {DEFAULT_STEP:g}; a warning below "
                         f"{CONVERGED_STEPS_PER_CYCLE['force']} steps a cycle); steps are also "
                         "cut at the compensator's samples and the valve actions")
     p.add_argument("--coupling", choices=("force", "displacement"),
@@ -267,11 +266,8 @@ def add_flow(subparsers):
                         "output of 'smeha diagnose --json' (its winning extension) or "
                         "{\"cause\": ..., \"parameters\": {...}} (e.g. data/paper_variant.json); "
                         "prints the flow of both models side by side")
-    p.add_argument("--fast", action="store_true",
-                   help="solve each case's periodic steady state directly (smeha.fastpath: "
-                        "the paper's model, gmt in-process; ~0.1 s a case) instead of "
-                        "time-stepping the co-simulation; refuses the options it has no use "
-                        "for")
+    # retired (FAST_RETIRED); kept out of --help, refused with the reason
+    p.add_argument("--fast", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--json", action="store_true",
                    help="print only a JSON object {rows: [...]} (with --variant also "
                         "{variant, comparison})")
@@ -296,52 +292,13 @@ def _read_variant(path):
         raise UsageError(f"--variant {path}: {exc}") from None
 
 
-#: Options the periodic-steady-state fast path has no use for, and why.
-FAST_REFUSES = {
-    "variant": "it solves the paper's model only",
-    "coupling": "it solves the displacement port's discrete equations on its own grid",
-    "controller_period": "its valves switch on its grid",
-    "hydraulic_step": "it takes one hydraulic step a grid step",
-    "cycles": "it solves the periodic steady state, not a number of cycles",
-    "workers": "it runs in this process (~0.1 s a case)",
-    "backend": "it runs gmt in-process",
-    "fmu": "it runs gmt in-process",
-}
-
-
-def _run_fast_flow(args) -> int:
-    from . import fastpath, flowstudy
-    given = [k for k in FAST_REFUSES if getattr(args, k) is not None]
-    if given:
-        option = "--" + given[0].replace("_", "-")
-        raise UsageError(f"--fast does not take {option}: {FAST_REFUSES[given[0]]}; "
-                         f"drop --fast or {option}")
-    _check_circuit(args)
-    step = args.step or GRID_STEP
-    _check_step("flow", step, max(args.frequencies), "displacement")
-    loads = [args.load] + (args.loads or [])
-    optional = {} if args.compensator_period is None else {
-        "compensator_period": args.compensator_period}
-    rows = fastpath.flow_table(args.frequencies, flowstudy.MODES,
-                               circuit="ideal" if args.ideal else (args.circuit or "realistic"),
-                               load=loads if len(loads) > 1 else args.load, step=step,
-                               branch_rule=args.branch_rule, **optional)
-    if args.plot:
-        from .flowplots import plot_flow
-        plot_flow(rows, args.plot)
-    if args.json:
-        print(json.dumps({"rows": rows}))
-        return 0
-    first = rows[0]["load_N"]
-    print(flowstudy.format_table([r for r in rows if r["load_N"] == first]))
-    if args.loads:
-        print()
-        print(flowstudy.format_load_lines(rows))
-    print(f"\n(periodic steady state solved directly, no co-simulation: "
-          f"{sum(r['wall_s'] for r in rows):.2f} s)")
-    if args.plot:
-        print(f"wrote {args.plot}")
-    return 0
+#: Why ``smeha flow --fast`` is refused (exit status 2): the periodic-steady-state fast path
+#: is gone. The time-stepped table on the force port is faster than it was (0.4 s against
+#: 0.67 s in-process, one run each) and keeps the exact valve timing it missed by up to
+#: 2.5 % (benchmarks/README.md, "The fast path, retired").
+FAST_RETIRED = ("--fast is retired: the default co-simulation replaced the periodic-steady-state "
+                "fast path and is faster (the whole table in ~0.4 s in-process: "
+                "--backend direct); drop --fast")
 
 
 def _workers(args) -> int:
@@ -351,7 +308,7 @@ def _workers(args) -> int:
 def _run_flow(args) -> int:
     from . import flowstudy
     if args.fast:
-        return _run_fast_flow(args)
+        raise UsageError(FAST_RETIRED)
     variant = _read_variant(args.variant) if args.variant else None
     no_extension = variant is not None and variant.is_paper
     if no_extension:

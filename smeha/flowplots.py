@@ -28,12 +28,6 @@ def _eq(mode):
     return "eq 41" if mode == "compensated" else "eq 40"
 
 
-def _simulated_label(rows) -> str:
-    """How the rows' flows were obtained: time-stepped co-simulation or the fast path."""
-    return ("periodic steady state (fast path)" if rows and rows[0].get("backend") == "fastpath"
-            else "co-simulation")
-
-
 def run_figure(record, row, skip_cycles: int | None = None):
     """Rod displacement and control, pressures, valve phase and pumped volume of one run.
 
@@ -126,7 +120,7 @@ def flow_figure(rows):
     ncols = 2 if len(loads) > 1 else 1
     fig, axes = plt.subplots(1, ncols, figsize=(6.8 * ncols, 6.0), squeeze=False)
     ax = axes[0, 0]
-    simulated = _simulated_label(rows)
+    simulated = "co-simulation"
     variant_name = variants[0]["model"] if variants else None
     for mode, colour in MODE_COLOURS.items():
         rs = sorted((r for r in paper if r["mode"] == mode and r["load_N"] == base),

@@ -418,9 +418,7 @@ def format_table(rows) -> str:
     head = (f"{'f [Hz]':>6}  {'mode':<13}  {'circuit':<9}  {'load [N]':>8}  {'q sim [m3/s]':>12}  "
             f"{'q eq40/41':>10}  {'sim/eq':>6}  {'dy [um]':>7}  {'q paper':>10}  "
             f"{'dy paper':>8}  {'dy free':>7}  {'q/q free':>8}  {'q [L/min]':>9}")
-    source = ("periodic steady state (fast path)" if rows and rows[0].get("backend") == "fastpath"
-              else "co-simulation")
-    lines = [f"Cylinder flow: {source} against eqs 40/41 and the paper's Table 3",
+    lines = ["Cylinder flow: co-simulation against eqs 40/41 and the paper's Table 3",
              "(dy: the rod between the valve switching instants of this run; q paper: f A_d dy "
              "that the paper computes with eqs 40/41 from Table 3's measured dy (dy paper), not "
              "a measured flow; dy free: the transducer alone, no oil; q/q free: delivered flow "

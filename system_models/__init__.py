@@ -9,6 +9,5 @@ them), ``circuit`` (the assembled ``rhs(t, x, inputs, params)``) and ``plant``
 circuits; ``defaults`` holds the co-simulation's default settings;
 ``implicit`` and ``kernel`` integrate (readable and compiled); ``cosim`` is the
 master that couples the transducer FMU (fmpy) or gmt in-process to the plant;
-``flowcheck`` checks the flow against eqs 39-41; ``periodic`` solves the
-periodic steady state directly.
+``flowcheck`` checks the flow against eqs 39-41.
 """

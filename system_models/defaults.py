@@ -23,11 +23,6 @@ HYDRAULIC_STEP = 5e-5
 #: does not depend on the communication step.
 VALVE_CONTROLLER_PERIOD = 1e-5
 
-#: The fast path's grid step, [s] (system_models.periodic): the displacement port it
-#: solves needs ~250 steps a cycle for the flow within 0.5 % (40 us at 100 Hz;
-#: benchmarks/README.md); 20 us.
-GRID_STEP = 20e-6
-
 #: Pumping cycles simulated by default (the flow check discards 2, averages the rest).
 DEFAULT_CYCLES = 8.0
 

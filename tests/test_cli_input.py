@@ -221,7 +221,6 @@ def test_assisting_loads_in_the_natural_form(argv, dest, value, calls):
     (["flow", "--workers", "0"], "--workers"),
     (["sweep", "SPEC", "--workers", "0"], "--workers"),
     (["flow", "--cycles", "2"], "--cycles"),
-    (["flow", "--fast", "--cycles", "2"], "--cycles"),
     (["simulate", "--frequency", "50", "--mode", "compensated", "--cycles", "3.5"], "--cycles"),
     (["flow", "--frequencies", "50,2000"], "--frequencies"),
     (["simulate", "--frequency", "0", "--mode", "compensated"], "--frequency"),
@@ -256,13 +255,13 @@ def test_unknown_option_is_one_line(calls, capsys):
 # -- rules between options, checked before the work --------------------------------------------
 @pytest.fixture
 def tripwire(monkeypatch):
-    """The co-simulation, the fast path and the FMU build replaced by WorkStarted."""
-    from smeha import fastpath, flowstudy
+    """The co-simulation and the FMU build replaced by WorkStarted."""
+    from smeha import flowstudy
 
     def trip(*args, **kwargs):
         raise WorkStarted
     for module, name in ((flowstudy, "run_case"), (flowstudy, "run_cases"),
-                         (flowstudy, "ensure_fmu"), (fastpath, "flow_table")):
+                         (flowstudy, "ensure_fmu")):
         monkeypatch.setattr(module, name, trip)
 
 
@@ -272,13 +271,10 @@ def tripwire(monkeypatch):
      ["--duration 0.001 s is 0.05 cycles at 50 Hz", "--duration >= 0.08 s"]),
     (["simulate", "--frequency", "50", "--mode", "compensated", "--duration", "0.1",
       "--cycles", "5"], ["give --duration or --cycles, not both"]),
-    (["flow", "--fast", "--cycles", "5"], ["--fast does not take --cycles"]),
-    (["flow", "--fast", "--workers", "2"], ["--fast does not take --workers"]),
-    (["flow", "--fast", "--backend", "direct"], ["--fast does not take --backend"]),
-    (["flow", "--fast", "--variant", VARIANT],
-     ["--fast does not take --variant"]),
-    (["flow", "--fast", "--controller-period", "1e-5"], ["--fast does not take "
-                                                         "--controller-period"]),
+    # the retired fast path: refused with the reason, whatever comes with it
+    (["flow", "--fast"], ["--fast is retired: the default co-simulation replaced",
+                          "is faster"]),
+    (["flow", "--fast", "--backend", "direct", "--json"], ["--fast is retired"]),
     (["simulate", "--frequency", "50", "--mode", "compensated", "--backend", "direct",
       "--fmu", VARIANT], [f"--fmu {VARIANT} has no use"]),
     (["flow", "--backend", "direct", "--fmu", VARIANT], ["has no use"]),

@@ -412,7 +412,40 @@ def test_valve_stages_route_the_flow_as_figure_2(ideal_runs):
 
 
 # --------------------------------------------------------------------------------------
-# 7. command line
+# 7. load lines and flagged results
+# --------------------------------------------------------------------------------------
+def test_a_heavier_load_leaves_less_flow():
+    """A pump's load line (Merritt, Hydraulic Control Systems, 1967: delivered flow falls
+    as the load pressure rises): the pump must lift p_B further above p_S, the chamber's
+    pressure pushes the rod back further and the oil compresses more. Realistic circuit,
+    100 Hz uncompensated, 0 / 100 / 150 N; the load pressure p_B - p_S rises with the load
+    by about F / A_B."""
+    rows = [run_case(Case(100.0, "uncompensated", load=load, cycles=6, backend="direct"))[2]
+            for load in (0.0, 100.0, 150.0)]
+    flows = [r["flow_sim_m3_s"] for r in rows]
+    assert flows[0] > flows[1] > flows[2] > 0.0
+    big_area = presets.realistic_circuit().cylinder.big_area
+    rise = rows[2]["load_pressure_Pa"] - rows[0]["load_pressure_Pa"]
+    # within 10 %: p_S acts on A_S < A_B and friction takes c w (measured 0.96 F / A_B)
+    assert rise == pytest.approx(150.0 / big_area, rel=0.1)
+
+
+def test_reversed_flow_is_flagged_with_its_reason():
+    """The uncompensated pump at 150 Hz (issue 12): the rod lags the valve timing by more
+    than a quarter period, dy < 0 and the flow runs backwards; the row says so and why,
+    the table marks it."""
+    from smeha.flowstudy import format_table
+    ok, reversed_ = (run_case(Case(f, "uncompensated", cycles=6, backend="direct"))[2]
+                     for f in (100.0, 150.0))
+    assert not ok["flow_reversed"] and "note" not in ok
+    assert reversed_["flow_sim_m3_s"] < 0.0 and reversed_["dy_um"] < 0.0
+    assert reversed_["flow_reversed"]
+    assert "lags" in reversed_["note"] and "quarter period" in reversed_["note"]
+    assert "(!) 150 Hz uncompensated: flow reversed" in format_table([ok, reversed_])
+
+
+# --------------------------------------------------------------------------------------
+# 8. command line
 # --------------------------------------------------------------------------------------
 def test_cli_simulate_json(capsys):
     """``smeha simulate ... --json``: one JSON object with the eq-41 check."""

@@ -112,9 +112,3 @@ def test_valve_controller_period_sets_the_switching_instants():
     for t in times:
         assert abs(t - extremes[np.argmin(np.abs(t - extremes))]) <= 3.5e-4 + 1e-9
 
-
-def test_cli_fast_flow_refuses_the_time_stepping_options(capsys):
-    for option, value in (("--controller-period", "1e-5"), ("--coupling", "force"),
-                          ("--hydraulic-step", "1e-5")):
-        assert cli.main(["flow", "--fast", option, value]) == 2
-        assert option in capsys.readouterr().err
