@@ -6,7 +6,7 @@ a held force) and the four valve commands; the load on the cylinder. Out:
 the state at the step's end, the volume into the big cavity and the oil
 taken up by compression (for the flow check of eqs 39-41 and the volume
 balance). The transducer needs nothing back (the force port of
-:mod:`system_models.cosim`).
+:mod:`system_models.forceport`).
 
 State (SI): the circuit's ten (:data:`system_models.circuit.STATE_NAMES`),
 then the rod's (:mod:`system_models.rod`): y, v, or y_1, v_1, y_2, v_2 with

@@ -475,7 +475,7 @@ def test_cli_simulate_displacement_coupling(capsys):
 
 
 def test_fmi2_functions_are_the_fmus_own():
-    """The master calls the FMU's C functions directly (system_models.cosim.fmi2_functions,
+    """The master calls the FMU's C functions directly (system_models.transducers.fmi2_functions,
     fmpy's library handle and the FMI 2.0 prototypes, not fmpy's private tables): the same
     values as fmpy's public API, and a loud error should fmpy stop exposing what it uses."""
     from system_models.cosim import FmuTransducer, fmi2_functions

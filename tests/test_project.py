@@ -57,7 +57,8 @@ def test_packages_and_test_configuration():
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
     setup = meta["tool"]["setuptools"]
     for package in setup["packages"]:
-        folder = ROOT / setup.get("package-dir", {}).get(package, package)
+        # a subpackage (system_models.kernel) is listed too: setuptools takes no subpackages
+        folder = ROOT / setup.get("package-dir", {}).get(package, package.replace(".", "/"))
         assert (folder / "__init__.py").is_file(), package
     pytest_cfg = meta["tool"]["pytest"]["ini_options"]
     assert any(m.startswith("integration:") for m in pytest_cfg["markers"])
