@@ -24,8 +24,9 @@ build when the two drift apart.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any
+
+# the record and the units every table of this project uses (bundled next to this file)
+from smeha_fmu_variables import UNITS, Variable, unit_problems  # noqa: F401  (UNITS: re-exported)
 
 #: modelName / modelIdentifier of the FMI 2.0 FMU (the FMU is ``SmehaGmt.fmu``).
 MODEL_NAME_FMI2 = "SmehaGmt"
@@ -38,9 +39,12 @@ SLAVE_MODULE_FMI3 = "smeha_gmt_fmu3"
 #: Module name of this file, in fmu_src/ and in the FMU's resources.
 INTERFACE_MODULE = "smeha_fmu_interface"
 #: The other modules of fmu_src/ the FMU bundles next to its slave: the callbacks both
-#: slaves share, and the run-time set-up each slave runs first.
+#: slaves share, and the run-time set-up each slave runs first; the variable record and units
+#: and the callbacks every FMU of this project shares.
 SLAVE_LOGIC_MODULE = "smeha_fmu_slave"
 RUNTIME_MODULE = "smeha_fmu_runtime"
+VARIABLES_MODULE = "smeha_fmu_variables"
+BASE_MODULE = "smeha_fmu_base"
 #: Name under which the gmt package is bundled in the FMU's resources. Unique to
 #: this project, so that a host that has imported its own ``gmt`` (the smeha
 #: co-simulation master does) cannot make the FMU run the host's copy: one Python
@@ -77,78 +81,6 @@ BRANCH_RULES = ("control", "demand")
 
 #: DefaultExperiment: five periods of the paper's 50 Hz case at a 10 us step.
 DEFAULT_EXPERIMENT = {"start_time": 0.0, "stop_time": 0.1, "step_size": 1e-5}
-
-#: Units: name -> exponents of the SI base units (kg, m, s, A, K, mol, cd, rad).
-#: ``None`` marks a unit that integer exponents cannot express (the Steinmetz
-#: law's T^n and the excess-loss law's T^1.5): it is declared by name only.
-UNITS: dict[str, dict[str, int] | None] = {
-    "1": {},
-    "A": {"A": 1},
-    "A/m": {"A": 1, "m": -1},
-    "A/V": {"kg": -1, "m": -2, "s": 3, "A": 2},
-    "Hz": {"s": -1},
-    "N": {"kg": 1, "m": 1, "s": -2},
-    "N.s/m": {"kg": 1, "s": -1},
-    "N/m": {"kg": 1, "s": -2},
-    "T": {"kg": 1, "s": -2, "A": -1},
-    "V": {"kg": 1, "m": 2, "s": -3, "A": -1},
-    "W.s/(m3.T^n)": None,  # K_h of eq 7; the exponent n is itself a parameter
-    "W.s/(m3.(A/m)3)": {"kg": 1, "m": 2, "s": -2, "A": -3},  # K'_h of eq 6
-    "W.s2/(m3.T2)": {"kg": -1, "m": -1, "s": 3, "A": 2},  # K_e of eq 9
-    "W.s1.5/(m3.T1.5)": None,  # K_ex of eq 11: half-integer exponents
-    "kg": {"kg": 1},
-    "m": {"m": 1},
-    "m/V": {"kg": -1, "m": -1, "s": 3, "A": 1},
-    "m/s": {"m": 1, "s": -1},
-    "m2": {"m": 2},
-    "m2/A2": {"m": 2, "A": -2},
-    "s": {"s": 1},  # FMI 3.0 independent variable time
-}
-
-
-@dataclass(frozen=True)
-class Variable:
-    """One FMU variable.
-
-    Attributes
-    ----------
-    name : str
-        Variable name (a field name of the gmt dataclasses for parameters).
-    kind : {"Real", "Integer", "Boolean", "String"}
-        FMI 2.0 type (FMI 3.0: Float64, Int32, Boolean, String).
-    causality : {"input", "parameter", "calculatedParameter", "output"}
-    unit : str or None
-        Key of :data:`UNITS` (every Real has one; "1" for dimensionless).
-    description : str
-    start : float, int, bool, str or None
-        Start value (inputs and parameters); outputs start at :attr:`initial_value`.
-    group : {"input", "transducer", "excitation", "drive", "model", "mechanics", "output"}
-        Which gmt object a parameter goes to ("mechanics": the calculated
-        parameters, :meth:`gmt.Transducer.rod_mechanics`).
-    """
-
-    name: str
-    kind: str
-    causality: str
-    unit: str | None
-    description: str
-    start: Any
-    group: str
-
-    @property
-    def variability(self) -> str:
-        """FMI variability: fixed parameters, continuous Reals, discrete others."""
-        if self.causality in ("parameter", "calculatedParameter"):
-            return "fixed"
-        return "continuous" if self.kind == "Real" else "discrete"
-
-    @property
-    def initial_value(self):
-        """Value the slave holds before its first step."""
-        if self.start is not None:
-            return self.start
-        return {"Real": 0.0, "Integer": 0, "Boolean": False, "String": ""}[self.kind]
-
 
 def _in(name, unit, description, start=0.0):
     return Variable(name, "Real", "input", unit, description, start, "input")
@@ -310,14 +242,7 @@ VARIABLE_NAMES = tuple(v.name for v in VARIABLES)
 
 def coerce(name: str, value):
     """``value`` converted to the Python type of variable ``name`` (no range check)."""
-    kind = BY_NAME[name].kind
-    if kind == "Real":
-        return float(value)
-    if kind == "Integer":
-        return int(value)
-    if kind == "Boolean":
-        return bool(value)
-    return str(value)
+    return BY_NAME[name].coerce(value)
 
 
 def parameter_values(source) -> dict:
@@ -364,8 +289,6 @@ def check_against_gmt() -> None:
                         "flux_density", "magnetization", "strain", "force",
                         "operating_frequency", "operating_current_amplitude"):
         problems.append(f"Real outputs {REAL_OUTPUTS} are not in output_values' order")
-    for v in VARIABLES:
-        if v.kind == "Real" and v.unit not in UNITS:
-            problems.append(f"{v.name}: unit {v.unit!r} is not in UNITS")
+    problems.extend(unit_problems(VARIABLES))
     if problems:
         raise AssertionError("FMU interface out of date with gmt:\n  " + "\n  ".join(problems))

@@ -25,8 +25,9 @@ mending first, in this order:
    build's standard library on ``sys.path`` instead. A Python host's own
    interpreter (a different ``sys.version``, or the right prefix) is left alone.
 3. **The packages the FMU needs must be importable.** When the host's Python
-   lacks them (:data:`REQUIRED_PACKAGES`), the site-packages of the build
-   environment are appended to ``sys.path`` (after the host's own).
+   lacks them (:func:`required_packages`: numpy for the transducer, numpy and numba for
+   the hydraulic plant), the site-packages of the build environment are appended to
+   ``sys.path`` (after the host's own).
 
 And one thing at exit (:func:`arm_clean_exit`, called by each slave when it is
 instantiated): pythonfmu's export library (0.7 and pythonfmu3 0.3.4 alike)
@@ -55,10 +56,11 @@ import sys
 
 #: File the build writes into the FMU's resources: the environment the FMU was built in.
 ENVIRONMENT_FILE = "smeha_fmu_environment.txt"
-#: Top-level packages the FMU imports at run time beyond the standard library.
+#: Top-level packages the transducer FMU imports at run time beyond the standard library
+#: (another FMU's build records its own in the environment record, :func:`required_packages`).
 REQUIRED_PACKAGES = ("numpy",)
 
-#: What :func:`prepare` did and found, for messages and tests (filled once per process).
+#: What :func:`prepare` did and found for the FMU that called it last, for messages and tests.
 REPORT: dict = {}
 
 
@@ -152,6 +154,14 @@ def _missing(packages) -> list[str]:
             if name not in sys.modules and PathFinder.find_spec(name, sys.path) is None]
 
 
+def required_packages(record: dict) -> tuple:
+    """The packages an FMU needs at run time: its record's ``required`` entries (an empty
+    entry: none beyond the standard library), else :data:`REQUIRED_PACKAGES`."""
+    if "required" not in record:
+        return REQUIRED_PACKAGES
+    return tuple(name for name in record["required"] if name)
+
+
 def find_packages(record: dict, packages=REQUIRED_PACKAGES) -> list[str]:
     """Make ``packages`` importable; return those still missing.
 
@@ -219,31 +229,48 @@ def arm_clean_exit(model_identifier: str) -> list[str]:
 
 
 def prepare(resources: str | None = None) -> dict:
-    """Steps 1-3 of the module docstring, once per process; return :data:`REPORT`.
+    """Steps 1-3 of the module docstring; return :data:`REPORT`.
+
+    Steps 1 and 2 are done once per process; step 3 once per FMU, since the
+    FMUs of this project share this module (by name) in one process but each
+    records its own packages: each slave passes its own resources folder.
 
     Parameters
     ----------
     resources : str, optional
         Directory holding :data:`ENVIRONMENT_FILE` (default: this module's).
     """
-    if REPORT:
+    folder = os.path.abspath(resources or os.path.dirname(os.path.abspath(__file__)))
+    if folder in _PREPARED:
+        REPORT.clear()
+        REPORT.update(_PREPARED[folder])
         return REPORT
-    folder = resources or os.path.dirname(os.path.abspath(__file__))
+    report = {}
     try:
         with open(os.path.join(folder, ENVIRONMENT_FILE), encoding="utf-8") as fh:
             record = parse_environment(fh.read())
     except OSError as exc:
         record = {}
-        REPORT["environment"] = f"no build environment record ({exc})"
-    REPORT["libpython"] = promote_libpython((record.get("libpython") or [""])[0])
-    REPORT["standard_library_restored"] = restore_standard_library(record)
-    REPORT["missing"] = find_packages(record)
-    REPORT["site"] = list(record.get("site", []))
+        report["environment"] = f"no build environment record ({exc})"
+    if not _PREPARED:
+        _PROCESS["libpython"] = promote_libpython((record.get("libpython") or [""])[0])
+        _PROCESS["standard_library_restored"] = restore_standard_library(record)
+    report.update(_PROCESS)
+    report["missing"] = find_packages(record, required_packages(record))
+    report["site"] = list(record.get("site", []))
+    _PREPARED[folder] = report
+    REPORT.clear()
+    REPORT.update(report)
     return REPORT
 
 
+#: What :func:`prepare` did once per process (steps 1-2), and per resources folder.
+_PROCESS: dict = {}
+_PREPARED: dict = {}
+
+
 def missing_packages_message() -> str | None:
-    """Why the FMU cannot run in this Python, or None when it can."""
+    """Why the FMU whose :func:`prepare` ran last cannot run in this Python, or None when it can."""
     missing = REPORT.get("missing")
     if not missing:
         return None

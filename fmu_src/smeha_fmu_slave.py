@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import operator
 
+import smeha_fmu_interface
+from smeha_fmu_base import SlaveBase
 from smeha_fmu_interface import (BY_NAME, DRIVE_PARAMETERS, EXCITATION_PARAMETERS, MECHANICS,
                                  MODEL_VARIANTS, OUTPUTS, REAL_OUTPUTS, TRANSDUCER_PARAMETERS,
                                  VARIABLE_NAMES, coerce, parameter_values, physics)
@@ -118,7 +120,7 @@ def load_physics(problem: str | None = None):
                       "importable by the Python of the host process")
 
 
-class TransducerSlave:
+class TransducerSlave(SlaveBase):
     """The callbacks both slaves share: a mixin placed before the pythonfmu(3) base.
 
     The slave class sets the FMI flavour (status values, function names for
@@ -132,42 +134,27 @@ class TransducerSlave:
     exception there into Fatal), so its first and every later ``doStep``
     fails with what the slave's :meth:`_fail_step` returns, the strongest
     status the FMI flavour can give, and the reason is also written once to
-    the process's stderr (a host may run without FMU logging). A slave with
+    the process's stderr (a host may run without FMU logging;
+    :class:`smeha_fmu_base.SlaveBase`). A slave with
     more state than the variables (FMI 3.0's ``time``) extends
     :meth:`_after_step`, :meth:`_extra_state` and :meth:`_restore_extra`.
     """
 
-    MODEL_NAME = ""
-    STATUS_ERROR = STATUS_WARNING = STATUS_DISCARD = None
-    EXIT_INITIALIZATION = "fmi2ExitInitializationMode"
-    GET_STATE = "fmi2GetFMUstate"
-    SET_STATE = "fmi2SetFMUstate"
     PHYSICS = None  # the gmt module the slave imported
-    IMPORT_PROBLEM = None
+    TABLE = smeha_fmu_interface
 
     def _init_transducer(self):
+        """The variables at their initial values; no transducer until initialisation."""
         self._transducer = None  # gmt.Transducer, built on leaving initialisation
         self._built_from = None  # parameter values it was built from
-        self._problem = self.IMPORT_PROBLEM or f"not initialised (call {self.EXIT_INITIALIZATION})"
-        self._told_stderr = False  # the unusable instance's reason goes to stderr once
         self._warned_design_point = False  # the design-point warning is logged once
-        if self.IMPORT_PROBLEM:
-            self._report(self.IMPORT_PROBLEM)
+        self._init_base()
 
-    def _report(self, message: str, status=None):
-        self.log(message, self.STATUS_ERROR if status is None else status)
+    def _built(self) -> bool:
+        return self._transducer is not None
 
-    def _parameter_setter(self, name):
-        def setter(value):
-            try:
-                if self._transducer is not None:
-                    self._report(f"{name}: a fixed parameter cannot change after "
-                                 f"initialisation; {value!r} ignored (reset first)")
-                    return
-                setattr(self, name, coerce(name, value))
-            except Exception as exc:  # never raise into pythonfmu
-                self._report(f"{name} = {value!r} rejected: {exc}")
-        return setter
+    def _discard_model(self) -> None:
+        self._transducer, self._built_from = None, None
 
     def _build(self, values: dict) -> bool:
         """Build the gmt objects from parameter values; log and return False on error."""
@@ -235,22 +222,6 @@ class TransducerSlave:
         self._after_step(current_time, step_size)
         return True
 
-    def _refuse_step(self, current_time):
-        """An unusable instance's step: log the reason (Error), tell stderr once, fail."""
-        import sys
-
-        message = f"doStep at t = {current_time!r} s refused: {self._problem}"
-        self._report(message)
-        if not self._told_stderr:
-            self._told_stderr = True
-            sys.stderr.write(f"{self.MODEL_NAME} instance {self.instance_name!r}: {message}\n")
-            sys.stderr.flush()
-        return self._fail_step(message)
-
-    def _fail_step(self, message: str):
-        """What ``do_step`` of an unusable instance returns (or raises): the slave's choice."""
-        raise NotImplementedError
-
     def _after_step(self, current_time, step_size):
         """Hook after a successful step (FMI 3.0 advances its ``time``)."""
 
@@ -283,13 +254,8 @@ class TransducerSlave:
         try:
             if "invalid" in state:
                 raise ValueError(f"the state is invalid: {state['invalid']}")
-            built_from = state["built_from"]
-            if built_from is None:
-                self._transducer, self._built_from = None, None
-            elif (self._transducer is None
-                  or (built_from is not self._built_from and built_from != self._built_from)):
-                if not self._build(built_from):
-                    return
+            if not self._model_for(state["built_from"]):
+                return
             if self._transducer is not None:
                 self._transducer.set_state(state["transducer"])
             if state.get("typed"):
@@ -307,25 +273,16 @@ class TransducerSlave:
 
     @staticmethod
     def _fmu_state_to_bytes(state):
-        import json
-        try:
-            # "typed" describes the in-memory copy, not the state: not serialised; the
-            # values are written by name
-            out = {k: v for k, v in state.items() if k not in ("typed", "values")}
-            if "values" in state:
-                out["variables"] = dict(zip(VARIABLE_NAMES, state["values"]))
-            return json.dumps(out).encode("utf-8")
-        except Exception as exc:
-            return json.dumps({"invalid": f"not serialisable: {exc}"}).encode("utf-8")
+        # "typed" describes the in-memory copy, not the state: not serialised; the values
+        # are written by name
+        out = {k: v for k, v in state.items() if k not in ("typed", "values")}
+        if "values" in state:
+            out["variables"] = dict(zip(VARIABLE_NAMES, state["values"]))
+        return SlaveBase._encoded_state(out)
 
     @classmethod
     def _fmu_state_from_bytes(cls, state):
-        import json
-        try:
-            out = json.loads(bytes(state).decode("utf-8"))
-            if not isinstance(out, dict):
-                raise ValueError("not a JSON object")
+        out = cls._decoded_state(state)
+        if "invalid" not in out:
             out["typed"] = False  # coerce each value again on restore
-            return out
-        except Exception as exc:
-            return {"invalid": f"not a serialised {cls.__name__} state: {exc}"}
+        return out

@@ -18,7 +18,7 @@ Life cycle
   pythonfmu, which returns **fmi2Fatal**: pythonfmu 0.7 maps a ``do_step``
   result to OK or Discard only, and fmpy takes a Discard of a terminated
   instance as a normal end, so Fatal is the one status no host can miss
-  (:meth:`SmehaGmt._fail_step` balances the references pythonfmu releases
+  (:func:`smeha_fmu_base.fail_step_fmi2` balances the references pythonfmu releases
   after an exception, so the host may still terminate, reset and free the
   instance).
 * The FMU state (``fmi2GetFMUstate`` / serialisation) holds every variable,
@@ -27,11 +27,11 @@ Life cycle
 """
 from __future__ import annotations
 
+import os  # frozen in CPython 3.11: safe before prepare()
+
 import smeha_fmu_runtime  # first, before any extension module: see its docstring
 
-smeha_fmu_runtime.prepare()
-
-import ctypes  # noqa: E402  (an extension module: after prepare())
+smeha_fmu_runtime.prepare(os.path.dirname(os.path.abspath(__file__)))  # this FMU's record
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real, String
 from pythonfmu.default_experiment import DefaultExperiment
@@ -39,6 +39,7 @@ from pythonfmu.enums import Fmi2Status
 
 import smeha_fmu_interface as iface  # next to this file, in fmu_src/ and in the FMU's resources
 import smeha_fmu_slave as slave  # the callbacks both slaves share
+from smeha_fmu_base import fail_step_fmi2
 
 # resources/smeha_fmu_gmt: the FMU's own copy, unless a package it needs is missing
 gmt, _IMPORT_PROBLEM = slave.load_physics(smeha_fmu_runtime.missing_packages_message())
@@ -72,32 +73,7 @@ class SmehaGmt(slave.TransducerSlave, Fmi2Slave):
         super().__init__(**kwargs)
         smeha_fmu_runtime.arm_clean_exit(iface.MODEL_NAME_FMI2)  # exits cleanly: see there
         self._init_transducer()
-        for var in iface.VARIABLES:
-            setattr(self, var.name, var.initial_value)
-            options = {}
-            if var.causality == "parameter":
-                options["setter"] = self._parameter_setter(var.name)
-            self.register_variable(_TYPES[var.kind](
-                var.name, causality=_CAUSALITY[var.causality],
-                variability=_VARIABILITY[var.variability],
-                description=var.description, **options))
+        self._register(_TYPES, _CAUSALITY, _VARIABILITY)
 
     def _fail_step(self, message: str):
-        # pythonfmu 0.7 answers an exception from do_step with fmi2Fatal after releasing
-        # (Py_DECREF) its references to the slave class, the instance and its log queue,
-        # and releases the instance and the queue once more when the host resets or frees
-        # the instance (the class too when it frees it): one release per exception more
-        # than it owns. An owner-less reference per exception, taken through the C API,
-        # balances each one, so the three stay alive and later calls, fmi2Reset and
-        # fmi2FreeInstance are safe (what is left over leaks: a few kB per failure).
-        # A Python list holding them would not do: its own references would be the ones
-        # released, and freeing the list at interpreter exit would free them again.
-        for obj in (type(self), self, self.log_queue):
-            _INCREF(obj)
-        raise RuntimeError(message)
-
-
-#: Py_IncRef of the C API (ctypes.pythonapi: the interpreter the FMU runs in).
-_INCREF = ctypes.pythonapi.Py_IncRef
-_INCREF.argtypes = (ctypes.py_object,)
-_INCREF.restype = None
+        return fail_step_fmi2(self, message)  # fmi2Fatal: see there

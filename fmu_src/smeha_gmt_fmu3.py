@@ -14,9 +14,11 @@ of a ``do_step`` result). Messages go through the FMU logger.
 """
 from __future__ import annotations
 
+import os  # frozen in CPython 3.11: safe before prepare()
+
 import smeha_fmu_runtime  # first, before any extension module: see its docstring
 
-smeha_fmu_runtime.prepare()
+smeha_fmu_runtime.prepare(os.path.dirname(os.path.abspath(__file__)))  # this FMU's record
 
 from xml.etree.ElementTree import Element
 
@@ -65,6 +67,7 @@ class SmehaGmt3(slave.TransducerSlave, Fmi3Slave):
     STATUS_ERROR, STATUS_WARNING, STATUS_DISCARD = (Fmi3Status.error, Fmi3Status.warning,
                                                     Fmi3Status.discard)
     EXIT_INITIALIZATION = "fmi3ExitInitializationMode"
+    LOG_IS_FORMAT = False  # fmi3LogMessageCallback takes plain text
     GET_STATE, SET_STATE = "fmi3GetFMUState", "fmi3SetFMUState"
     PHYSICS, IMPORT_PROBLEM = gmt, _IMPORT_PROBLEM
 
@@ -82,17 +85,7 @@ class SmehaGmt3(slave.TransducerSlave, Fmi3Slave):
         self.register_variable(Float64("time", causality=Fmi3Causality.independent,
                                        variability=Fmi3Variability.continuous,
                                        description="Simulation time", unit="s"))
-        for var in iface.VARIABLES:
-            setattr(self, var.name, var.initial_value)
-            options = {}
-            if var.kind == "Real":
-                options["unit"] = var.unit
-            if var.causality == "parameter":
-                options["setter"] = self._parameter_setter(var.name)
-            self.register_variable(_TYPES[var.kind](
-                var.name, causality=_CAUSALITY[var.causality],
-                variability=_VARIABILITY[var.variability],
-                description=var.description, **options))
+        self._register(_TYPES, _CAUSALITY, _VARIABILITY, units=True)
 
     def enter_initialization_mode(self):
         pass

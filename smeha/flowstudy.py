@@ -39,6 +39,7 @@ import numpy as np
 import gmt
 from gmt.parameters import COMPENSATOR_PERIOD
 from system_models import presets
+from system_models.controller import dead_times
 from system_models.cosim import (COUPLINGS, CosimSettings, DirectTransducer, FmuTransducer,
                                  cosimulate, volume_balance)
 from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_STEP,
@@ -200,6 +201,15 @@ class Case:
                                    branch_rule=self.branch_rule,
                                    compensator_period=self.compensator_period)
 
+    def fmu_start_values(self) -> dict:
+        """The transducer FMU's parameter values of this case (those that differ from its
+        start values may be among them)."""
+        drive = self.drive()
+        return {"frequency": self.frequency, "current_amplitude": CURRENT_AMPLITUDE,
+                "compensated": drive.compensated, "branch_rule": drive.branch_rule,
+                "compensator_period": drive.compensator_period,
+                **variant_start_values(self.variant)}
+
 
 def variant_start_values(variant: gmt.ModelVariant | None) -> dict:
     """The FMU's ``model_variant`` and ``variant_parameters`` for a variant ({} for the paper)."""
@@ -326,12 +336,8 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
                              coupling=case.coupling, load_force=case.load_force,
                              controller_period=case.controller_period,
                              hydraulic_step=case.hydraulic_step)
-    start = {"frequency": case.frequency, "current_amplitude": CURRENT_AMPLITUDE,
-             "compensated": drive.compensated, "branch_rule": drive.branch_rule,
-             "compensator_period": drive.compensator_period,
-             **variant_start_values(case.variant)}
     if case.backend == "fmu":
-        backend = FmuTransducer(fmu_path or default_fmu_path(), start)
+        backend = FmuTransducer(fmu_path or default_fmu_path(), case.fmu_start_values())
     else:
         backend = DirectTransducer(params, gmt.Excitation(case.frequency, CURRENT_AMPLITUDE),
                                    drive, case.variant)
@@ -370,8 +376,7 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
     window = slice(half, None)
     lag = rod_lag_degrees(record["time"][window], record["control"][window],
                           record["rod_displacement"][window], case.frequency)
-    flag_row(row, lag, max(v.opening_time if v.response == "delay" else 0.0
-                           for v in circuit.valves))
+    flag_row(row, lag, max(dead_times(circuit.valves)))
     return record, check, row
 
 

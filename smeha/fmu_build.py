@@ -1,20 +1,27 @@
-"""Build the transducer FMUs: FMI 2.0 (pythonfmu 0.7) and FMI 3.0 (pythonfmu3).
+"""Build the project's FMUs: the transducer (FMI 2.0 with pythonfmu 0.7, FMI 3.0 with
+pythonfmu3), and the EHA system's plant and drive (FMI 2.0).
 
 ``smeha build [--fmi 2|3|both] [--out DIR]`` (:mod:`smeha.cli`; ``python build_fmu.py``
-is the same command) calls :func:`build_all`, by default into :data:`DIST`. For each FMU:
+is the same command) calls :func:`build_all`, by default into :data:`DIST`. Each FMU is
+described by an :class:`FmuSpec` (:data:`SPECS`): its slave script, the modules of
+``fmu_src/`` and the packages it bundles, the packages it needs at run time. For each:
 
 1. **Build in a child process.** pythonfmu's builder imports the slave module
-   and ``gmt`` and instantiates the slave; those modules stay in
+   and its packages and instantiates the slave; those modules stay in
    ``sys.modules``, and an FMU later loaded by the same process would run them
    instead of its bundled copies. So the builder runs in a fresh interpreter
-   (:func:`_worker`), on a staging copy of the sources: the slave script,
-   ``fmu_src/gmt`` and the FMU's other modules of ``fmu_src/`` (:data:`FMU_MODULES`). The calling process
-   imports neither (it reads the variable table through :data:`iface`).
+   (:func:`_worker`), on a staging copy of the sources: the slave script, the
+   FMU's other modules of ``fmu_src/`` and its packages, each under the name the FMU
+   bundles it as (:func:`bundle_package`; absolute imports of another bundled
+   package are renamed with it). The child checks the variable table against the
+   physics, and an FMU with compiled code (the plant's numba kernel) compiles it
+   there, into the staged package, so the FMU carries numba's cache. The calling
+   process imports none of it (it reads the variable tables through :func:`table`).
 2. **Patch the model description** (this process, XML only). FMI 2.0:
    pythonfmu 0.7 writes no units and no ``ModelStructure/InitialUnknowns``;
    :func:`patch_fmi2` adds ``UnitDefinitions`` (SI base-unit exponents from
-   :data:`iface.UNITS`), ``unit`` on every Real and the initial
-   unknowns. FMI 3.0 declares units natively (the slave registers them).
+   ``smeha_fmu_variables.UNITS``), ``unit`` on every Real (from the FMU's table) and the
+   initial unknowns. FMI 3.0 declares units natively (the slave registers them).
 3. **Make it reproducible.** The GUID (FMI 2.0) or instantiationToken (FMI 3.0)
    is ``uuid5(GUID_NAMESPACE, <model description with guid and date blanked>)``:
    the same sources give the same GUID, and any change to the interface gives a
@@ -26,8 +33,10 @@ is the same command) calls :func:`build_all`, by default into :data:`DIST`. For 
 """
 from __future__ import annotations
 
+import ast
 import datetime
 import importlib.util
+import re
 import os
 import shutil
 import subprocess
@@ -35,6 +44,7 @@ import sys
 import tempfile
 import uuid
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
@@ -48,32 +58,149 @@ FMU_SRC = REPO / "fmu_src"
 DIST = REPO / "dist"
 
 
+def _fmu_src_neighbours(module: str) -> list[str]:
+    """The modules of fmu_src/ that ``fmu_src/<module>.py`` imports by name at its top level."""
+    tree = ast.parse((FMU_SRC / f"{module}.py").read_text(encoding="utf-8"))
+    names = []
+    for node in tree.body:
+        found = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                 else [node.module] if isinstance(node, ast.ImportFrom) and node.level == 0
+                 else [])
+        names += [n for n in found if n and (FMU_SRC / f"{n}.py").is_file()]
+    return names
+
+
 def _load_from_fmu_src(module: str):
     """``fmu_src/<module>.py`` loaded from the source tree as ``smeha._<module>``.
 
     Under a name of its own: registered under its file's name, an FMU this
     process loads later would import this copy instead of the one bundled in
-    its resources.
+    its resources. The neighbours it imports by name (``smeha_fmu_variables``)
+    are loaded the same way and lent under their own names only while it executes.
     """
     name = f"smeha._{module}"
     if name in sys.modules:
         return sys.modules[name]
+    lent = {n: _load_from_fmu_src(n) for n in _fmu_src_neighbours(module)}
+    saved = {n: sys.modules.get(n) for n in lent}
     spec = importlib.util.spec_from_file_location(name, FMU_SRC / f"{module}.py")
     loaded = importlib.util.module_from_spec(spec)
     sys.modules[name] = loaded  # dataclasses look their module up while it executes
-    spec.loader.exec_module(loaded)
+    sys.modules.update(lent)
+    try:
+        spec.loader.exec_module(loaded)
+    finally:
+        for n, previous in saved.items():
+            if previous is None:
+                sys.modules.pop(n, None)
+            else:
+                sys.modules[n] = previous
     return loaded
 
 
-#: The FMU's variable table (``fmu_src/smeha_fmu_interface.py``).
-iface = _load_from_fmu_src("smeha_fmu_interface")
+def table(module: str):
+    """An FMU's variable table (``fmu_src/<module>.py``), loaded under a private name."""
+    return _load_from_fmu_src(module)
+
+
+#: The transducer FMU's variable table (``fmu_src/smeha_fmu_interface.py``).
+iface = table("smeha_fmu_interface")
 RUNTIME_MODULE = iface.RUNTIME_MODULE
-#: The modules of fmu_src/ bundled next to the slave: the table, the callbacks both slaves
-#: share, the run-time set-up.
-FMU_MODULES = (iface.INTERFACE_MODULE, iface.SLAVE_LOGIC_MODULE, iface.RUNTIME_MODULE)
-#: The FMU's run-time set-up (``fmu_src/smeha_fmu_runtime.py``): what it needs, and the
+#: The modules of fmu_src/ bundled next to the transducer's slave: the table, the callbacks
+#: both slaves share, the run-time set-up, the variable record.
+FMU_MODULES = (iface.INTERFACE_MODULE, iface.SLAVE_LOGIC_MODULE, iface.RUNTIME_MODULE,
+               iface.VARIABLES_MODULE, iface.BASE_MODULE)
+#: The modules every FMU of the project bundles: the run-time set-up, the variable record,
+#: the callbacks every slave shares.
+COMMON_MODULES = (iface.RUNTIME_MODULE, iface.VARIABLES_MODULE, iface.BASE_MODULE)
+#: The FMUs' run-time set-up (``fmu_src/smeha_fmu_runtime.py``): what it needs, and the
 #: format of the build environment record.
 runtime = _load_from_fmu_src(RUNTIME_MODULE)
+#: Source of each package an FMU may bundle (under a name of its own, :class:`FmuSpec`).
+PACKAGE_SOURCES = {"gmt": FMU_SRC / "gmt", "system_models": REPO / "system_models"}
+
+
+@dataclass(frozen=True)
+class FmuSpec:
+    """What one FMU is built from.
+
+    Attributes
+    ----------
+    model_name : str
+        modelIdentifier (and the file's stem, ``<model_name>.fmu``).
+    fmi : {"2", "3"}
+    slave : str
+        The slave script, ``fmu_src/<slave>.py``.
+    table : str
+        The module of fmu_src/ with its variable table (``VARIABLES``, ``BY_NAME``).
+    modules : tuple of str
+        Other modules of fmu_src/ bundled next to the slave, under their own names.
+    packages : tuple of (str, str)
+        (name bundled as, key of :data:`PACKAGE_SOURCES`); each package's absolute
+        imports of another one bundled here are renamed with it.
+    required : tuple of str
+        Packages the FMU imports at run time beyond the standard library (their
+        site-packages go into the environment record).
+    check : str or None
+        A function of the table run in the build's child (fails the build on a mismatch
+        with the physics).
+    compile : str or None
+        ``module:function`` (bundled names) called in the child after staging to compile
+        what the FMU would otherwise compile at its first run (numba's cache).
+    """
+
+    model_name: str
+    fmi: str
+    slave: str
+    table: str
+    modules: tuple = ()
+    packages: tuple = ()
+    required: tuple = ()
+    check: str | None = None
+    compile: str | None = None
+
+    @property
+    def renames(self) -> dict:
+        return {source: bundled for bundled, source in self.packages}
+
+
+def _transducer(fmi: str) -> FmuSpec:
+    return FmuSpec(iface.MODEL_NAME_FMI2 if fmi == "2" else iface.MODEL_NAME_FMI3, fmi,
+                   iface.SLAVE_MODULE_FMI2 if fmi == "2" else iface.SLAVE_MODULE_FMI3,
+                   iface.INTERFACE_MODULE, FMU_MODULES,
+                   ((iface.BUNDLED_PHYSICS_PACKAGE, "gmt"),), runtime.REQUIRED_PACKAGES,
+                   check="check_against_gmt")
+
+
+def _plant() -> FmuSpec:
+    plant = table("smeha_plant_interface")
+    return FmuSpec(plant.MODEL_NAME, "2", plant.SLAVE_MODULE, plant.INTERFACE_MODULE,
+                   (plant.INTERFACE_MODULE, plant.MODEL_MODULE, *COMMON_MODULES),
+                   ((plant.BUNDLED_PLANT_PACKAGE, "system_models"),
+                    (plant.BUNDLED_GMT_PACKAGE, "gmt")),
+                   plant.REQUIRED_PACKAGES, check="check_against_system_models",
+                   compile=f"{plant.BUNDLED_PLANT_PACKAGE}.kernel:ensure_compiled")
+
+
+def _drive() -> FmuSpec:
+    drive = table("smeha_drive_interface")
+    return FmuSpec(drive.MODEL_NAME, "2", drive.SLAVE_MODULE, drive.INTERFACE_MODULE,
+                   (drive.INTERFACE_MODULE, *COMMON_MODULES), required=(), check="check")
+
+
+#: Every FMU the project builds, by key: the transducer (FMI 2.0, FMI 3.0), and the EHA
+#: system's hydraulic plant and drive signal (docs/FMU.md, "The EHA as an FMI system").
+SPECS = {"transducer2": lambda: _transducer("2"), "transducer3": lambda: _transducer("3"),
+         "plant": _plant, "drive": _drive}
+
+
+def spec(key: str) -> FmuSpec:
+    """The :class:`FmuSpec` of ``key`` (a key of :data:`SPECS`)."""
+    if key not in SPECS:
+        raise BuildError(f"FMU {key!r} is not one of {tuple(SPECS)}")
+    return SPECS[key]()
+
+
 #: Namespace of the deterministic GUIDs (uuid5 of the model description).
 GUID_NAMESPACE = uuid.UUID("5d0c3c8e-6f1e-5a4b-9a55-736d6568612e")
 
@@ -106,19 +233,21 @@ def _insert_in_order(parent, element, order):
     parent.append(element)
 
 
-def patch_fmi2(root: ET.Element) -> ET.Element:
+def patch_fmi2(root: ET.Element, variables=None) -> ET.Element:
     """Add units and InitialUnknowns to a pythonfmu 0.7 model description (in place).
 
     * ``UnitDefinitions`` with the units the variables use, each with its SI
       ``BaseUnit`` exponents (none for a unit integer exponents cannot express);
-    * ``unit`` on every ``Real`` (from :data:`iface.VARIABLES`);
+    * ``unit`` on every ``Real`` (from ``variables``, the FMU table's ``BY_NAME``;
+      default the transducer's);
     * ``ModelStructure/InitialUnknowns``: every output (initial calculated) and
       calculated parameter, by 1-based index in ModelVariables (pythonfmu issue #193).
     """
+    by_name = iface.BY_NAME if variables is None else variables
     for old in root.findall("UnitDefinitions"):
         root.remove(old)
     svs = root.find("ModelVariables").findall("ScalarVariable")
-    used = sorted({iface.BY_NAME[sv.get("name")].unit for sv in svs
+    used = sorted({by_name[sv.get("name")].unit for sv in svs
                    if sv.find("Real") is not None})
     units = ET.Element("UnitDefinitions")
     for name in used:
@@ -130,7 +259,7 @@ def patch_fmi2(root: ET.Element) -> ET.Element:
     for sv in svs:
         real = sv.find("Real")
         if real is not None:
-            real.set("unit", iface.BY_NAME[sv.get("name")].unit)
+            real.set("unit", by_name[sv.get("name")].unit)
     structure = root.find("ModelStructure")
     for old in structure.findall("InitialUnknowns"):
         structure.remove(old)
@@ -166,11 +295,12 @@ def _build_time() -> datetime.datetime:
     return datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0)
 
 
-def finish_model_description(xml: bytes) -> bytes:
-    """Patch (FMI 2.0), set the deterministic GUID and the date; return the new XML."""
+def finish_model_description(xml: bytes, variables=None) -> bytes:
+    """Patch (FMI 2.0; ``variables`` as :func:`patch_fmi2`), set the deterministic GUID and the
+    date; return the new XML."""
     root = ET.fromstring(xml)
     if root.get("fmiVersion", "").startswith("2"):
-        patch_fmi2(root)
+        patch_fmi2(root, variables)
     root.set(_id_attribute(root), deterministic_guid(root))
     root.set("generationDateAndTime",
              _build_time().strftime("%Y-%m-%dT%H:%M:%SZ"))
@@ -182,8 +312,9 @@ def finish_model_description(xml: bytes) -> bytes:
 LINUX_BINARIES = ("binaries/linux64/", "binaries/x86_64-linux/")
 
 
-def rewrite_fmu(raw: Path, dest: Path) -> Path:
-    """Write ``dest``: ``raw`` with its model description finished, its Linux binary
+def rewrite_fmu(raw: Path, dest: Path, variables=None, extra=None) -> Path:
+    """Write ``dest``: ``raw`` with its model description finished (``variables`` as
+    :func:`patch_fmi2`), the members ``extra`` (archive name -> bytes) added, its Linux binary
     linked to the libpython of its environment record (:mod:`smeha.fmu_native`),
     members sorted, timestamps fixed (SOURCE_DATE_EPOCH, else 1980-01-01)."""
     stamp = _build_time().timetuple()[:6] if os.environ.get("SOURCE_DATE_EPOCH") \
@@ -193,10 +324,12 @@ def rewrite_fmu(raw: Path, dest: Path) -> Path:
     with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
         record = runtime.parse_environment(
             zin.read(f"resources/{runtime.ENVIRONMENT_FILE}").decode("utf-8"))
-        for name in sorted(zin.namelist()):
-            data = zin.read(name)
+        members = {name: None for name in zin.namelist()}
+        members.update(extra or {})
+        for name in sorted(members):
+            data = zin.read(name) if members[name] is None else members[name]
             if name == "modelDescription.xml":
-                data = finish_model_description(data)
+                data = finish_model_description(data, variables)
             elif (name.startswith(LINUX_BINARIES) and name.endswith(".so")
                   and record.get("libpython")):
                 data = fmu_native.link_libpython(data, record["libpython"][0])
@@ -209,36 +342,87 @@ def rewrite_fmu(raw: Path, dest: Path) -> Path:
 
 
 # -- building -----------------------------------------------------------------------
-def _stage(fmi: str, staging: Path) -> Path:
-    """Copy the slave, the interface table and gmt into ``staging``; return the script."""
-    module = iface.SLAVE_MODULE_FMI2 if fmi == "2" else iface.SLAVE_MODULE_FMI3
-    script = FMU_SRC / f"{module}.py"
-    if not script.is_file() or not (FMU_SRC / "gmt" / "__init__.py").is_file():
-        raise BuildError(f"the FMU sources are missing under {FMU_SRC}: the build needs "
-                         "the smeha source tree (fmu_src/ is not installed)")
+def rename_imports(text: str, renames: dict, where: str = "") -> str:
+    """``text`` (Python source) with its absolute imports of the packages in ``renames``
+    (name -> bundled name) rewritten to the bundled names.
+
+    ``from gmt.errors import x`` becomes ``from <bundled>.errors import x`` and
+    ``import gmt`` becomes ``import <bundled> as gmt``; any other form of import of a
+    renamed package is a :class:`BuildError` (checked again on the result).
+    """
+    lines = text.splitlines(keepends=True)
+    for node in ast.walk(ast.parse(text, where)):
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            top = node.module.split(".")[0]
+            if top in renames:
+                i = node.lineno - 1
+                lines[i] = re.sub(rf"\bfrom\s+{top}\b", f"from {renames[top]}", lines[i],
+                                  count=1)
+        elif isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name in renames and alias.asname is None and len(node.names) == 1:
+                    i = node.lineno - 1
+                    lines[i] = re.sub(rf"\bimport\s+{alias.name}\b",
+                                      f"import {renames[alias.name]} as {alias.name}", lines[i],
+                                      count=1)
+    out = "".join(lines)
+    for node in ast.walk(ast.parse(out, where)):
+        names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                 else [node.module] if isinstance(node, ast.ImportFrom) and node.level == 0
+                 else [])
+        if any(n and n.split(".")[0] in renames for n in names):
+            raise BuildError(f"{where}:{node.lineno}: an import of {names} the build cannot "
+                             f"rename to the bundled {sorted(renames.values())}")
+    return out
+
+
+def bundle_package(source: Path, dest: Path, renames: dict) -> None:
+    """Copy package ``source`` to ``dest`` (no caches), its imports renamed
+    (:func:`rename_imports`)."""
+    shutil.copytree(source, dest, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    for path in sorted(dest.rglob("*.py")):
+        text = path.read_text(encoding="utf-8")
+        renamed = rename_imports(text, renames, str(path.relative_to(dest.parent)))
+        if renamed != text:
+            path.write_text(renamed, encoding="utf-8")
+
+
+def _stage(fmu: FmuSpec, staging: Path) -> Path:
+    """Copy the slave, its modules and packages into ``staging``; return the script."""
+    script = FMU_SRC / f"{fmu.slave}.py"
+    missing = [str(p) for p in (script, *(FMU_SRC / f"{m}.py" for m in fmu.modules),
+                                *(PACKAGE_SOURCES[k] / "__init__.py" for _, k in fmu.packages))
+               if not p.is_file()]
+    if missing:
+        raise BuildError(f"the FMU sources are missing ({', '.join(missing)}): the build needs "
+                         "the smeha source tree (fmu_src/ and system_models/ as checked out)")
     staging.mkdir(parents=True)
     shutil.copy2(script, staging / script.name)
-    for module in FMU_MODULES:
+    for module in fmu.modules:
         shutil.copy2(FMU_SRC / f"{module}.py", staging)
     (staging / runtime.ENVIRONMENT_FILE).write_text(runtime.format_environment(
-        fmu_native.environment_record(runtime.REQUIRED_PACKAGES)), encoding="utf-8")
-    shutil.copytree(FMU_SRC / "gmt", staging / iface.BUNDLED_PHYSICS_PACKAGE,
-                    ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        fmu_native.environment_record(fmu.required)), encoding="utf-8")
+    for bundled, key in fmu.packages:
+        bundle_package(PACKAGE_SOURCES[key], staging / bundled, fmu.renames)
     return staging / script.name
 
 
-def _worker(fmi: str, workdir: str) -> None:
-    """Child process: stage the sources and run the pythonfmu(3) builder into workdir/raw."""
+def _worker(key: str, workdir: str) -> None:
+    """Child process: stage the sources, check, compile, run the pythonfmu(3) builder into
+    workdir/raw."""
+    fmu = spec(key)
     work = Path(workdir)
-    script = _stage(fmi, work / "src")
+    script = _stage(fmu, work / "src")
     sys.path.insert(0, str(script.parent))
-    import smeha_fmu_interface  # the staged copy
-
-    smeha_fmu_interface.check_against_gmt()
+    if fmu.check:
+        getattr(importlib.import_module(fmu.table), fmu.check)()  # the staged copy
+    if fmu.compile:
+        module, function = fmu.compile.split(":")
+        getattr(importlib.import_module(module), function)()
     project_files = [script.parent / name for name in (
-        iface.BUNDLED_PHYSICS_PACKAGE, *(f"{m}.py" for m in FMU_MODULES),
+        *(bundled for bundled, _ in fmu.packages), *(f"{m}.py" for m in fmu.modules),
         runtime.ENVIRONMENT_FILE)]
-    if fmi == "2":
+    if fmu.fmi == "2":
         from pythonfmu.builder import FmuBuilder
         FmuBuilder.build_FMU(script, dest=work / "raw", project_files=project_files,
                              **FMI2_OPTIONS)
@@ -248,20 +432,18 @@ def _worker(fmi: str, workdir: str) -> None:
                               **FMI3_OPTIONS)
 
 
-def _child(fmi: str, workdir: str) -> int:
+def _child(key: str, workdir: str) -> int:
     """Entry point of the child process: :func:`_worker`, a known failure as a message."""
     try:
-        _worker(fmi, workdir)
-    except fmu_native.NativeError as exc:
+        _worker(key, workdir)
+    except (fmu_native.NativeError, BuildError) as exc:
         print(exc, file=sys.stderr)
         return 1
     return 0
 
 
 def build(fmi: str = "2", out: str | os.PathLike = DIST, validate: bool = True) -> Path:
-    """Build one FMU (``fmi`` "2" or "3") into ``out``; return its path.
-
-    The pythonfmu builder runs in a child process (see the module docstring).
+    """Build one transducer FMU (``fmi`` "2" or "3") into ``out``; return its path.
 
     Raises
     ------
@@ -270,20 +452,34 @@ def build(fmi: str = "2", out: str | os.PathLike = DIST, validate: bool = True) 
     """
     if fmi not in ("2", "3"):
         raise BuildError(f"fmi = {fmi!r} is not one of ('2', '3')")
-    name = iface.MODEL_NAME_FMI2 if fmi == "2" else iface.MODEL_NAME_FMI3
+    return build_fmu(f"transducer{fmi}", out, validate)
+
+
+def build_fmu(key: str, out: str | os.PathLike = DIST, validate: bool = True) -> Path:
+    """Build the FMU ``key`` (a key of :data:`SPECS`) into ``out``; return its path.
+
+    The pythonfmu builder runs in a child process (see the module docstring).
+
+    Raises
+    ------
+    BuildError
+        The child failed, or fmpy's validation found problems.
+    """
+    fmu = spec(key)
     with tempfile.TemporaryDirectory(prefix="smeha_fmu_build_") as tmp:
         env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1",
                    PYTHONPATH=os.pathsep.join(
                        p for p in (str(REPO), os.environ.get("PYTHONPATH", "")) if p))
         code = "import sys; from smeha.fmu_build import _child; sys.exit(_child(*sys.argv[1:]))"
-        proc = subprocess.run([sys.executable, "-c", code, fmi, tmp], cwd=tmp, env=env,
+        proc = subprocess.run([sys.executable, "-c", code, key, tmp], cwd=tmp, env=env,
                               capture_output=True, text=True)
-        raw = Path(tmp) / "raw" / f"{name}.fmu"
+        raw = Path(tmp) / "raw" / f"{fmu.model_name}.fmu"
         if proc.returncode != 0 or not raw.is_file():
-            raise BuildError(f"building the FMI {fmi} FMU failed (exit {proc.returncode}):\n"
-                             f"{proc.stdout}{proc.stderr}")
+            raise BuildError(f"building the {fmu.model_name} FMU (FMI {fmu.fmi}) failed "
+                             f"(exit {proc.returncode}):\n{proc.stdout}{proc.stderr}")
         try:
-            dest = rewrite_fmu(raw, Path(out) / f"{name}.fmu")
+            dest = rewrite_fmu(raw, Path(out) / f"{fmu.model_name}.fmu",
+                               table(fmu.table).BY_NAME, _compiled(fmu, Path(tmp) / "src"))
         except fmu_native.NativeError as exc:
             raise BuildError(str(exc)) from None
     if validate:
@@ -291,6 +487,17 @@ def build(fmi: str = "2", out: str | os.PathLike = DIST, validate: bool = True) 
         if problems:
             raise BuildError(f"{dest} does not validate:\n  " + "\n  ".join(problems))
     return dest
+
+
+def _compiled(fmu: FmuSpec, staging: Path) -> dict:
+    """numba's cache the child compiled into the staged packages, as FMU members (pythonfmu
+    leaves ``__pycache__`` out). Its index is keyed by the source's content, not its path,
+    so the extracted FMU loads it; a host on another CPU compiles again, at its first run."""
+    if not fmu.compile:
+        return {}
+    return {f"resources/{path.relative_to(staging).as_posix()}": path.read_bytes()
+            for bundled, _ in fmu.packages
+            for path in sorted((staging / bundled).rglob("__pycache__/*.nb[ic]"))}
 
 
 def validate_fmu(path) -> list[str]:

@@ -77,9 +77,9 @@ def environment_record(packages) -> dict:
 
     Parameters
     ----------
-    packages : iterable of str
-        Top-level packages the FMU imports at run time; the site-packages
-        holding each is recorded.
+    packages : sequence of str
+        Top-level packages the FMU imports at run time; they and the site-packages
+        holding each are recorded.
     """
     roots = (sys.base_prefix, sys.base_exec_prefix)
     stdlib = [p for p in sys.path
@@ -93,9 +93,10 @@ def environment_record(packages) -> dict:
     # the FMU's Linux binary is the one linked to libpython (pythonfmu builds no other
     # Unix binary); a build elsewhere records none and leaves the binaries as they are
     libpython = [str(find_libpython())] if sys.platform.startswith("linux") else []
+    # "required" lists the packages (an empty value: none beyond the standard library)
     return {"version": [sys.version], "base_prefix": [sys.base_prefix],
             "base_exec_prefix": [sys.base_exec_prefix], "libpython": libpython,
-            "stdlib": stdlib, "site": sites}
+            "stdlib": stdlib, "site": sites, "required": list(packages) or [""]}
 
 
 def patchelf() -> str:

@@ -219,3 +219,94 @@ class SampledValveController:
             if i > 0:
                 del times[:i]
                 del values[:i]
+
+
+def dead_times(valves) -> tuple:
+    """The dead time d_k of each valve, [s]: its ``opening_time`` for a ``"delay"`` response,
+    0 otherwise (a first-order valve lags in the plant's own dynamics instead)."""
+    return tuple(v.opening_time if v.response == "delay" else 0.0 for v in valves)
+
+
+class FedValveController:
+    """Figure 2's stage logic fed the control signal one sample at a time.
+
+    The controller of a plant that sees u only as it arrives, e.g. a co-simulation
+    slave whose input u a host sets before each step (the plant FMU, docs/FMU.md). At
+    each sample t_j (:meth:`sample`) it takes the pump phase from u(t_j) - u(t_{j-1})
+    (:func:`pump_phase`): the decision :class:`SampledValveController` takes at
+    t_{j-1}, knowing u ahead, is taken here one sample later. Valve k then acts a
+    dead time d_k after that sample (:meth:`advance`). Until u first changes, the phase
+    is compressing, and its valves are open from the start.
+
+    Parameters
+    ----------
+    direction : {"down", "up"}
+    dead_times : sequence of 4 floats
+        d_k of V1..V4, [s] (:func:`dead_times`).
+    """
+
+    def __init__(self, direction, dead_times):
+        if len(dead_times) != 4 or min(dead_times) < 0.0:
+            raise ParameterError(f"dead_times = {tuple(dead_times)!r} must be 4 values >= 0 s")
+        if direction not in DIRECTIONS:
+            raise ParameterError(f"direction = {direction!r} is not one of {DIRECTIONS}")
+        self.direction = direction
+        self.dead_times = tuple(float(d) for d in dead_times)
+        self.compressing = True
+        self.last_control = None  # u at the last sample
+        first = valve_commands(direction, True)
+        self.commands = [1.0 if c else 0.0 for c in first]  # in force now, V1..V4
+        self._issued = list(first)  # commanded, dead times not yet elapsed
+        self._pending = []  # (time, valve, command) of actions to come, in time order
+
+    def sample(self, time, control) -> None:
+        """Take the sample u(t_j) = ``control`` [V] at t_j = ``time`` [s]; the actions it
+        causes at ``time`` itself (no dead time) are applied at once."""
+        if self.last_control is not None:
+            phase = pump_phase(control, self.last_control, self.compressing)
+            if phase != self.compressing:
+                self.compressing = phase
+                for k, c in enumerate(valve_commands(self.direction, phase)):
+                    if c != self._issued[k]:
+                        self._issued[k] = c
+                        self._pending.append((time + self.dead_times[k], k, 1.0 if c else 0.0))
+                self._pending.sort()
+        self.last_control = float(control)
+        self.advance(time)
+
+    def advance(self, time) -> None:
+        """Apply the valve actions due at or before ``time`` (within :data:`TIME_TOLERANCE`)."""
+        while self._pending and self._pending[0][0] <= time + TIME_TOLERANCE:
+            _, k, c = self._pending.pop(0)
+            self.commands[k] = c
+
+    def next_action(self, start, end):
+        """Earliest instant in (start, end) at which a valve acts, or None, [s] (instants
+        within :data:`TIME_TOLERANCE` of either end do not count)."""
+        for t, _, _ in self._pending:
+            if t > start + TIME_TOLERANCE:
+                return t if t < end - TIME_TOLERANCE else None
+        return None
+
+    @property
+    def stage(self) -> int:
+        """The stage of Figure 2 commanded now (1-4)."""
+        return stage(self.direction, self.compressing)
+
+    @property
+    def valves_compressing(self) -> bool:
+        """The phase the valves act on: V1 open going down, V3 going up (Figure 2)."""
+        return self.commands[0 if self.direction == "down" else 2] > 0.5
+
+    def get_state(self) -> tuple:
+        """Everything that changes, as plain numbers (:meth:`set_state`)."""
+        return (self.compressing, self.last_control, tuple(self.commands), tuple(self._issued),
+                tuple(self._pending))
+
+    def set_state(self, state) -> None:
+        compressing, last, commands, issued, pending = state
+        self.compressing = bool(compressing)
+        self.last_control = None if last is None else float(last)
+        self.commands = [float(c) for c in commands]
+        self._issued = [bool(c) for c in issued]
+        self._pending = [(float(t), int(k), float(c)) for t, k, c in pending]

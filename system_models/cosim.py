@@ -38,7 +38,7 @@ import numpy as np
 import gmt
 
 from .circuit import CircuitParameters
-from .controller import SampledValveController
+from .controller import SampledValveController, dead_times
 from .defaults import (DEFAULT_COUPLING, DEFAULT_STEP, HYDRAULIC_STEP,
                        VALVE_CONTROLLER_PERIOD)
 from .displacementport import CouplingError, run_displacement_port
@@ -162,11 +162,10 @@ def cosimulate(backend: TransducerBackend, control: Callable[[float], float],
     n_steps = int(round(settings.duration / settings.step))
     end = n_steps * settings.step
     drive = backend.drive()
-    delays = [v.opening_time if v.response == "delay" else 0.0 for v in circuit.valves]
     controller = SampledValveController(settings.direction, control,
-                                        settings.controller_period, delays)
+                                        settings.controller_period, dead_times(circuit.valves))
     grid = Grid(settings.step, end, drive.sample_period if drive.compensated else 0.0,
-                 controller)
+                controller)
     writer = Writer(n_steps, keep_record, observer)
     run = run_force_port if settings.coupling == "force" else run_displacement_port
     run(backend, control, circuit, settings, drive, controller, grid, writer, progress,

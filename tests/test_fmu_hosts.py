@@ -255,12 +255,12 @@ def test_fmpy_simulate_exits_non_zero_naming_the_parameter(fmi, name, value, fmu
 def test_a_missing_package_is_named(fmi, c_host, fmu_dist, tmp_path):
     # the FMU, asked for a package neither this Python nor the build environment has,
     # refuses every step and names it (and where it looked)
+    # (the build environment record lists the packages the FMU needs: one more there)
     fmu = Unzipped(fmu_dist[fmi], tmp_path)
-    runtime = fmu.resources / "smeha_fmu_runtime.py"
-    text = runtime.read_text()
-    assert 'REQUIRED_PACKAGES = ("numpy",)' in text
-    runtime.write_text(text.replace('REQUIRED_PACKAGES = ("numpy",)',
-                                    'REQUIRED_PACKAGES = ("numpy", "smeha_absent_package")'))
+    record = fmu.resources / "smeha_fmu_environment.txt"
+    text = record.read_text()
+    assert "required\tnumpy\n" in text
+    record.write_text(text + "required\tsmeha_absent_package\n")
     proc = fmu.run(c_host)
     assert proc.returncode == UNUSABLE[fmi], proc.stderr
     assert "smeha_absent_package" in proc.stderr

@@ -1,0 +1,285 @@
+"""The EHA as an FMI system: its SSP package and OSP system structure (issue 13, item 7).
+
+Three FMUs make the actuator (docs/FMU.md, "The EHA as an FMI system"):
+
+* ``drive`` (``SmehaDrive.fmu``): the controller's control signal u(t), the one the
+  co-simulation harness drives the transducer with (:func:`smeha.flowstudy.control_signal`);
+* ``transducer`` (``SmehaGmt.fmu``): amplifier or compensator, magnetics, and the
+  magnetostrictive force F = A_r E^H lambda (eq 28), which does not depend on the rod's
+  motion;
+* ``plant`` (``SmehaPlant.fmu``): the pump chamber with the rod's eq 27, the valves and
+  their controller (Figure 2's stages, switched as u rises and falls), the cylinder and
+  the accumulator (``system_models``).
+
+Connections: ``drive.u`` to ``transducer.u`` and ``plant.u``, ``transducer.force`` to
+``plant.force``. The rod's m, c, K the plant integrates come from the transducer: in the
+SSD as SSP 1.0 *parameter connections* (the transducer's calculated parameters
+``equivalent_mass`` ... to the plant's parameters of the same names), and, for masters
+that do not propagate parameters (fmpy 0.3.32's ``simulate_ssp``, libcosim's OSP
+configuration), as the values the transducer FMU itself computes, read from it when the
+files are written (:func:`describe`), like the rod's rest position.
+
+Files: :func:`write_ssp` (``<name>.ssp``: ``SystemStructure.ssd``, the FMUs and one SSV
+parameter set per component under ``resources/``, SSP 1.0) and :func:`write_osp`
+(``OspSystemStructure.xml``, the Open Simulation Platform's format that libcosim reads,
+with the same values as initial values). The runners are in :mod:`smeha.systemrun`.
+"""
+from __future__ import annotations
+
+import os
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+from system_models.defaults import VALVE_CONTROLLER_PERIOD
+
+#: Name of the system (the SSD's and the .ssp's).
+SYSTEM_NAME = "SmehaEha"
+#: The system's communication step, [s]: the plant's valve controller samples u at every
+#: step, so the step is that controller's period (system_models.defaults; the harness's
+#: controller samples at the same rate). docs/FMU.md explains the step's error.
+SYSTEM_STEP = VALVE_CONTROLLER_PERIOD
+
+#: Component -> FMU key of smeha.fmu_build.SPECS.
+COMPONENTS = {"drive": "drive", "transducer": "transducer2", "plant": "plant"}
+#: Signal connections (start component, connector, end component, connector).
+CONNECTIONS = (("drive", "u", "transducer", "u"), ("drive", "u", "plant", "u"),
+               ("transducer", "force", "plant", "force"))
+#: Parameter connections: the transducer's calculated parameters to the plant's parameters
+#: (SSP 1.0 allows calculatedParameter -> parameter; the same names on both sides).
+MECHANICS = ("equivalent_mass", "equivalent_damping", "equivalent_stiffness", "output_mass",
+             "joint_stiffness", "joint_damping")
+#: Outputs declared as connectors (recorded by SSP masters) besides the connected ones.
+RECORDED = {"transducer": ("current", "displacement"),
+            "plant": ("rod_displacement", "p_pump", "p_big", "p_small", "p_accumulator",
+                      "piston_position", "volume_into_big", "compression_volume",
+                      "compressing", "valves_compressing", "stage")}
+
+_NS = {"ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
+       "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
+       "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
+       "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations"}
+for _prefix, _uri in _NS.items():
+    ET.register_namespace(_prefix, _uri)
+_OSP_CONFIG_NS = "http://opensimulationplatform.com/MSMI/OSPSystemStructure"
+
+
+@dataclass(frozen=True)
+class SystemDescription:
+    """One EHA system: what the files describe.
+
+    Attributes
+    ----------
+    name : str
+    step : float
+        Communication step, [s].
+    stop_time : float
+        [s] (the DefaultExperiment's).
+    parameters : dict
+        component -> {FMU variable name: value}, the values each component is given.
+    types : dict
+        component -> {variable name: (FMI type, causality, unit or None)}, of every
+        variable the files name.
+    fmus : dict
+        component -> path of its FMU.
+    """
+
+    name: str
+    step: float
+    stop_time: float
+    parameters: dict
+    types: dict
+    fmus: dict
+
+
+def _s(tag: str, ns: str = "ssd") -> str:
+    return f"{{{_NS[ns]}}}{tag}"
+
+
+def _value_text(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def _kinds(fmu_path) -> dict:
+    """{variable: (FMI type, causality, unit)} of an FMU's model description."""
+    from fmpy import read_model_description
+
+    md = read_model_description(str(fmu_path), validate=False)
+    return {v.name: (v.type, v.causality, v.unit) for v in md.modelVariables}
+
+
+def describe(case, fmus: dict, step: float = SYSTEM_STEP, name: str = SYSTEM_NAME
+             ) -> SystemDescription:
+    """The system of a :class:`smeha.flowstudy.Case`: the harness's run, as three FMUs.
+
+    Parameters
+    ----------
+    case : smeha.flowstudy.Case
+        Frequency, mode, circuit, load, cycles (the stop time), branch rule, model
+        variant and compensator period are used; the harness's own step settings are not.
+    fmus : dict
+        component -> FMU path (:data:`COMPONENTS`).
+    step : float
+        The communication step, [s].
+    """
+    from system_models import presets
+    from system_models.cosim import FmuTransducer
+
+    from . import fmu_build
+    from .flowstudy import control_signal
+
+    plant_table = fmu_build.table("smeha_plant_interface")
+    transducer = case.fmu_start_values()
+    # the transducer FMU is the source of the rod's mechanics and of its rest position
+    unit = FmuTransducer(fmus["transducer"], transducer, instance_name="ssp_writer")
+    try:
+        mechanics = unit.mechanics()
+        rest = unit.rod_state()[0]
+    finally:
+        unit.close()
+    compensated = case.mode == "compensated"
+    plant = {**plant_table.circuit_values(presets.circuit(case.circuit)),
+             **plant_table.rod_values(mechanics), "rod_start_displacement": float(rest),
+             "load_force": float(case.load_force), "extrapolate_force": not compensated}
+    control, _ = control_signal(case.mode, case.frequency)
+    drive = {"offset": control.offset, "amplitude": control.amplitude,
+             "frequency": float(case.frequency)}
+    parameters = {"drive": drive, "transducer": transducer, "plant": plant}
+    types = {c: _kinds(fmus[c]) for c in COMPONENTS}
+    return SystemDescription(name, float(step), case.cycles / case.frequency, parameters,
+                             types, {c: Path(fmus[c]) for c in COMPONENTS})
+
+
+def _connectors(desc: SystemDescription) -> dict:
+    """component -> [(connector, kind)] the SSD declares, in order."""
+    out = {c: [] for c in COMPONENTS}
+    for a, ca, b, cb in CONNECTIONS:
+        for comp, conn in ((a, ca), (b, cb)):
+            if (conn, desc.types[comp][conn][1]) not in out[comp]:
+                out[comp].append((conn, desc.types[comp][conn][1]))
+    for name in MECHANICS:
+        out["transducer"].append((name, "calculatedParameter"))
+        out["plant"].append((name, "parameter"))
+    for comp, names in RECORDED.items():
+        out[comp].extend((n, "output") for n in names if (n, "output") not in out[comp])
+    return out
+
+
+def _ssv(component: str, values: dict, types: dict) -> bytes:
+    root = ET.Element(_s("ParameterSet", "ssv"), {"version": "1.0", "name": component})
+    params = ET.SubElement(root, _s("Parameters", "ssv"))
+    for name, value in values.items():
+        kind = types[name][0]
+        p = ET.SubElement(params, _s("Parameter", "ssv"), {"name": name})
+        ET.SubElement(p, _s(kind, "ssv"), {"value": _value_text(value)})
+    ET.indent(root, "  ")
+    return ET.tostring(root, encoding="UTF-8", xml_declaration=True) + b"\n"
+
+
+def _units(desc: SystemDescription, connectors: dict) -> list:
+    from . import fmu_build
+    units = fmu_build.iface.UNITS
+    return sorted({desc.types[c][n][2] for c, conns in connectors.items() for n, _ in conns
+                   if desc.types[c][n][0] == "Real" and desc.types[c][n][2] in units})
+
+
+def ssd_xml(desc: SystemDescription, fmu_names: dict) -> bytes:
+    """The SystemStructure.ssd of ``desc`` (SSP 1.0), the FMUs as ``resources/<name>``."""
+    from . import __version__, fmu_build
+
+    root = ET.Element(_s("SystemStructureDescription"), {
+        "version": "1.0", "name": desc.name, "generationTool": f"smeha {__version__}",
+        "description": "Smart-material electrohydrostatic actuator: drive signal, giant "
+                       "magnetostrictive transducer, hydraulic plant (smeha)"})
+    system = ET.SubElement(root, _s("System"), {"name": "eha"})
+    elements = ET.SubElement(system, _s("Elements"))
+    connectors = _connectors(desc)
+    for comp in COMPONENTS:
+        el = ET.SubElement(elements, _s("Component"), {
+            "name": comp, "type": "application/x-fmu-sharedlibrary",
+            "source": f"resources/{fmu_names[comp]}"})
+        conns = ET.SubElement(el, _s("Connectors"))
+        for name, kind in connectors[comp]:
+            fmi_type, _, unit = desc.types[comp][name]
+            c = ET.SubElement(conns, _s("Connector"), {"name": name, "kind": kind})
+            ET.SubElement(c, _s(fmi_type, "ssc"), {"unit": unit} if fmi_type == "Real" and unit
+                          else {})
+        bindings = ET.SubElement(el, _s("ParameterBindings"))
+        ET.SubElement(bindings, _s("ParameterBinding"), {"source": f"resources/{comp}.ssv"})
+    connections = ET.SubElement(system, _s("Connections"))
+    for a, ca, b, cb in CONNECTIONS + tuple(("transducer", n, "plant", n) for n in MECHANICS):
+        ET.SubElement(connections, _s("Connection"), {
+            "startElement": a, "startConnector": ca, "endElement": b, "endConnector": cb})
+    units = ET.SubElement(root, _s("Units"))
+    for name in _units(desc, connectors):
+        unit = ET.SubElement(units, _s("Unit", "ssc"), {"name": name})
+        ET.SubElement(unit, _s("BaseUnit", "ssc"),
+                      {k: str(v) for k, v in fmu_build.iface.UNITS[name].items() if v})
+    experiment = ET.SubElement(root, _s("DefaultExperiment"), {
+        "startTime": "0.0", "stopTime": repr(desc.stop_time)})
+    # libcosim reads its fixed step from this annotation (cosim/ssp/ssp_parser.cpp)
+    notes = ET.SubElement(experiment, _s("Annotations"))
+    note = ET.SubElement(notes, _s("Annotation", "ssc"), {"type": "com.opensimulationplatform"})
+    algorithm = ET.SubElement(note, _s("Algorithm", "osp"))
+    ET.SubElement(algorithm, _s("FixedStepAlgorithm", "osp"), {"baseStepSize": repr(desc.step)})
+    ET.indent(root, "  ")
+    return ET.tostring(root, encoding="UTF-8", xml_declaration=True) + b"\n"
+
+
+def write_ssp(desc: SystemDescription, path: str | os.PathLike) -> Path:
+    """Write the .ssp of ``desc`` (SSD, the three FMUs, one SSV per component); return it."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    names = {c: desc.fmus[c].name for c in COMPONENTS}
+    tmp = path.with_name(path.name + ".tmp")
+    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("SystemStructure.ssd", ssd_xml(desc, names))
+        for comp in COMPONENTS:
+            z.write(desc.fmus[comp], f"resources/{names[comp]}")
+            z.writestr(f"resources/{comp}.ssv",
+                       _ssv(comp, desc.parameters[comp], desc.types[comp]))
+    os.replace(tmp, path)
+    return path
+
+
+def osp_xml(desc: SystemDescription, sources: dict) -> bytes:
+    """The OspSystemStructure.xml of ``desc`` (libcosim), the FMUs at ``sources`` (URIs
+    relative to the file)."""
+    # elements in the OSP namespace as the document's default one (xmlns written as given)
+    root = ET.Element("OspSystemStructure", {"xmlns": _OSP_CONFIG_NS, "version": "0.1"})
+    for tag, value in (("StartTime", 0.0), ("EndTime", desc.stop_time),
+                       ("BaseStepSize", desc.step)):
+        ET.SubElement(root, tag).text = repr(float(value))
+    ET.SubElement(root, "Algorithm").text = "fixedStep"
+    sims = ET.SubElement(root, "Simulators")
+    for comp in COMPONENTS:
+        sim = ET.SubElement(sims, "Simulator", {"name": comp, "source": sources[comp],
+                                                "stepSize": repr(desc.step)})
+        initial = ET.SubElement(sim, "InitialValues")
+        for name, value in desc.parameters[comp].items():
+            iv = ET.SubElement(initial, "InitialValue", {"variable": name})
+            ET.SubElement(iv, desc.types[comp][name][0], {"value": _value_text(value)})
+    conns = ET.SubElement(root, "Connections")
+    for a, ca, b, cb in CONNECTIONS:
+        vc = ET.SubElement(conns, "VariableConnection")
+        ET.SubElement(vc, "Variable", {"simulator": a, "name": ca})
+        ET.SubElement(vc, "Variable", {"simulator": b, "name": cb})
+    ET.indent(root, "  ")
+    return ET.tostring(root, encoding="UTF-8", xml_declaration=True) + b"\n"
+
+
+def write_osp(desc: SystemDescription, folder: str | os.PathLike) -> Path:
+    """Write ``folder/OspSystemStructure.xml`` for ``desc``, the FMUs referred to where they
+    are (relative paths); return the file."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    sources = {c: Path(os.path.relpath(desc.fmus[c].resolve(), folder.resolve())).as_posix()
+               for c in COMPONENTS}
+    path = folder / "OspSystemStructure.xml"
+    path.write_bytes(osp_xml(desc, sources))
+    return path

@@ -1,0 +1,143 @@
+"""Run the EHA system (:mod:`smeha.ssp`) in SSP and OSP masters and check its cylinder flow.
+
+* :func:`run_fmpy` runs the ``.ssp`` with fmpy's ``fmpy.ssp.simulation.simulate_ssp``:
+  fixed step, every unit stepped from the same communication point with the inputs of
+  the last one (Jacobi), outputs held between points. fmpy 0.3.32 reads the SSD's
+  parameter bindings but does not apply them (``simulate_ssp`` applies only the
+  ``parameter_set`` it is given), and converts an SSV Boolean ``"false"`` to true; so
+  the bindings are read here, typed, and handed to it (:func:`ssp_parameter_set`).
+* :func:`run_libcosim` runs ``OspSystemStructure.xml`` with libcosim (libcosimpy): its
+  fixed-step algorithm steps the units in parallel from one communication point and
+  transfers the outputs afterwards (Jacobi too), after propagating the initial values.
+
+Both return a record with the fields the harness's flow check reads
+(:func:`system_models.flowcheck.flow_check`), the plant's outputs at the end of each step.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+#: The plant outputs a record holds (and the flow check reads).
+PLANT_FIELDS = ("rod_displacement", "volume_into_big", "valves_compressing", "p_pump",
+                "piston_position")
+
+
+def _typed(kind: str, text: str):
+    if kind == "Real":
+        return float(text)
+    if kind == "Integer":
+        return int(text)
+    if kind == "Boolean":
+        if text not in ("true", "false", "1", "0"):
+            raise ValueError(f"SSV Boolean value {text!r} is not true, false, 1 or 0")
+        return text in ("true", "1")
+    return text
+
+
+def ssp_parameter_set(ssp_path):
+    """The SSD's component parameter bindings as the ``parameter_set`` fmpy's
+    ``simulate_ssp`` applies: names ``<component>.<variable>``, values typed.
+
+    fmpy 0.3.32 cannot set String variables: a String equal to the FMU's start value is
+    left out (setting it would change nothing), any other raises ``ValueError``.
+    """
+    import tempfile
+    import zipfile
+
+    from fmpy import read_model_description
+    from fmpy.ssp.ssd import Parameter, ParameterSet, read_ssd
+
+    ssd = read_ssd(str(ssp_path))
+    out = ParameterSet(name="bindings")
+    with tempfile.TemporaryDirectory(prefix="smeha_ssp_") as tmp, \
+            zipfile.ZipFile(ssp_path) as z:
+        for element in ssd.system.elements:
+            starts = {v.name: v.start for v in read_model_description(
+                z.extract(element.source, tmp), validate=False).modelVariables}
+            for binding in getattr(element, "parameterBindings", []):
+                for values in binding.parameterValues:
+                    for p in values.parameters:
+                        if p.type == "String":
+                            if p.value == starts.get(p.name):
+                                continue
+                            raise ValueError(
+                                f"{element.name}.{p.name} = {p.value!r}: fmpy's simulate_ssp "
+                                "cannot set String variables (run the OSP file in libcosim)")
+                        out.parameters.append(Parameter(name=f"{element.name}.{p.name}",
+                                                        type=p.type,
+                                                        value=_typed(p.type, p.value)))
+    return out
+
+
+def _record(times, columns: dict) -> np.ndarray:
+    record = np.zeros(len(times), dtype=[("time", float)] + [(n, float) for n in columns])
+    record["time"] = times
+    for name, values in columns.items():
+        record[name] = values
+    return record
+
+
+def run_fmpy(ssp_path, step: float, stop_time: float):
+    """Run the .ssp in fmpy's SSP master; return (record, wall time [s])."""
+    from fmpy.ssp.simulation import simulate_ssp
+
+    parameters = ssp_parameter_set(ssp_path)
+    wall = time.perf_counter()
+    result = simulate_ssp(str(ssp_path), stop_time=stop_time, step_size=step,
+                          parameter_set=parameters)
+    wall = time.perf_counter() - wall
+    # a row holds the outputs after the step from its time: they are those of time + step
+    return _record(result["time"] + step,
+                   {n: result[f"plant.{n}"].astype(float) for n in PLANT_FIELDS}), wall
+
+
+def run_libcosim(osp_file, step: float, stop_time: float):
+    """Run OspSystemStructure.xml in libcosim, step by step; return (record, wall time [s]).
+
+    libcosim's fixed-step algorithm does the stepping and the transfers; a last-value
+    observer reads the plant's outputs after each step (libcosimpy's time-series observer
+    takes no Booleans).
+    """
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+
+    log_output_level(CosimLogLevel.WARNING)
+    execution = CosimExecution.from_osp_config_file(str(Path(osp_file).resolve()))
+    index = execution.slave_index_from_instance_name("plant")
+    refs = {v.name.decode(): v.reference for v in execution.slave_variables(index)}
+    observer = CosimObserver.create_last_value()
+    execution.add_observer(observer)
+    n = int(round(stop_time / step))
+    reals = [refs[n_] for n_ in PLANT_FIELDS if n_ != "valves_compressing"]
+    rows, phases = np.empty((n, len(reals))), np.empty(n)
+    wall = time.perf_counter()
+    for k in range(n):
+        if not execution.step(1):
+            raise RuntimeError(f"libcosim step {k} failed: {execution.status()}")
+        rows[k] = observer.last_real_values(index, reals)
+        phases[k] = observer.last_boolean_values(index, [refs["valves_compressing"]])[0]
+    wall = time.perf_counter() - wall
+    status = execution.status()
+    columns = {name: rows[:, i] for i, name in
+               enumerate(n_ for n_ in PLANT_FIELDS if n_ != "valves_compressing")}
+    columns["valves_compressing"] = phases
+    record = _record(step * np.arange(1, n + 1), columns)
+    _KEEP.append((execution, observer))  # see _KEEP
+    return record, wall, status.current_time
+
+
+#: libcosim objects kept alive until the process ends: tearing down an execution that
+#: holds pythonfmu slaves while Python runs has aborted now and then (docs/FMU.md, libcosim)
+_KEEP: list = []
+
+
+def flow(record, frequency: float, piston_area: float, skip_cycles: int | None = None):
+    """The harness's flow check (eqs 39-41) of a system run's record."""
+    from system_models.flowcheck import SKIP_CYCLES, flow_check
+
+    return flow_check(record, frequency, piston_area,
+                      SKIP_CYCLES if skip_cycles is None else skip_cycles)
