@@ -23,9 +23,11 @@ Subcommands
 ``smeha diagnose DATA.csv [--holdout RUN,...] [--json] [--report DIR]``
     What the paper's model gets wrong on measured runs, the cause, the
     extended model and its held-out gain (:mod:`smeha.diagnose`).
-``smeha build [--fmi 2|3|both] [--out DIR] [--no-validate]``
+``smeha build [--fmi 2|3|both] [--out DIR] [--no-validate] [--system ...]``
     Build the FMU(s) (:mod:`smeha.fmu_build`) into the source tree's ``dist/``,
-    where ``simulate``, ``flow`` and ``sweep`` look for the FMU.
+    where ``simulate``, ``flow`` and ``sweep`` look for the FMU; ``--system`` also
+    builds the hydraulic plant's and the drive's FMUs and writes the EHA system of
+    one case, ``SmehaEha.ssp`` and ``SmehaEha/OspSystemStructure.xml`` (:mod:`smeha.ssp`).
 
 Adding a subcommand: write ``_add_<name>(subparsers)`` (here, or
 ``add_<name>`` in a module of its own, as :mod:`smeha.flowcommands`) that
@@ -55,7 +57,7 @@ import gmt  # cheap: its names load on first use (gmt/__init__.py)
 from . import __version__
 from .cliargs import (Parser, UsageError, add_branch_rule, input_file,
                       join_negative_values, output_dir)
-from .flowcommands import add_flow, add_simulate, add_sweep
+from .flowcommands import CIRCUITS, FREQUENCY, add_flow, add_simulate, add_sweep
 
 
 def _add_paper(subparsers):
@@ -99,7 +101,8 @@ def _add_build(subparsers):
                     "'python build_fmu.py' is the same command). By default they go into "
                     "dist/ of the smeha source tree, where simulate, flow and sweep look for "
                     "dist/SmehaGmt.fmu (and build it when it is missing or older than its "
-                    "sources).")
+                    "sources). --system adds the EHA as an FMI system: the plant's and the "
+                    "drive's FMUs, SmehaEha.ssp and SmehaEha/OspSystemStructure.xml.")
     p.add_argument("--fmi", choices=("2", "3", "both"), default="2",
                    help="FMI version: 2 (pythonfmu, default), 3 (pythonfmu3) or both")
     p.add_argument("--out", metavar="DIR", type=output_dir,
@@ -107,14 +110,39 @@ def _add_build(subparsers):
                         "missing)")
     p.add_argument("--no-validate", action="store_true",
                    help="skip fmpy's validation of the built FMU")
+    p.add_argument("--system", action="store_true",
+                   help="also build the hydraulic plant's and the drive's FMUs and write the "
+                        "EHA as an FMI system: SmehaEha.ssp (SSP 1.0: fmpy) and "
+                        "SmehaEha/OspSystemStructure.xml (libcosim), for the case below "
+                        "(docs/FMU.md)")
+    p.add_argument("--frequency", type=FREQUENCY, default=100.0, metavar="HZ",
+                   help="with --system: pumping frequency [Hz], in (0, 1000] (default 100)")
+    p.add_argument("--mode", choices=("uncompensated", "compensated"), default="compensated",
+                   help="with --system: drive mode (default compensated)")
+    p.add_argument("--circuit", choices=CIRCUITS, default="realistic",
+                   help="with --system: the hydraulic circuit (default realistic)")
     p.set_defaults(run=_run_build)
 
 
 def _run_build(args) -> int:
     from . import fmu_build
 
-    return fmu_build.build_all(args.fmi, args.out or fmu_build.DIST,
-                               validate=not args.no_validate)
+    out = args.out or fmu_build.DIST
+    status = fmu_build.build_all(args.fmi, out, validate=not args.no_validate)
+    if not args.system:
+        return status
+    from . import ssp
+    transducer = out / f"{fmu_build.iface.MODEL_NAME_FMI2}.fmu"
+    built = {"transducer": transducer} if status == 0 and args.fmi != "3" else {}
+    try:
+        written = ssp.build_system(out, args.frequency, args.mode, args.circuit,
+                                   validate=not args.no_validate, built=built)
+    except fmu_build.BuildError as exc:
+        print(f"smeha build: error: {exc}", file=sys.stderr)
+        return 1
+    for path in written:
+        print(f"EHA system ({args.mode}, {args.frequency:g} Hz, {args.circuit} circuit): {path}")
+    return status
 
 
 def _add_identify(subparsers):

@@ -283,3 +283,32 @@ def write_osp(desc: SystemDescription, folder: str | os.PathLike) -> Path:
     path = folder / "OspSystemStructure.xml"
     path.write_bytes(osp_xml(desc, sources))
     return path
+
+
+def build_system(out: str | os.PathLike, frequency: float = 100.0,
+                 mode: str = "compensated", circuit: str = "realistic",
+                 validate: bool = True, built: dict | None = None) -> tuple[Path, Path]:
+    """Build the three FMUs into ``out`` and write the system of one case there:
+    ``<out>/SmehaEha.ssp`` and ``<out>/SmehaEha/OspSystemStructure.xml`` (the FMUs
+    referred to as ``../<name>.fmu``). Returns (the .ssp, the OSP file).
+
+    ``built`` gives components whose FMU was just built (component -> path).
+
+    Raises
+    ------
+    smeha.fmu_build.BuildError
+        An FMU could not be built.
+    gmt.ParameterError
+        A bad frequency, mode or circuit.
+    """
+    from . import fmu_build
+    from .flowstudy import Case
+
+    case = Case(frequency, mode, circuit=circuit)  # checks the values before any build
+    out = Path(out)
+    fmus = dict(built or {})
+    for comp, key in COMPONENTS.items():
+        if comp not in fmus:
+            fmus[comp] = fmu_build.build_fmu(key, out, validate=validate)
+    desc = describe(case, fmus)
+    return write_ssp(desc, out / f"{SYSTEM_NAME}.ssp"), write_osp(desc, out / SYSTEM_NAME)

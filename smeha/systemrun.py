@@ -20,9 +20,35 @@ from pathlib import Path
 
 import numpy as np
 
+from .ssp import MECHANICS  # noqa: F401  (re-exported: what a run may report)
+
 #: The plant outputs a record holds (and the flow check reads).
 PLANT_FIELDS = ("rod_displacement", "volume_into_big", "valves_compressing", "p_pump",
                 "piston_position")
+
+
+def ssp_experiment(ssp_path) -> tuple[float, float]:
+    """(step, stop time) [s] of a .ssp of :mod:`smeha.ssp`: its DefaultExperiment's stopTime
+    and the fixed step of its OSP annotation (fmpy's SSD reader keeps neither)."""
+    import zipfile
+    from xml.etree import ElementTree as ET
+
+    with zipfile.ZipFile(ssp_path) as z:
+        root = ET.fromstring(z.read("SystemStructure.ssd"))
+    ssd = "{http://ssp-standard.org/SSP1/SystemStructureDescription}"
+    experiment = root.find(f"{ssd}DefaultExperiment")
+    fixed = experiment.find(".//{http://opensimulationplatform.com/SSP/OSPAnnotations}"
+                            "FixedStepAlgorithm")
+    return float(fixed.get("baseStepSize")), float(experiment.get("stopTime"))
+
+
+def osp_experiment(osp_file) -> tuple[float, float]:
+    """(step, stop time) [s] of an OspSystemStructure.xml: BaseStepSize, EndTime."""
+    from xml.etree import ElementTree as ET
+
+    ns = "{http://opensimulationplatform.com/MSMI/OSPSystemStructure}"
+    root = ET.parse(osp_file).getroot()
+    return float(root.find(f"{ns}BaseStepSize").text), float(root.find(f"{ns}EndTime").text)
 
 
 def _typed(kind: str, text: str):
@@ -80,10 +106,14 @@ def _record(times, columns: dict) -> np.ndarray:
     return record
 
 
-def run_fmpy(ssp_path, step: float, stop_time: float):
-    """Run the .ssp in fmpy's SSP master; return (record, wall time [s])."""
+def run_fmpy(ssp_path, step: float | None = None, stop_time: float | None = None):
+    """Run the .ssp in fmpy's SSP master (the file's step and stop time unless given);
+    return (record, wall time [s])."""
     from fmpy.ssp.simulation import simulate_ssp
 
+    default_step, default_stop = ssp_experiment(ssp_path)
+    step = default_step if step is None else step
+    stop_time = default_stop if stop_time is None else stop_time
     parameters = ssp_parameter_set(ssp_path)
     wall = time.perf_counter()
     result = simulate_ssp(str(ssp_path), stop_time=stop_time, step_size=step,
@@ -94,17 +124,32 @@ def run_fmpy(ssp_path, step: float, stop_time: float):
                    {n: result[f"plant.{n}"].astype(float) for n in PLANT_FIELDS}), wall
 
 
-def run_libcosim(osp_file, step: float, stop_time: float):
-    """Run OspSystemStructure.xml in libcosim, step by step; return (record, wall time [s]).
+def run_libcosim(osp_file, step: float | None = None, stop_time: float | None = None,
+                 report=()):
+    """Run OspSystemStructure.xml in libcosim, step by step (the file's step and stop time
+    unless given).
 
     libcosim's fixed-step algorithm does the stepping and the transfers; a last-value
     observer reads the plant's outputs after each step (libcosimpy's time-series observer
     takes no Booleans).
+
+    Parameters
+    ----------
+    report : sequence of (component, names)
+        Real variables whose values after the first step are reported (e.g. the
+        parameters each unit runs with).
+
+    Returns
+    -------
+    (record, wall time [s], libcosim's end time [ns], {component: {name: value}})
     """
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
     from libcosimpy.CosimObserver import CosimObserver
 
+    default_step, default_stop = osp_experiment(osp_file)
+    step = default_step if step is None else step
+    stop_time = default_stop if stop_time is None else stop_time
     log_output_level(CosimLogLevel.WARNING)
     execution = CosimExecution.from_osp_config_file(str(Path(osp_file).resolve()))
     index = execution.slave_index_from_instance_name("plant")
@@ -114,12 +159,15 @@ def run_libcosim(osp_file, step: float, stop_time: float):
     n = int(round(stop_time / step))
     reals = [refs[n_] for n_ in PLANT_FIELDS if n_ != "valves_compressing"]
     rows, phases = np.empty((n, len(reals))), np.empty(n)
+    reported = {}
     wall = time.perf_counter()
     for k in range(n):
         if not execution.step(1):
             raise RuntimeError(f"libcosim step {k} failed: {execution.status()}")
         rows[k] = observer.last_real_values(index, reals)
         phases[k] = observer.last_boolean_values(index, [refs["valves_compressing"]])[0]
+        if k == 0:
+            reported = _values(execution, observer, report)
     wall = time.perf_counter() - wall
     status = execution.status()
     columns = {name: rows[:, i] for i, name in
@@ -127,7 +175,17 @@ def run_libcosim(osp_file, step: float, stop_time: float):
     columns["valves_compressing"] = phases
     record = _record(step * np.arange(1, n + 1), columns)
     _KEEP.append((execution, observer))  # see _KEEP
-    return record, wall, status.current_time
+    return record, wall, status.current_time, reported
+
+
+def _values(execution, observer, report) -> dict:
+    out = {}
+    for component, names in report:
+        index = execution.slave_index_from_instance_name(component)
+        refs = {v.name.decode(): v.reference for v in execution.slave_variables(index)}
+        values = observer.last_real_values(index, [refs[n] for n in names])
+        out[component] = dict(zip(names, (float(v) for v in values)))
+    return out
 
 
 #: libcosim objects kept alive until the process ends: tearing down an execution that
