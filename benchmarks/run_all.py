@@ -34,6 +34,7 @@ BENCHMARKS = {
     "identify_diagnose_speed": ([], ["--repeats", "1"]),
     "sweep_throughput": ([], ["--frequencies", "50,100", "--no-dask"]),
     "diagnose_detection": ([], ["--seeds", "2", "--strengths", "1", "--noises", "0.05"]),
+    "system_step": ([], ["--steps", "1e-5", "--frequencies", "100", "--cycles", "4"]),
 }
 
 

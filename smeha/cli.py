@@ -27,7 +27,8 @@ Subcommands
     Build the FMU(s) (:mod:`smeha.fmu_build`) into the source tree's ``dist/``,
     where ``simulate``, ``flow`` and ``sweep`` look for the FMU; ``--system`` also
     builds the hydraulic plant's and the drive's FMUs and writes the EHA system of
-    one case, ``SmehaEha.ssp`` and ``SmehaEha/OspSystemStructure.xml`` (:mod:`smeha.ssp`).
+    one case, ``SmehaEha.ssp``, ``SmehaEha/OspSystemStructure.xml`` and the container FMU
+    ``SmehaEha.fmu`` (:mod:`smeha.ssp`).
 
 Adding a subcommand: write ``_add_<name>(subparsers)`` (here, or
 ``add_<name>`` in a module of its own, as :mod:`smeha.flowcommands`) that
@@ -102,7 +103,8 @@ def _add_build(subparsers):
                     "dist/ of the smeha source tree, where simulate, flow and sweep look for "
                     "dist/SmehaGmt.fmu (and build it when it is missing or older than its "
                     "sources). --system adds the EHA as an FMI system: the plant's and the "
-                    "drive's FMUs, SmehaEha.ssp and SmehaEha/OspSystemStructure.xml.")
+                    "drive's FMUs, SmehaEha.ssp, SmehaEha/OspSystemStructure.xml and "
+                    "SmehaEha.fmu.")
     p.add_argument("--fmi", choices=("2", "3", "both"), default="2",
                    help="FMI version: 2 (pythonfmu, default), 3 (pythonfmu3) or both")
     p.add_argument("--out", metavar="DIR", type=output_dir,
@@ -112,9 +114,9 @@ def _add_build(subparsers):
                    help="skip fmpy's validation of the built FMU")
     p.add_argument("--system", action="store_true",
                    help="also build the hydraulic plant's and the drive's FMUs and write the "
-                        "EHA as an FMI system: SmehaEha.ssp (SSP 1.0: fmpy) and "
-                        "SmehaEha/OspSystemStructure.xml (libcosim), for the case below "
-                        "(docs/FMU.md)")
+                        "EHA as an FMI system: SmehaEha.ssp (SSP 1.0: fmpy), "
+                        "SmehaEha/OspSystemStructure.xml (libcosim) and SmehaEha.fmu (the "
+                        "three as one FMU), for the case below (docs/FMU.md)")
     p.add_argument("--frequency", type=FREQUENCY, default=100.0, metavar="HZ",
                    help="with --system: pumping frequency [Hz], in (0, 1000] (default 100)")
     p.add_argument("--mode", choices=("uncompensated", "compensated"), default="compensated",

@@ -20,9 +20,10 @@ configuration), as the values the transducer FMU itself computes, read from it w
 files are written (:func:`describe`), like the rod's rest position.
 
 Files: :func:`write_ssp` (``<name>.ssp``: ``SystemStructure.ssd``, the FMUs and one SSV
-parameter set per component under ``resources/``, SSP 1.0) and :func:`write_osp`
+parameter set per component under ``resources/``, SSP 1.0), :func:`write_osp`
 (``OspSystemStructure.xml``, the Open Simulation Platform's format that libcosim reads,
-with the same values as initial values). The runners are in :mod:`smeha.systemrun`.
+with the same values as initial values) and :func:`write_container` (the three as one
+FMU, fmpy's container FMU). The runners are in :mod:`smeha.systemrun`.
 """
 from __future__ import annotations
 
@@ -287,10 +288,10 @@ def write_osp(desc: SystemDescription, folder: str | os.PathLike) -> Path:
 
 def build_system(out: str | os.PathLike, frequency: float = 100.0,
                  mode: str = "compensated", circuit: str = "realistic",
-                 validate: bool = True, built: dict | None = None) -> tuple[Path, Path]:
+                 validate: bool = True, built: dict | None = None) -> tuple[Path, ...]:
     """Build the three FMUs into ``out`` and write the system of one case there:
-    ``<out>/SmehaEha.ssp`` and ``<out>/SmehaEha/OspSystemStructure.xml`` (the FMUs
-    referred to as ``../<name>.fmu``). Returns (the .ssp, the OSP file).
+    ``<out>/SmehaEha.ssp``, ``<out>/SmehaEha/OspSystemStructure.xml`` (the FMUs referred to
+    as ``../<name>.fmu``) and the container FMU ``<out>/SmehaEha.fmu``. Returns the three.
 
     ``built`` gives components whose FMU was just built (component -> path).
 
@@ -311,4 +312,96 @@ def build_system(out: str | os.PathLike, frequency: float = 100.0,
         if comp not in fmus:
             fmus[comp] = fmu_build.build_fmu(key, out, validate=validate)
     desc = describe(case, fmus)
-    return write_ssp(desc, out / f"{SYSTEM_NAME}.ssp"), write_osp(desc, out / SYSTEM_NAME)
+    return (write_ssp(desc, out / f"{SYSTEM_NAME}.ssp"), write_osp(desc, out / SYSTEM_NAME),
+            write_container(desc, out / f"{SYSTEM_NAME}.fmu"))
+
+
+# -- the system as one FMU: fmpy's container FMU ------------------------------------------------
+#: Outputs the container FMU exposes, per component (its parameters are all exposed too).
+CONTAINER_OUTPUTS = {"drive": ("u",), "transducer": ("current", "displacement", "force"),
+                     "plant": ("rod_displacement", "rod_velocity", "p_pump", "p_big", "p_small",
+                               "p_accumulator", "piston_position", "piston_velocity", "q_v1",
+                               "q_v2", "q_v3", "q_v4", "volume_into_big",
+                               "compression_volume", "compressing", "valves_compressing",
+                               "stage")}
+
+
+def write_container(desc: SystemDescription, path: str | os.PathLike) -> Path:
+    """Write the system of ``desc`` as one FMI 2.0 co-simulation FMU (fmpy's container FMU,
+    ``fmpy.container_fmu``): the three FMUs inside, connected as in the SSD, stepped with
+    the system's step from one communication point and then connected (Jacobi, as the SSP
+    and OSP masters do); every component parameter a parameter ``<component>.<name>``
+    starting at the system's value, the outputs of :data:`CONTAINER_OUTPUTS` as
+    ``<component>.<name>``. Returns the path.
+
+    Two things fmpy 0.3.32's writer leaves to its caller: the container maps value
+    reference i + 1 to its i-th variable (0 is time), so ``time`` comes first; and
+    connections must name FMI 3.0 types (``Float64``), which it converts for variables only.
+    """
+    import tempfile
+    import uuid
+
+    import attrs
+    from fmpy import read_model_description
+    from fmpy.container_fmu.cli import create_container_fmu
+    from fmpy.container_fmu.config import Component, Configuration, Connection
+    from fmpy.model_description import (CoSimulation, DefaultExperiment, ModelDescription,
+                                        ModelVariable, Unknown)
+
+    from . import fmu_build
+
+    def fmi3_type(variable):
+        return attrs.evolve(variable, type={"Real": "Float64", "Integer": "Int32"}.get(
+            variable.type, variable.type))
+
+    components, inner = {}, {}
+    for comp in COMPONENTS:
+        md = read_model_description(str(desc.fmus[comp]))
+        inner[comp] = {v.name: v for v in md.modelVariables}
+        components[comp] = Component(name=comp, filename=Path(desc.fmus[comp]),
+                                     modelDescription=md)
+    connections = [Connection(components[a], [fmi3_type(inner[a][ca])], components[b],
+                              [fmi3_type(inner[b][cb])]) for a, ca, b, cb in CONNECTIONS]
+    variables = [ModelVariable(name="time", type="Real", causality="independent",
+                               variability="continuous")]
+    mappings = {}
+    for comp, values in desc.parameters.items():
+        for name, value in values.items():
+            v = inner[comp][name]
+            variables.append(ModelVariable(
+                name=f"{comp}.{name}", type=v.type, causality="parameter", variability="fixed",
+                initial="exact", start=_value_text(value), description=v.description))
+            mappings[variables[-1]] = [(components[comp], v)]
+    for comp, names in CONTAINER_OUTPUTS.items():
+        for name in names:
+            v = inner[comp][name]
+            variables.append(ModelVariable(
+                name=f"{comp}.{name}", type=v.type, causality="output",
+                variability=v.variability, initial="calculated", description=v.description))
+            mappings[variables[-1]] = [(components[comp], v)]
+    token = "{%s}" % uuid.uuid5(fmu_build.GUID_NAMESPACE, repr(
+        (desc.name, desc.step, sorted((c, sorted(p.items())) for c, p in
+                                      desc.parameters.items()),
+         [read_model_description(str(desc.fmus[c])).guid for c in COMPONENTS])))
+    md = ModelDescription(
+        fmiVersion="2.0", modelName=desc.name, instantiationToken=token,
+        description="Smart-material electrohydrostatic actuator as one FMU: drive signal, "
+                    "giant magnetostrictive transducer, hydraulic plant (smeha)",
+        generationTool="smeha with fmpy's container FMU",
+        defaultExperiment=DefaultExperiment(startTime="0.0", stopTime=repr(desc.stop_time),
+                                            stepSize=repr(desc.step)),
+        coSimulation=CoSimulation(modelIdentifier="container_fmu",
+                                  fixedInternalStepSize=desc.step),
+        modelVariables=variables)
+    # FMI 2.0 ModelStructure: every output, and as initial unknowns (initial="calculated")
+    outputs = [v for v in variables if v.causality == "output"]
+    md.outputs = [Unknown(variable=v) for v in outputs]
+    md.initialUnknowns = [Unknown(variable=v) for v in outputs]
+    config = Configuration(parallelDoStep=False, modelDescription=md,
+                           components=list(components.values()), connections=connections,
+                           variableMappings=mappings)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="smeha_container_") as tmp:
+        create_container_fmu(config, Path(tmp), path.resolve())  # empties tmp first
+    return path

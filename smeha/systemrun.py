@@ -9,6 +9,8 @@
 * :func:`run_libcosim` runs ``OspSystemStructure.xml`` with libcosim (libcosimpy): its
   fixed-step algorithm steps the units in parallel from one communication point and
   transfers the outputs afterwards (Jacobi too), after propagating the initial values.
+* :func:`run_container` runs the container FMU (the three as one FMU) with fmpy's
+  ``simulate_fmu``: the container steps its units and then connects them (Jacobi).
 
 Both return a record with the fields the harness's flow check reads
 (:func:`system_models.flowcheck.flow_check`), the plant's outputs at the end of each step.
@@ -186,6 +188,23 @@ def _values(execution, observer, report) -> dict:
         values = observer.last_real_values(index, [refs[n] for n in names])
         out[component] = dict(zip(names, (float(v) for v in values)))
     return out
+
+
+def run_container(fmu_path, step: float | None = None, stop_time: float | None = None):
+    """Run the container FMU (:func:`smeha.ssp.write_container`) with fmpy's
+    ``simulate_fmu`` (its DefaultExperiment's step and stop time unless given), recording
+    every step; return (record, wall time [s])."""
+    from fmpy import read_model_description, simulate_fmu
+
+    experiment = read_model_description(str(fmu_path)).defaultExperiment
+    step = float(experiment.stepSize) if step is None else step
+    stop_time = float(experiment.stopTime) if stop_time is None else stop_time
+    wall = time.perf_counter()
+    result = simulate_fmu(str(fmu_path), stop_time=stop_time, step_size=step,
+                          output_interval=step, output=[f"plant.{n}" for n in PLANT_FIELDS])
+    wall = time.perf_counter() - wall
+    return _record(result["time"], {n: result[f"plant.{n}"].astype(float)
+                                    for n in PLANT_FIELDS}), wall
 
 
 #: libcosim objects kept alive until the process ends: tearing down an execution that

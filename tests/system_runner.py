@@ -5,13 +5,15 @@
 Commands
 --------
 ``write OUT DIST FOLDER CIRCUIT CYCLES F:MODE...``
-    the .ssp and OspSystemStructure.xml of each case (smeha.ssp), from the FMUs in DIST
+    the .ssp, OspSystemStructure.xml and container FMU of each case (smeha.ssp), from the
+    FMUs in DIST
 ``harness OUT FMU CIRCUIT CYCLES F:MODE...``
     the project's co-simulation harness (smeha.flowstudy.run_case, the transducer FMU)
     for each case: its flow check, and the free transducer's flow of eqs 40/41
 ``fmpy OUT SSP F``        the .ssp in fmpy's simulate_ssp; its flow check
 ``libcosim OUT OSP F``    OspSystemStructure.xml in libcosim; its flow check, and the
                           mechanics each unit runs with
+``container OUT FMU F``   the container FMU in fmpy's simulate_fmu; its flow check
 ``free OUT F MODE CYCLES``  dy of the free transducer between the valve switches (eqs
                           40/41; smeha.flowstudy.free_dy: no hydraulics)
 ``plant_drive OUT FMU N H F A U0 FORCE NAME...``
@@ -59,6 +61,7 @@ def write(out_path, dist, folder, circuit, cycles, *cases):
         written[f"{f:g}:{mode}"] = {
             "ssp": str(ssp.write_ssp(desc, Path(folder) / f"{tag}.ssp")),
             "osp": str(ssp.write_osp(desc, Path(folder) / tag)),
+            "container": str(ssp.write_container(desc, Path(folder) / f"{tag}.fmu")),
             "step": desc.step, "stop_time": desc.stop_time, "parameters": desc.parameters}
     _write(out_path, written)
 
@@ -88,6 +91,14 @@ def fmpy(out_path, ssp_path, frequency):
     chk = systemrun.flow(record, float(frequency), PISTON_AREA)
     _write(out_path, dict(_check(chk, wall, len(record)), fmpy=fmpy_package.__version__,
                           end_time=float(record["time"][-1])))
+
+
+def container(out_path, fmu_path, frequency):
+    from smeha import systemrun
+
+    record, wall = systemrun.run_container(fmu_path)
+    chk = systemrun.flow(record, float(frequency), PISTON_AREA)
+    _write(out_path, _check(chk, wall, len(record) - 1))
 
 
 def libcosim(out_path, osp_path, frequency):
@@ -139,6 +150,7 @@ def _write(path, obj):
 
 
 COMMANDS = {"write": write, "harness": harness, "fmpy": fmpy, "libcosim": libcosim,
+            "container": container,
             "free": free, "plant_drive": plant_drive}
 
 if __name__ == "__main__":

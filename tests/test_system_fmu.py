@@ -3,8 +3,9 @@
 ``smeha build --system`` builds the plant FMU (``system_models``' plant: the pump chamber
 with the rod's eq 27, the valves and their controller, the cylinder, the accumulator) and
 the drive FMU (the control signal); :mod:`smeha.ssp` connects them to the transducer FMU
-in an SSP 1.0 package and an OSP system structure. Each is run in its master -- fmpy's
-``simulate_ssp`` and libcosim (a C++ master) -- and checked against:
+in an SSP 1.0 package and an OSP system structure, and packs the three as one FMU (fmpy's
+container FMU). Each is run in its master -- fmpy's ``simulate_ssp``, libcosim (a C++
+master), fmpy's ``simulate_fmu`` for the container -- and checked against:
 
 * **the project's co-simulation harness** (``smeha.flowstudy.run_case``: the transducer
   FMU stepped ahead, the plant integrated over windows, a valve controller that knows u
@@ -125,13 +126,13 @@ def harness(system_dist, tmp_path_factory):
 
 def _host_run(host, circuit, f, mode, systems):
     entry = systems[circuit][_key(f, mode)]
-    path = entry["ssp"] if host == "fmpy" else str(Path(entry["osp"]))
+    path = {"fmpy": entry["ssp"], "libcosim": entry["osp"], "container": entry["container"]}[host]
     return _once((host, circuit, f, mode), lambda: _run(
         host, systems["folder"] / f"{host}_{circuit}_{f:g}_{mode}", path, f))
 
 
 # -- the cylinder flow against the harness --------------------------------------------------
-@pytest.mark.parametrize("host", ["fmpy", "libcosim"])
+@pytest.mark.parametrize("host", ["fmpy", "libcosim", "container"])
 @pytest.mark.parametrize("f,mode", CASES)
 def test_system_gives_the_harness_flow(host, f, mode, systems, harness):
     if host == "libcosim":
@@ -174,7 +175,7 @@ def test_build_writes_a_valid_ssp_and_osp(system_dist):
     dist, log = system_dist
     ssp = dist / "SmehaEha.ssp"
     osp = dist / "SmehaEha" / "OspSystemStructure.xml"
-    assert str(ssp) in log and str(osp) in log
+    assert str(ssp) in log and str(osp) in log and str(dist / "SmehaEha.fmu") in log
     ssd = read_ssd(str(ssp))  # validated against the SSP 1.0 schema (fmpy's copy)
     assert [c.name for c in ssd.system.elements] == ["drive", "transducer", "plant"]
     with zipfile.ZipFile(ssp) as z:

@@ -148,3 +148,23 @@ def test_the_system_step_is_the_valve_controllers_period():
     # the plant's controller samples u at each step: the harness's controller's rate
     assert ssp.SYSTEM_STEP == VALVE_CONTROLLER_PERIOD
     assert math.isclose(0.01 / ssp.SYSTEM_STEP, round(0.01 / ssp.SYSTEM_STEP))
+
+
+def _doc_rows(start: str, end: str) -> dict:
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "FMU.md").read_text()
+    part = doc[doc.index(start):doc.index(end, doc.index(start))]
+    return {line.split("|")[1].strip().strip("`"): line.split("|")[2].strip()
+            for line in part.splitlines() if line.startswith("| `")}
+
+
+@pytest.mark.parametrize("module,start,end", [
+    ("smeha_plant_interface", "Plant (`fmu_src/smeha_plant_interface.py`",
+     "Drive (`fmu_src/smeha_drive_interface.py`"),
+    ("smeha_drive_interface", "Drive (`fmu_src/smeha_drive_interface.py`", "Log messages")])
+def test_docs_list_every_system_fmu_variable(module, start, end):
+    # docs/FMU.md's tables are the user's reference: one row per variable the slave registers
+    table = fmu_build.table(module)
+    rows = _doc_rows(start, end)
+    assert rows == {v.name: v.causality for v in table.VARIABLES}
