@@ -16,6 +16,9 @@ Commands
 ``container OUT FMU F``   the container FMU in fmpy's simulate_fmu; its flow check
 ``free OUT F MODE CYCLES``  dy of the free transducer between the valve switches (eqs
                           40/41; smeha.flowstudy.free_dy: no hydraulics)
+``plant_bad OUT FMU NAME=VALUE...``
+                          fmpy.simulate_fmu of the plant FMU with each bad parameter: the
+                          exception it raised and what the FMU wrote to stderr
 ``plant_drive OUT FMU N H F A U0 FORCE NAME...``
                           the plant FMU in fmpy as tests/fmu_c_host.c drives it: u = U0 +
                           A cos(2 pi F t) at t = k H, the force held at FORCE; rows [t, NAME...]
@@ -144,13 +147,34 @@ def plant_drive(out_path, fmu_path, steps, h, frequency, amplitude, offset, forc
     _write(out_path, {"rows": rows})
 
 
+def plant_bad(out_path, fmu_path, *settings):
+    import io
+    import contextlib
+
+    from fmpy import simulate_fmu
+
+    results = {}
+    for item in settings:
+        name, value = item.split("=", 1)
+        stderr = io.StringIO()
+        error = None
+        try:
+            with contextlib.redirect_stderr(stderr):
+                simulate_fmu(fmu_path, stop_time=1e-4, step_size=1e-5,
+                             start_values={name: float(value)})
+        except Exception as exc:  # what a user sees
+            error = f"{type(exc).__name__}: {exc}"
+        results[item] = {"error": error, "stderr": stderr.getvalue()}
+    _write(out_path, results)
+
+
 def _write(path, obj):
     with open(path, "w") as fh:
         json.dump(obj, fh)
 
 
 COMMANDS = {"write": write, "harness": harness, "fmpy": fmpy, "libcosim": libcosim,
-            "container": container,
+            "container": container, "plant_bad": plant_bad,
             "free": free, "plant_drive": plant_drive}
 
 if __name__ == "__main__":

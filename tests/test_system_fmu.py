@@ -202,6 +202,17 @@ def test_the_plant_fmu_carries_its_physics_under_names_of_its_own(system_dist):
     assert "required\tnumpy\nrequired\tnumba\n" in record
 
 
+@pytest.mark.parametrize("setting,words", [("v2_area=-1", "v2_area = -1 m^2 is outside"),
+                                           ("equivalent_mass=0", "equivalent_mass = 0 kg is"),
+                                           ("hydraulic_step=2", "hydraulic_step = 2.0 s is")])
+def test_a_bad_plant_parameter_stops_fmpy_and_is_named(setting, words, system_dist, tmp_path):
+    # issue 13 item 3 for the plant: fmpy.simulate_fmu raises (the first step is Fatal) and
+    # the reason, naming the parameter and its range, reaches stderr
+    result = _run("plant_bad", tmp_path, system_dist[0] / "SmehaPlant.fmu", setting)[setting]
+    assert result["error"] is not None
+    assert words in result["stderr"] and "refused" in result["stderr"], result
+
+
 # -- the plant FMU in a C host --------------------------------------------------------------------
 def test_the_plant_fmu_runs_in_a_c_host_as_in_fmpy(system_dist, c_host, tmp_path):
     # the C host loads the binary with dlopen(RTLD_LOCAL) in a clean environment (no Python
