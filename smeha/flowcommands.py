@@ -194,6 +194,19 @@ def _check_simulate(args) -> None:
                 args.coupling or DEFAULT_COUPLING)
 
 
+def _run_failures() -> tuple:
+    """The errors of a run that stopped (the integration, the displacement port's
+    interface): said in one line with exit status 1, not as a traceback."""
+    from system_models.displacementport import CouplingError
+    from system_models.implicit import IntegrationError
+    return IntegrationError, CouplingError
+
+
+def _failed(command, exc) -> int:
+    print(f"smeha {command}: error: the run stopped: {exc}", file=sys.stderr)
+    return 1
+
+
 def _write_record_csv(record, path) -> None:
     """The co-simulation record as CSV, each column named with its SI unit (p_pump_Pa)."""
     import numpy as np
@@ -216,8 +229,10 @@ def _run_simulate(args) -> int:
     bar, update = _progress_bar(n, f"{case.mode} {case.frequency:g} Hz", args.json)
     try:
         record, check, row = flowstudy.run_case(case, fmu, progress=update)
-    finally:
+    except _run_failures() as exc:
         bar.close()
+        return _failed("simulate", exc)
+    bar.close()
     if args.csv:
         _write_record_csv(record, args.csv)
     if args.plot:
@@ -237,13 +252,20 @@ def _run_simulate(args) -> int:
               f"from its measured dy {row['dy_paper_um']:g} um (eqs 40/41)")
     print(f"  volume balance       {row['volume_imbalance_m3']:.2e} m^3 of "
           f"{row['volume_pumped_m3']:.2e} m^3 pumped; wall {row['wall_s']:.1f} s")
+    if row.get("note"):  # a reversed flow, cavitation (smeha.flowstudy.flag_row)
+        print(f"  (!) {row['note']}")
     for path in (args.csv, args.plot):
         if path:
             print(f"wrote {path}")
     return 0
 
 
-WORKERS_HELP = "worker processes, at least 1 (default 2)"
+#: --workers of flow and sweep: how the local workers start and what that costs
+#: (docs/SWEEP.md, Workers; benchmarks/README.md, Sweeps).
+WORKERS_HELP = ("local worker processes, at least 1 (default 2); on Linux they are forked from "
+                "this process once it has loaded the kernel and the FMU, and cost about the "
+                "CPU time of one; on Windows and macOS each starts a new interpreter (~1.5-2 s "
+                "of CPU): there 1 is faster for grids of a few short runs")
 
 
 def add_flow(subparsers):
@@ -326,7 +348,10 @@ def _run_flow(args) -> int:
     cases += [_case_from(args, f, m, load, v) for v in models for f in args.frequencies
               for m in flowstudy.MODES for load in (args.loads or [])]
     fmu = _fmu_for(args, cases)
-    rows = flowstudy.run_cases(cases, fmu, workers=_workers(args), quiet=args.json)
+    try:
+        rows = flowstudy.run_cases(cases, fmu, workers=_workers(args), quiet=args.json)
+    except _run_failures() as exc:
+        return _failed("flow", exc)
     paper_rows = [r for r in rows if r["model"] == "paper"]
     table = [r for r in paper_rows if r["load_N"] == cases[0].load_force]
     pairs = flowstudy.compare_variant(rows) if variant is not None else None
@@ -368,7 +393,7 @@ def add_sweep(subparsers):
     p.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
                    help="Dask scheduler, e.g. tcp://host:8786 (default: local processes)")
     p.add_argument("--workers", type=count(1), metavar="N",
-                   help="local worker processes, at least 1 (default 2; not with --scheduler)")
+                   help=WORKERS_HELP + "; not with --scheduler")
     p.add_argument("--out", metavar="FILE", type=output_file,
                    help="result table (CSV; default: the spec's name with .csv, beside it: "
                         "grid.toml -> grid.csv)")

@@ -78,6 +78,11 @@ def run_figure(record, row, skip_cycles: int | None = None):
     ax.plot(t, record["p_accumulator"] / 1e6, color="tab:purple", lw=1.0, ls="--",
             label="accumulator A")
     ax.plot(t, record["p_pump"] / 1e6, color="black", lw=0.9, label="pump chamber P")
+    if row.get("cavitation"):  # below what oil holds (smeha.flowstudy.flag_row)
+        ax.axhline(0.0, color="tab:red", lw=1.0, ls=":",
+                   label="0 absolute: oil cavitates below ~1 kPa (not modelled)")
+        low, high = ax.get_ylim()
+        ax.set_ylim(low - 0.4 * (high - low), high)  # room for the legend below the traces
     ax.set_ylabel("pressure [MPa]")
     ax.legend(loc="lower right", fontsize=7, ncol=4, framealpha=0.9)
 
@@ -162,6 +167,14 @@ def flow_figure(rows):
                         arrowprops={"arrowstyle": "-", "color": "0.4", "lw": 0.6})
         styles.append(Line2D([], [], color="k", marker="X", ls="none", mfc="none", ms=9,
                              label="flow reversed (the table's note says why)"))
+    tension = [r for r in rows if r.get("cavitation") and r["load_N"] == base]
+    for r in tension:  # oil held below what it can (smeha.flowstudy.flag_row)
+        ax.plot(r["frequency_Hz"], r["flow_sim_m3_s"] * 1e6, "o", color="k", ms=15,
+                mfc="none", mew=1.5)
+    if tension:
+        styles.append(Line2D([], [], color="k", marker="o", ls="none", mfc="none", ms=10,
+                             label="cavitation: a pressure below 1 kPa absolute,\n"
+                                   "which no oil holds (the table's note)"))
     _finish_flow_axes(ax, styles, 2, "pumping frequency f [Hz]",
                       f"Flow against frequency ({paper[0]['circuit']} circuit, load {base:g} N)")
     if ncols == 2:

@@ -20,10 +20,13 @@ model and with the extended model can be compared (:func:`format_comparison`,
 ``smeha flow --variant FILE``). The compensator stays the paper's inverse
 model in both.
 
-Results a reader could misread are flagged (:func:`flag_row`): a reversed
-flow (the uncompensated pump above ~120 Hz: the rod lags the valve timing by
-more than a quarter period) carries ``flow_reversed`` and a ``note`` with the
-reason, in the table, the JSON and the plot.
+Results a reader could misread are flagged (:func:`flag_row`), in the table,
+the JSON and the plot: a reversed flow (the uncompensated pump above ~120 Hz:
+the rod lags the valve timing by more than a quarter period) carries
+``flow_reversed``, and oil held in tension (a pressure in the pump chamber or a
+cavity below :data:`~system_models.fluid.MINIMUM_PRESSURE`, 1 kPa absolute,
+where a real oil cavitates; the ``differential`` preset's air-free stiff oil
+does it) carries ``cavitation``; each with a ``note`` giving the reason.
 """
 from __future__ import annotations
 
@@ -45,6 +48,7 @@ from system_models.cosim import (COUPLINGS, CosimSettings, DirectTransducer, Fmu
 from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_STEP,
                                     HYDRAULIC_STEP, VALVE_CONTROLLER_PERIOD)
 from system_models.flowcheck import flow_check
+from system_models.fluid import MINIMUM_PRESSURE
 
 from . import paperdata
 
@@ -293,8 +297,20 @@ def rod_lag_degrees(time, control, rod, frequency: float) -> float:
     return float(np.degrees(np.angle(phasor[0] / phasor[1])))
 
 
+#: The volumes whose pressure :func:`lowest_pressure` watches (record field -> name): the
+#: accumulator is left out, its gas charge keeps it far above.
+WATCHED_PRESSURES = {"p_pump": "pump chamber", "p_big": "big cavity", "p_small": "small cavity"}
+
+
+def lowest_pressure(record) -> tuple[float, str]:
+    """The lowest absolute pressure of the run in the pump chamber and the cylinder's
+    cavities, [Pa], and the volume's name (:data:`WATCHED_PRESSURES`)."""
+    return min((float(np.min(record[field])), name) for field, name in WATCHED_PRESSURES.items())
+
+
 def flag_row(row: dict, rod_lag_deg: float | None = None, dead_time: float = 0.0) -> dict:
-    """Add ``flow_reversed`` and, when reversed, a ``note`` with the reason (in place).
+    """Add ``flow_reversed`` and ``cavitation`` and, when either holds, a ``note`` with the
+    reason (in place).
 
     Two reasons a flow runs backwards. The valves switch at the control
     signal's extremes (after their dead time) and eqs 40/41 count the rod's
@@ -305,25 +321,47 @@ def flag_row(row: dict, rod_lag_deg: float | None = None, dead_time: float = 0.0
     the cylinder it should fill. Or the stroke is forward (dy > 0) but the load
     needs a pressure above what the pump holds: the load drives the cylinder
     back (a load line past its stall point).
+
+    Cavitation: with ``p_min_Pa`` (:func:`lowest_pressure`) below
+    :data:`~system_models.fluid.MINIMUM_PRESSURE` (1 kPa absolute) the model's
+    oil has held a pressure, possibly a tension, that no oil holds: a liquid
+    cannot fall below its vapour pressure, and air dissolved in a mineral oil
+    comes out of solution well above it, so a real oil would fill that volume
+    with vapour and air (cavitate; Merritt, *Hydraulic Control Systems*, 1967,
+    ch. 2). The co-simulation does not model that: its flow assumes the
+    tension.
     """
+    notes = []
     reversed_ = row["flow_sim_m3_s"] < 0.0
     row["flow_reversed"] = bool(reversed_)
-    if not reversed_:
-        return row
+    p_min = row.get("p_min_Pa")
+    row["cavitation"] = p_min is not None and p_min < MINIMUM_PRESSURE
+    if reversed_:
+        notes.append(_reversed_note(row, rod_lag_deg, dead_time))
+    if row["cavitation"]:
+        notes.append(f"cavitation: the {row.get('p_min_volume', 'oil')}'s pressure falls to "
+                     f"{p_min / 1e6:.2f} MPa absolute, below the {MINIMUM_PRESSURE / 1e3:g} kPa "
+                     f"no oil holds: a real oil would cavitate there (vapour and released air), "
+                     f"which this co-simulation does not model; its flow assumes the tension")
+    if notes:
+        row["note"] = "; ".join(notes)
+    return row
+
+
+def _reversed_note(row, rod_lag_deg, dead_time) -> str:
+    """Why a row's flow runs backwards (:func:`flag_row`)."""
     if row["dy_um"] < 0.0:
         timing = dead_time * row["frequency_Hz"] * 360.0
         lag = "" if rod_lag_deg is None else (
             f": the rod lags the control signal by {rod_lag_deg:.0f} deg")
-        row["note"] = (f"flow reversed{lag}, the valves act {timing:.0f} deg after its "
-                       f"extremes (dead time): past a quarter period the rod moves backwards "
-                       f"between the valve switches (dy {row['dy_um']:.1f} um < 0), so the "
-                       f"pump empties the big cavity instead of filling it")
-    else:
-        row["note"] = (f"flow reversed: the load needs p_B - p_S = "
-                       f"{row['load_pressure_Pa'] / 1e6:.2f} MPa, more than the pump holds "
-                       f"at this stroke (dy {row['dy_um']:.1f} um): the load drives the "
-                       f"cylinder back (past the stall point of its load line)")
-    return row
+        return (f"flow reversed{lag}, the valves act {timing:.0f} deg after its "
+                f"extremes (dead time): past a quarter period the rod moves backwards "
+                f"between the valve switches (dy {row['dy_um']:.1f} um < 0), so the "
+                f"pump empties the big cavity instead of filling it")
+    return (f"flow reversed: the load needs p_B - p_S = "
+            f"{row['load_pressure_Pa'] / 1e6:.2f} MPa, more than the pump holds "
+            f"at this stroke (dy {row['dy_um']:.1f} um): the load drives the "
+            f"cylinder back (past the stall point of its load line)")
 
 
 def run_case(case: Case, fmu_path: Path | None = None, progress=None):
@@ -352,6 +390,7 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
     half = len(record) // 2
     paper = paper_dy(case.frequency, case.mode)
     area = circuit.chamber.piston_area
+    p_min, p_min_volume = lowest_pressure(record)
     dy_free = free_dy(case.frequency, case.mode, case.branch_rule, case.variant,
                       case.compensator_period, case.cycles)
     row = {
@@ -369,6 +408,7 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
         "load_pressure_Pa": float(np.mean(record["p_big"][half:] - record["p_small"][half:])),
         "p_pump_min_Pa": float(record["p_pump"][half:].min()),
         "p_pump_max_Pa": float(record["p_pump"][half:].max()),
+        "p_min_Pa": p_min, "p_min_volume": p_min_volume,
         "volume_imbalance_m3": imbalance, "volume_pumped_m3": pumped,
         "cycles_averaged": check.cycles, "step_s": case.step, "coupling": case.coupling,
         "backend": case.backend, "wall_s": wall,
@@ -380,42 +420,26 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
     return record, check, row
 
 
-def _run_one(args):
-    case, fmu_path = args
-    _, _, row = run_case(case, fmu_path)
-    return row
+def _run_one(case, fmu_path):
+    return run_case(case, fmu_path)[2]
 
 
 def run_cases(cases, fmu_path=None, workers: int = 1, quiet: bool = False) -> list[dict]:
-    """Run many cases (in worker processes when ``workers`` > 1), with a progress bar.
-
-    Rows come back in the order of ``cases``. Each worker process loads its
-    own FMU instances.
-    """
+    """Run many cases (in worker processes when ``workers`` > 1, :mod:`smeha.pool`), with a
+    progress bar on stderr unless ``quiet``; rows in the order of ``cases``."""
     import sys
 
-    from tqdm import tqdm
+    from . import pool
+    pool.prepare(workers, (fmu_path or default_fmu_path())
+                 if any(c.backend == "fmu" for c in cases) else None,
+                 None if quiet else (lambda m: print(m, file=sys.stderr, flush=True)))
+    return pool.run_jobs(_run_one, [(c, fmu_path) for c in cases], workers,
+                         desc="co-simulations", unit="run", quiet=quiet)
 
-    from system_models import kernel
-    # compiled here once (or loaded from numba's cache), before any worker starts
-    kernel.ensure_compiled(None if quiet else (lambda m: print(m, file=sys.stderr, flush=True)))
-    jobs = [(c, fmu_path) for c in cases]
-    with tqdm(total=len(jobs), desc="co-simulations", unit="run", disable=quiet,
-              file=sys.stderr) as bar:
-        if workers <= 1 or len(jobs) == 1:
-            rows = []
-            for job in jobs:
-                rows.append(_run_one(job))
-                bar.update(1)
-            return rows
-        import concurrent.futures as cf
-        import multiprocessing
-        ctx = multiprocessing.get_context("spawn")
-        with cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-            futures = [pool.submit(_run_one, job) for job in jobs]
-            for _ in cf.as_completed(futures):
-                bar.update(1)
-            return [f.result() for f in futures]
+
+def _mark(row) -> str:
+    """The table's mark of a flagged row (:func:`flag_row`; its note follows the table)."""
+    return "  (!)" if row.get("flow_reversed") or row.get("cavitation") else ""
 
 
 def format_table(rows) -> str:
@@ -436,7 +460,7 @@ def format_table(rows) -> str:
                      f"{r['load_N']:>8g}  {r['flow_sim_m3_s']:>12.4e}  {r['flow_eq_m3_s']:>10.4e}  "
                      f"{r['flow_ratio']:>6.3f}  {r['dy_um']:>7.2f}  {paper:>10}  {dyp:>8}  "
                      f"{r['dy_free_um']:>7.2f}  {r['delivered_fraction']:>8.3f}  "
-                     f"{r['flow_sim_L_min']:>9.4f}{'  (!)' if r.get('flow_reversed') else ''}")
+                     f"{r['flow_sim_L_min']:>9.4f}{_mark(r)}")
     by = {(r["frequency_Hz"], r["mode"]): r for r in rows}
     gains = [f"{f:g} Hz: {by[(f, MODES[1])]['flow_sim_m3_s'] / q:.3f}"
              for f in sorted({r["frequency_Hz"] for r in rows})
@@ -458,7 +482,7 @@ def format_load_lines(rows) -> str:
     for r in sorted(rows, key=lambda r: (r["frequency_Hz"], r["mode"], r["load_N"])):
         lines.append(f"{r['frequency_Hz']:>6g}  {r['mode']:<13}  {r['load_N']:>8g}  "
                      f"{r['load_pressure_Pa'] / 1e6:>15.3f}  {r['flow_sim_m3_s']:>12.4e}  "
-                     f"{r['flow_sim_L_min']:>9.4f}{'  (!)' if r.get('flow_reversed') else ''}")
+                     f"{r['flow_sim_L_min']:>9.4f}{_mark(r)}")
     for r in rows:
         if r.get("note"):
             lines.append(f"(!) {r['frequency_Hz']:g} Hz {r['mode']}, {r['load_N']:g} N: "

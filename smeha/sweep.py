@@ -56,13 +56,17 @@ OPTIONAL_SETTINGS = ("controller_period", "hydraulic_step", "coupling", "compens
 RESULT_FIELDS = ("load_N", "flow_sim_m3_s", "flow_eq_m3_s", "flow_ratio", "dy_um",
                  "flow_sim_L_min", "flow_paper_m3_s", "dy_paper_um", "dy_free_um",
                  "flow_free_m3_s", "delivered_fraction", "control_amplitude_V",
-                 "load_pressure_Pa", "p_pump_min_Pa", "p_pump_max_Pa", "volume_imbalance_m3",
-                 "volume_pumped_m3", "cycles_averaged", "flow_reversed", "wall_s")
+                 "load_pressure_Pa", "p_pump_min_Pa", "p_pump_max_Pa", "p_min_Pa",
+                 "p_min_volume", "volume_imbalance_m3", "volume_pumped_m3", "cycles_averaged",
+                 "flow_reversed", "cavitation", "wall_s")
+#: Result fields that are flags (written true/false).
+FLAG_FIELDS = ("flow_reversed", "cavitation")
 #: Columns of the sweep table: the point (grid values and settings), its status, its results.
 KEY_COLUMNS = GRID_KEYS + tuple(SETTINGS_DEFAULTS)
 COLUMNS = KEY_COLUMNS + ("status", "error") + RESULT_FIELDS
 #: Text columns (the others are numbers, or empty).
-TEXT_COLUMNS = ("mode", "circuit", "backend", "branch_rule", "coupling", "status", "error")
+TEXT_COLUMNS = ("mode", "circuit", "backend", "branch_rule", "coupling", "status", "error",
+                "p_min_volume")
 
 
 class SpecError(ValueError):
@@ -246,7 +250,7 @@ def _parse_cell(column: str, text: str):
         return text or None
     if text == "":
         return None
-    if column == "flow_reversed":
+    if column in FLAG_FIELDS:
         if text.lower() not in ("true", "false"):
             raise ValueError(f"{column} = {text!r}")
         return text.lower() == "true"
@@ -293,7 +297,8 @@ def _result_row(point: Point, row: dict | None, error: str | None) -> dict:
     out["error"] = "" if error is None else error
     for name in RESULT_FIELDS:
         value = None if row is None else row.get(name)
-        out[name] = value if value is None or isinstance(value, bool) else float(value)
+        out[name] = (value if value is None or isinstance(value, (bool, str))
+                     else float(value))
     return out
 
 
@@ -356,29 +361,20 @@ def _collect(future, point, on_result=None) -> dict:
 
 
 def _run_local(points, fmu_path, workers: int, quiet: bool, on_result=None) -> list[dict]:
-    import concurrent.futures as cf
-    import multiprocessing
+    from . import pool
+    fmu = fmu_path or flowstudy.default_fmu_path()
+    pool.prepare(workers, fmu if any(p.backend == "fmu" for p in points) else None,
+                 None if quiet else (lambda m: print(m, file=sys.stderr, flush=True)))
 
-    from system_models import kernel
-    kernel.ensure_compiled(None if quiet else (lambda m: print(m, file=sys.stderr, flush=True)))
-    results = [None] * len(points)
-    with _progress(len(points), quiet) as bar:
-        if workers <= 1 or len(points) == 1:
-            for i, p in enumerate(points):
-                results[i] = run_point(p, fmu_path)
-                if on_result is not None:
-                    on_result(p, results[i])
-                bar.update(1)
-            return results
-        ctx = multiprocessing.get_context("spawn")
-        with cf.ProcessPoolExecutor(max_workers=min(workers, len(points)),
-                                    mp_context=ctx) as pool:
-            futures = {pool.submit(run_point, p, fmu_path): i for i, p in enumerate(points)}
-            for fut in cf.as_completed(futures):
-                i = futures[fut]
-                results[i] = _collect(fut, points[i], on_result)
-                bar.update(1)
-    return results
+    def finished(i, row):
+        if on_result is not None:
+            on_result(points[i], row)
+
+    def broken(i, exc):  # the worker process died (or could not take the point)
+        return _result_row(points[i], None, f"{type(exc).__name__}: {exc}")
+    return pool.run_jobs(run_point, [(p, fmu_path) for p in points], workers,
+                         desc="sweep points", unit="point", quiet=quiet,
+                         on_result=finished, on_error=broken)
 
 
 def _run_dask(points, fmu_path, scheduler: str, quiet: bool, on_result=None) -> list[dict]:

@@ -35,7 +35,7 @@ import gmt
 
 from . import kernel
 from .circuit import initial_state
-from .implicit import IntegrationError
+from .implicit import integration_failure
 from .record import circuit_columns
 
 
@@ -121,7 +121,7 @@ def solve_interface(backend, t, h, u, force, x, rod, commands, packed, settings,
                 if status == kernel.CHAMBER_EMPTIED:
                     raise gmt.ParameterError(
                         f"rod displacement {max(rod[0], y1):g} m empties the pump chamber")
-                raise IntegrationError(f"Newton did not converge within a {h:g} s step")
+                raise integration_failure(x, t, h)
             # the trial force drove the rod somewhere the oil cannot follow
             # (e.g. emptying the chamber): back off towards the last force
             # that integrated, and trust the slope less

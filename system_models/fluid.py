@@ -56,7 +56,13 @@ class FluidParameters:
 
 
 #: Pressure below which the air model is not evaluated, [Pa]: keeps the
-#: effective bulk modulus finite when a chamber is sucked towards vacuum.
+#: effective bulk modulus finite when a chamber is sucked towards vacuum. It is
+#: also where the model's oil stops being a real one: a liquid's absolute
+#: pressure cannot fall below its vapour pressure, and air dissolved in a
+#: mineral oil comes out of solution well above that (Merritt, Hydraulic Control
+#: Systems, 1967, ch. 2). Cavitation is not modelled: a run with entrained air
+#: stops there (:class:`system_models.implicit.CavitationError`), and a flow
+#: study row whose oil went below it is flagged (:func:`smeha.flowstudy.flag_row`).
 MINIMUM_PRESSURE = 1.0e3
 
 

@@ -27,7 +27,7 @@ import numpy as np
 import gmt
 
 from . import kernel
-from .implicit import IntegrationError
+from .implicit import integration_failure
 from .plant import PlantParameters
 from .plant import initial_state as plant_start
 from .record import circuit_columns, columns, stack_first
@@ -80,8 +80,7 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
             at = starts[done]
             if status == kernel.CHAMBER_EMPTIED:
                 raise gmt.ParameterError(f"the rod empties the pump chamber at t = {at:g} s")
-            raise IntegrationError(f"the plant's Newton did not converge at t = {at:g} s "
-                                   f"(step {steps[done]:g} s); give a shorter hydraulic_step")
+            raise integration_failure(rows[done - 1] if done else z, at, steps[done])
         # row k: the state at the start of step k (the end of step k - 1)
         ends_x, ends_q, ends_pa = rows[:, :n], rows[:, n:n + 4], rows[:, n + 4]
         cols = stack_first(first, columns(ends_x[:-1], ends_x[:-1, out:out + 2],

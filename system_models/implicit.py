@@ -39,6 +39,38 @@ class IntegrationError(RuntimeError):
     """Newton's method did not converge within a substep."""
 
 
+class CavitationError(IntegrationError):
+    """The integration stopped where a pressure reached the oil's floor
+    (:data:`~system_models.fluid.MINIMUM_PRESSURE`): the oil would cavitate there."""
+
+
+#: The circuit's pressures (state indices 0-2) and their volumes' names.
+PRESSURE_NAMES = ("pump chamber", "big cavity", "small cavity")
+
+
+def integration_failure(x, time: float, step: float) -> IntegrationError:
+    """The error for a run whose Newton failed at ``time`` [s] in a step of ``step`` [s]
+    from circuit state ``x``.
+
+    With entrained air the integrator refuses a stage below the air model's floor
+    (:data:`~system_models.fluid.MINIMUM_PRESSURE`, where a real oil cavitates), so a
+    volume sucked towards vacuum (e.g. a cavity under an assisting load that over-runs
+    the pump) ends in a failed Newton with its pressure at that floor: a
+    :class:`CavitationError` naming the volume. Otherwise the message suggests a
+    shorter hydraulic step.
+    """
+    from .fluid import MINIMUM_PRESSURE
+    k = int(np.argmin(x[:3]))
+    if x[k] < 2.0 * MINIMUM_PRESSURE:
+        return CavitationError(
+            f"the {PRESSURE_NAMES[k]}'s pressure has fallen to {x[k]:.0f} Pa absolute at "
+            f"t = {time:g} s, the oil's cavitation limit ({MINIMUM_PRESSURE:g} Pa): a real oil "
+            f"would cavitate there, which the plant does not model (an assisting load that "
+            f"over-runs the pump does this: the cylinder moves faster than the pump fills it)")
+    return IntegrationError(f"the plant's Newton did not converge at t = {time:g} s (step "
+                            f"{step:g} s); give a shorter hydraulic_step")
+
+
 def _integrate(x0, h, substeps, substep, max_halvings):
     """Run ``substep(x, s0, s1) -> (x_new, quadrature increments) or None`` over h.
 

@@ -48,7 +48,14 @@ rod-side cavity above the cap side (p_S A_S = p_B A_B): the chamber pressure
 steps by ~0.37 MPa at every valve switch, the rod rebounds elastically and
 the pump delivers ~1.6x the flow eqs 40/41 give for the free transducer
 (dy 58 um against 35 um at 50 Hz). It shows why the ideal limit needs the
-equal areas.
+equal areas. Its oil is an idealisation in one more way: without air and 100x
+stiffer, it holds tension. While the big cavity is shut the 1 kg piston rings
+on that stiff oil and, in the uncompensated runs (and compensated at 70-80 Hz),
+pulls the cavity's pressure below zero absolute (to -0.2 to -3.3 MPa at 50-100
+Hz), where a real oil would cavitate; the flow study flags those rows
+(``cavitation``, :func:`smeha.flowstudy.flag_row`) rather than model it. The
+``realistic`` circuit (0.5 % air) and ``ideal`` stay above 1 MPa over the flow
+table.
 """
 from __future__ import annotations
 

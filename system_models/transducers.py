@@ -93,8 +93,9 @@ class DirectTransducer:
 _EXTRACTED: dict = {}
 
 
-def _extracted(path) -> str:
-    """Extract an FMU once per process and file version; removed at exit.
+def extracted(path) -> str:
+    """Extract an FMU once per process and file version; removed at exit (a worker
+    forked from this process uses the same directory, and leaves it to this process).
 
     Every instance of one FMU then runs from one resources directory, so the
     Python modules the FMU brings (shared by name in the host's interpreter)
@@ -174,7 +175,7 @@ class FmuTransducer:
         from fmpy import read_model_description
         from fmpy.fmi2 import FMU2Slave, fmi2FMUstate, fmi2Real, fmi2True, fmi2ValueReference
 
-        self._unzipdir = _extracted(path)
+        self._unzipdir = extracted(path)
         md = read_model_description(self._unzipdir)
         self._vr = {v.name: v.valueReference for v in md.modelVariables}
         self._types = {v.name: v.type for v in md.modelVariables}

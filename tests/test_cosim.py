@@ -444,6 +444,43 @@ def test_reversed_flow_is_flagged_with_its_reason():
     assert "(!) 150 Hz uncompensated: flow reversed" in format_table([ok, reversed_])
 
 
+def test_oil_held_in_tension_is_flagged_as_cavitation():
+    """An oil's absolute pressure cannot fall below its vapour pressure (> 0): it cavitates
+    (Merritt, Hydraulic Control Systems, 1967, ch. 2). The differential preset's air-free,
+    100x stiff oil lets the big cavity's pressure ring far below zero absolute while the
+    cavity is shut (100 Hz uncompensated: -2.2 MPa measured); the row says so, with the
+    volume and the pressure read here from the record. The realistic circuit (0.5 % air)
+    stays above 1 MPa over the flow table: no flag."""
+    from smeha.flowstudy import format_table
+    record, _, row = run_case(Case(100.0, "uncompensated", circuit="differential", cycles=6,
+                                   backend="direct"))
+    lowest = min(record[k].min() for k in ("p_pump", "p_big", "p_small"))
+    assert lowest < 0.0 and record["p_big"].min() == lowest
+    assert row["p_min_Pa"] == lowest and row["p_min_volume"] == "big cavity"
+    assert row["cavitation"] and not row["flow_reversed"]
+    assert "cavitation: the big cavity's pressure falls to" in row["note"]
+    assert "(!) 100 Hz uncompensated: cavitation" in format_table([row])
+    realistic = run_case(Case(100.0, "uncompensated", cycles=6, backend="direct"))[2]
+    assert not realistic["cavitation"] and realistic["p_min_Pa"] > 1e6
+    assert "note" not in realistic
+
+
+def test_an_over_running_load_stops_the_run_at_the_cavitation_limit(capsys):
+    """An assisting load larger than the pump can follow (-600 N on the realistic circuit,
+    100 Hz compensated) pulls the piston faster than the pump fills the big cavity: its
+    pressure falls to the oil's floor (1 kPa absolute), where the air model and a real oil
+    end. The run stops there and says why, in one line with exit status 1 on the command
+    line (no traceback)."""
+    from system_models.implicit import CavitationError
+    with pytest.raises(CavitationError, match="big cavity's pressure has fallen to"):
+        run_case(Case(100.0, "compensated", load=-600.0, cycles=4, backend="direct"))
+    assert cli.main(["simulate", "--frequency", "100", "--mode", "compensated", "--load",
+                     "-600", "--cycles", "4", "--backend", "direct", "--json"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("smeha simulate: error: the run stopped: the big cavity's pressure")
+    assert err.count("\n") == 1 and "Traceback" not in err
+
+
 # --------------------------------------------------------------------------------------
 # 8. command line
 # --------------------------------------------------------------------------------------

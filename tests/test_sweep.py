@@ -233,3 +233,16 @@ def test_interrupted_sweep_keeps_finished_points(tmp_path, monkeypatch):
                         lambda p, fmu_path=None: sweep._result_row(p, {"flow_sim_m3_s": 2e-6}, None))
     result = sweep.run_sweep(points, out, workers=1, quiet=True)
     assert result.skipped == 1 and result.ran == len(points) - 1
+
+
+def test_flags_and_the_lowest_pressure_round_trip_through_the_table(tmp_path):
+    """The cavitation flag, the lowest pressure and its volume are table columns: written and
+    read back as a flag, a number and a name."""
+    point = sweep.parse_spec({"grid": {"frequency": [100], "mode": ["uncompensated"],
+                                       "circuit": ["differential"]}})[0]
+    row = sweep._result_row(point, {"flow_sim_m3_s": 4.7e-6, "flow_reversed": False,
+                                    "cavitation": True, "p_min_Pa": -2.2e6,
+                                    "p_min_volume": "big cavity"}, None)
+    (back,) = sweep.read_table(sweep.write_table([row], tmp_path / "t.csv"))
+    assert back["cavitation"] is True and back["flow_reversed"] is False
+    assert back["p_min_Pa"] == -2.2e6 and back["p_min_volume"] == "big cavity"

@@ -75,16 +75,18 @@ from .trbdf2 import CHAMBER_EMPTIED, NEWTON_FAILED, OK, RTOL
 
 __all__ = ["pack", "state_size", "flows", "accumulator_pressure", "rates", "circuit_step",
            "plant_run", "new_control", "PLANT_EXTRA", "SWITCH_START", "GROWTH", "OK",
-           "NEWTON_FAILED", "CHAMBER_EMPTIED", "RTOL", "NC", "compiled", "ensure_compiled"]
+           "NEWTON_FAILED", "CHAMBER_EMPTIED", "RTOL", "NC", "compiled", "ensure_compiled",
+           "load"]
 
 
 def _sources() -> list[Path]:
-    """The files whose code the compiled kernel holds: this package's modules and the
-    components' modules with ``jitable`` physics (:mod:`system_models._jit`)."""
+    """The files whose code the compiled kernel holds: this package's modules with compiled
+    functions and the components' modules with ``jitable`` physics
+    (:mod:`system_models._jit`)."""
     here = Path(__file__).resolve().parent
-    components = [p for p in sorted(here.parent.glob("*.py"))
-                  if "\n@jitable" in p.read_text(encoding="utf-8")]
-    return sorted(here.glob("*.py")) + components
+    return ([p for p in sorted(here.glob("*.py")) if "\n@njit" in p.read_text(encoding="utf-8")]
+            + [p for p in sorted(here.parent.glob("*.py"))
+               if "\n@jitable" in p.read_text(encoding="utf-8")])
 
 
 def _stamp_caches() -> None:
@@ -126,12 +128,18 @@ def compiled() -> bool:
 
 def ensure_compiled(say=None) -> None:
     """Compile the kernel's entry points now if numba's cache does not hold them, telling
-    ``say`` (a callable taking a message) first: a run, or worker processes spawned after
+    ``say`` (a callable taking a message) first: a run, or worker processes started after
     this, then load the compiled code instead of each compiling it."""
     if compiled():
         return
     if say is not None:
         say("compiling the hydraulic kernel (numba; the first run only, ~20 s, then cached)")
+    load()
+
+
+def load() -> None:
+    """Compile the kernel's entry points, or load them from numba's cache (~0.4 s), into
+    this process: processes forked from it (:mod:`smeha.pool`) then have them loaded."""
     circuit = CircuitParameters()
     packed = pack(circuit, RodParameters())
     x = np.concatenate((np.full(3, 1.5e6), [1e-5, 0.025, 0.0, 0.0, 0.0, 0.0, 0.0],
