@@ -313,7 +313,7 @@ def flux_density_from_displacement(run: Run, params: gmt.TransducerParameters, m
     """
     t, y = run.time[mask], run.displacement[mask]
     w = 2.0 * math.pi * run.frequency
-    i1 = _current_phasor(run.time, run.current, run.frequency)
+    i1 = _current_phasor(t, run.current[mask], run.frequency)
     im = abs(i1)
     coef, cov, _ = _harmonic_fit(t, y, run.frequency)
     y1, c = _phasor(coef, cov)

@@ -95,7 +95,7 @@ def paper_data_diagnosis(params: gmt.TransducerParameters | None = None) -> dict
     params = params or gmt.TransducerParameters()
     measured = _measured()
     hm = params.field_per_ampere
-    context = {"params": params, "thresholds": tuple(hm * t for t in diagnose.PLAY_THRESHOLDS)}
+    context = {"params": params, "field_max": hm}
     rows = []
     for cand in diagnose.candidates():
         if cand.cause == "thermal_drift":

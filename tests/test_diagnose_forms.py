@@ -167,7 +167,7 @@ def test_stiff_joint_reduces_to_one_degree_of_freedom(step):
 
 LOSS = (P.hysteresis_coefficient, P.steinmetz_exponent, P.eddy_coefficient,
         P.excess_coefficient)
-CONTEXT = {"params": P, "thresholds": (1.0,)}
+CONTEXT = {"params": P, "field_max": P.field_per_ampere}
 
 
 def _steady(form, extra, f=100.0):

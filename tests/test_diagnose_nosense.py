@@ -42,7 +42,7 @@ def test_features_without_voltage_have_no_b_and_flux_from_displacement():
     # paper, Table 1: B_m = 0.0637 T at 50 Hz, 1 A (the generator's calibration); from y's
     # fundamental through eq 19 it is as good as the model that made y (noise 0.05 um)
     assert rf.flux_density_amplitude == pytest.approx(0.0637, rel=5e-3)
-    ev = diagnose.Evaluator(gmt.TransducerParameters(), (1.0,))
+    ev = diagnose.Evaluator(gmt.TransducerParameters(), 1.0)
     assert ev.n_features(rf) == (2 * diagnose.HARMONICS, 0, 3)
     rf.y_prop_var = 0.0 * rf.y_var
     batch = diagnose.Batch([rf])

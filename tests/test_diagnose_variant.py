@@ -14,7 +14,7 @@ from gmt import extensions as ext
 from smeha.diagnose import variant_from_diagnosis
 
 P = gmt.TransducerParameters()
-CONTEXT = {"params": P, "thresholds": (2954.5, 5909.1, 8863.6, 11818.2)}
+CONTEXT = {"params": P, "field_max": P.field_per_ampere}
 #: internal unknowns of each extension for the tests below: its fit's first start vector
 INTERNAL = {(e.cause, e.form): e.fit.starts[0] for e in ext.EXTENSIONS}
 

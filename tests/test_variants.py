@@ -26,14 +26,14 @@ P = gmt.TransducerParameters()
 F, H = 100.0, 1e-5  # operating point and step: 1000 samples a period
 W = 2 * math.pi * F
 N = int(round(1 / (F * H)))
-#: H_m at 1 A with Table 2 (eq 1): 14773 A/m; play thresholds at 0.2 ... 0.8 of it
-THRESHOLDS = [2954.5, 5909.1, 8863.6, 11818.2]
+#: H_m at 1 A with Table 2 (eq 1), [A/m]: the largest field amplitude, the plays' grid
+FIELD_MAX = 14773.0
 
 #: cause -> (SI parameters, the diagnosis' internal parametrisation of the same extension
 #: (the extension's FitSpec, mapped to SI by its from_fit)).
 CASES = {
-    "rate_independent_hysteresis": (
-        {"thresholds_A_per_m": THRESHOLDS, "weights": [0.3, 0.2, 0.1, 0.05]}, (3, 2, 1, 0.5)),
+    # SI from the internal unknowns (40 plays weighted by a gamma density; None: from_fit's)
+    "rate_independent_hysteresis": (None, (0.25, -0.85, 1.0)),
     "magnetization_saturation": (
         {"saturation_magnetization_A_per_m": 4e5}, (250e3 / 4e5,)),
     "eddy_current_diffusion": (
@@ -44,7 +44,8 @@ CASES = {
         (0.02, 0.02, 1.905e7 / 1.963e7)),
     "thermal_drift": (
         {"offset_rate_m_per_A2s": 1e-4, "gain_rate_per_A2s": 0.5,
-         "thermal_time_constant_s": math.inf}, (100.0, 50.0, 30.0)),
+         "thermal_time_constant_s": math.inf, "start_current_A": 0.5},
+        (100.0, 50.0, 30.0, 0.25)),
 }
 
 #: Largest |Y_k(stepped) - Y_k(periodic)| / |Y_1|, k = 1..8, for y and B. Why each:
@@ -77,7 +78,7 @@ FORM_TOLERANCE = {"slab": 1e-5, "cylinder": 1e-5, "two_dof": 1e-10}
 ALL_FORMS = [(c, "") for c in ext.CAUSES] + list(FORM_CASES)
 
 
-CONTEXT = {"params": P, "thresholds": tuple(THRESHOLDS)}
+CONTEXT = {"params": P, "field_max": FIELD_MAX}
 
 
 def reported(cause, internal, form=""):
@@ -87,7 +88,7 @@ def reported(cause, internal, form=""):
 
 def si_parameters(cause, form=""):
     if not form:
-        return CASES[cause][0]
+        return CASES[cause][0] or reported(cause, CASES[cause][1])
     return reported(cause, FORM_CASES[cause, form], form)
 
 
@@ -413,7 +414,8 @@ def test_stepped_drift_matches_the_diagnosis_drift_form(time_constant):
     # time constant (c/K ~ 0.15 ms): 3e-5 (linear dose) and 2e-4 (t_th = 30 ms, the dose
     # rising fastest) of the peak-to-peak measured over 10 periods
     parameters = dict(CASES["thermal_drift"][0], thermal_time_constant_s=time_constant)
-    extra = (100.0, 50.0, math.log10(time_constant) if math.isfinite(time_constant) else 30.0)
+    extra = (100.0, 50.0, math.log10(time_constant) if math.isfinite(time_constant) else 30.0,
+             0.25)
     v = ModelVariant("thermal_drift", parameters)
     y, _, _ = run(gmt.Transducer(P, gmt.Excitation(F, 1.0), variant=v), 10)
     t = H * np.arange(y.size)
@@ -427,7 +429,7 @@ def test_stepped_drift_matches_the_diagnosis_drift_form(time_constant):
     assert np.abs(y[sel] - model).max() <= 5e-4 * np.ptp(y[sel])
     # the drift is there: the offset o u(t) between the second and the last period, 8 um
     # (linear dose) and 0.95 um (t_th = 30 ms)
-    dose = ext.LinearDrift(1e-4, 0.5, time_constant).dose(np.array([1.5, 9.5]) / F, 1.0)
+    dose = ext.LinearDrift(1e-4, 0.5, time_constant, 0.5).dose(np.array([1.5, 9.5]) / F, 1.0)
     shift = np.mean(y[-N:]) - np.mean(y[N:2 * N])
     assert shift == pytest.approx(1e-4 * (dose[1] - dose[0]), rel=0.02)
 
@@ -545,7 +547,7 @@ def test_a_state_of_the_wrong_size_is_refused():
 # ------------------------------------------------------------------ combinations
 #: internal unknowns of the members of the combinations below (each extension's FitSpec)
 COMBINED = {
-    ("rate_independent_hysteresis", ""): (3.0, 2.0, 1.0, 0.5),
+    ("rate_independent_hysteresis", ""): (0.25, -0.85, 1.0),
     ("magnetization_saturation", ""): (0.625,),
     ("eddy_current_diffusion", "lag"): (math.log10(1.6e-3), 0.5),
     ("eddy_current_diffusion", "slab"): (-3.0,),

@@ -39,7 +39,7 @@ class Refuse:
 
 sys.meta_path.insert(0, Refuse())
 P = gmt.TransducerParameters()
-context = {"params": P, "thresholds": (2954.5, 5909.1, 8863.6, 11818.2)}
+context = {"params": P, "field_max": P.field_per_ampere}
 singles = []
 for e in ext.EXTENSIONS:
     x = list(e.fit.starts[0])

@@ -28,13 +28,14 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import NamedTuple
 
 import numpy as np
 
 from . import extensions as ext
+from .constants import MU_0
 from .errors import ParameterError
 from .forward import ForwardStepper, Magnetics, OperatingPoint, magnetics
 from .magnetostriction import magnetostriction, magnetostrictive_force
@@ -340,6 +341,8 @@ class Chain:
                  point: OperatingPoint):
         self.params = params
         self.forms = []
+        components = variant.steady_components()
+        point = self.paper_point(components, params, point)
         hm = point.field_amplitude
         m1 = complex(point.mu_real - 1.0, -point.mu_imag) * hm
 
@@ -348,7 +351,7 @@ class Chain:
 
         self.field = self.mechanical = self.sensor = None
         self.adjusting = []
-        for cls, values in variant.steady_components():
+        for cls, values in components:
             form = cls(values, params, point, upstream)
             self.forms.append(form)
             if cls.stage == "field":
@@ -367,6 +370,43 @@ class Chain:
         sizes = [f.state_size for f in self.forms]
         if any(s is None for s in sizes[:-1]):
             raise ParameterError("only the last stage's memory may vary in size")
+
+    @staticmethod
+    def paper_point(components, params, point):
+        """The operating point with the paper part's mu when another stage changes it.
+
+        With an eddy-current field stage (mean field g H) or a magnetisation-stage
+        extension (which changes M, its fundamental too), the coil's B_m belongs
+        to the whole; the paper's part keeps eqs 16 and 20 at its own flux
+        density (:func:`gmt.extensions.steady.paper_permeability`, as the
+        periodic forms). Otherwise the point is returned as it is.
+        """
+        from .extensions._base import Steady
+        from .extensions.steady import paper_permeability, stage_adder
+
+        field = [(c, v) for c, v in components if c.stage == "field"]
+        magnetic = [(c, v) for c, v in components if c.stage == "magnetization"]
+        if not field and not magnetic:
+            return point
+        w = point.angular_frequency
+        cls, values = field[0] if field else (None, None)
+        gain = complex(np.ravel(cls.field_gain(values, w))[0]) if cls else 1.0
+        factor = float(np.ravel(cls.loss_flux_factor(values, w))[0]) if cls else 1.0
+        loss = (params.hysteresis_coefficient, params.steinmetz_exponent,
+                params.eddy_coefficient, params.excess_coefficient)
+        hm = point.field_amplitude
+        steady = Steady(params, np.array([point.frequency]), np.array([w]),
+                        np.array([point.current_amplitude]), np.array([hm]),
+                        np.array([point.flux_density_amplitude]), loss)
+        modulus = point.flux_density_amplitude / (MU_0 * hm)
+        mu = complex(np.ravel(paper_permeability(loss, point.frequency, hm, modulus, gain,
+                                                 stage_adder(magnetic, steady), factor))[0])
+        if not -mu.imag < 0.999 * abs(mu):
+            raise ParameterError(
+                f"{' + '.join(variant_name(c.cause, c.form) for c, _ in components)}: mu'' of "
+                f"eq 16 reaches |mu| at f = {point.frequency:g} Hz, so eq 20 has no real mu' "
+                "(the extensions' parameters leave the measured B_m out of reach)")
+        return replace(point, mu_real=mu.real, mu_imag=-mu.imag)
 
     def magnetics(self, current, quadrature, step, time) -> Magnetics:
         """H, H_q, B, M, lambda, F held over the step after the field, magnetisation and

@@ -36,7 +36,7 @@ from .features import HARMONICS, MIN_CYCLES, RunFeatures, SkippedRun, run_featur
 from .fit import Fit
 from .report import characterise, format_diagnosis, write_report
 from .variant import read_variant, read_variant_json, variant_from_diagnosis
-from .workflow import (CONFUSABLE_WITHOUT_B, PLAY_THRESHOLDS, Diagnosis, default_holdout,
+from .workflow import (CONFUSABLE_WITHOUT_B, Diagnosis, default_holdout,
                        diagnose)
 
 __all__ = [
@@ -44,5 +44,5 @@ __all__ = [
     "MAX_CAUSES", "MIN_BIC_DROP", "MIN_EXPLAINED", "WITHIN_NOISE", "HARMONICS", "MIN_CYCLES",
     "RunFeatures", "SkippedRun", "run_features", "Fit", "characterise", "format_diagnosis",
     "write_report", "read_variant", "read_variant_json", "variant_from_diagnosis",
-    "CONFUSABLE_WITHOUT_B", "PLAY_THRESHOLDS", "Diagnosis", "default_holdout", "diagnose",
+    "CONFUSABLE_WITHOUT_B", "Diagnosis", "default_holdout", "diagnose",
 ]

@@ -2,16 +2,25 @@
 
 A :class:`Candidate` is a set of extensions of :data:`gmt.extensions.REGISTRY`
 (empty: the paper's model). Its unknowns are its members' (each extension's
-:class:`gmt.extensions.FitSpec`), shared by all runs; the loss coefficients of
-eq 16 are fitted with them (:mod:`smeha.diagnose.fit`).
+:class:`gmt.extensions.FitSpec`), shared by all runs; the paper's own
+unknowns are fitted with them (:mod:`smeha.diagnose.fit`): the loss
+coefficients of eq 16 and the strain scale s, K_lambda of eq 25 over Table 2's
+(a transducer's magnetostriction coefficient is its own, as its losses are:
+without it every static gain difference between a user's transducer and
+Table 2 would be blamed on an effect). The *base* unknowns are
+(K_h, n, K_e, K_ex, s).
 
 The :class:`Evaluator` gives a candidate's features for a batch of runs: the
 periodic steady state of the paper's model plus the members
 (:func:`gmt.extensions.steady.steady_state`, the **continuous** model of
 eq 27: the features do not depend on how the data were sampled), the drift
 slopes of the thermal drift, and, for a run without a sense voltage, B_m
-through the candidate's own path from M to y
-(:func:`gmt.extensions.steady.flux_density_from_ratio`).
+as that run's own unknown: started from y's fundamental through the
+candidate's own path from M to y
+(:func:`gmt.extensions.steady.flux_density_from_ratio`), it takes one
+Gauss-Newton step (in ln B_m) on the run's y harmonics, so that a candidate
+that changes the fundamental in a way the path does not (saturation's bias)
+is judged on the rest.
 """
 from __future__ import annotations
 
@@ -153,9 +162,7 @@ class Batch:
                                else 0.0 for rf in feats], dtype=complex)
         self.y = np.array([rf.y for rf in feats])
         self.b = np.array([rf.b if rf.has_b else np.zeros_like(rf.y) for rf in feats])
-        self.y_sd = None
-        self.b_sd = np.array([np.sqrt(rf.b_var) if rf.has_b else np.ones(rf.y.size)
-                              for rf in feats])
+        self.y_sd = self.b_sd = None
         self.drift = np.array([rf.offset_slope for rf in feats])
         self.drift_sd = np.array([math.sqrt(rf.offset_slope_var) for rf in feats])
         self.y1_slope = np.array([rf.y1_slope for rf in feats])
@@ -163,9 +170,13 @@ class Batch:
         self.refresh()
 
     def refresh(self):
-        """Re-read the y variances (after the B_m error was carried into them)."""
-        self.y_sd = np.array([np.sqrt(rf.y_var + (rf.y_prop_var if rf.y_prop_var is not None
-                                                  else 0.0)) for rf in self.runs])
+        """Re-read the variances (after the drive's errors were carried into them)."""
+        def extra(v):
+            return 0.0 if v is None else v
+
+        self.y_sd = np.array([np.sqrt(rf.y_var + extra(rf.y_prop_var)) for rf in self.runs])
+        self.b_sd = np.array([np.sqrt(rf.b_var + extra(rf.b_prop_var)) if rf.has_b
+                              else np.ones(rf.y.size) for rf in self.runs])
 
     def __len__(self):
         return len(self.runs)
@@ -174,42 +185,63 @@ class Batch:
 class Evaluator:
     """Periodic steady state of candidates for batches of runs (module docstring)."""
 
-    def __init__(self, params, thresholds, harmonics=HARMONICS):
+    def __init__(self, params, field_max, harmonics=HARMONICS):
+        """``field_max``: the largest field amplitude of the data, [A/m] (the play grid)."""
         self.params = params
-        self.thresholds = tuple(thresholds)
+        self.field_max = float(field_max)
         self.k = np.arange(1, harmonics + 1)
-        self.context = {"params": params, "thresholds": self.thresholds}
+        self.context = {"params": params, "field_max": self.field_max}
 
-    def predict(self, batch: Batch, loss, cand: Candidate = PAPER, x=(), flux=None):
-        """(Y_k [m], B_k [T], offset slope [m/s], Y_1 slope [m/s]) of the model, per run."""
+    def predict(self, batch: Batch, base, cand: Candidate = PAPER, x=(), flux=None):
+        """(Y_k [m], B_k [T], offset slope [m/s], Y_1 slope [m/s]) of the model, per run.
+
+        ``base`` is (K_h, n, K_e, K_ex[, s]) (module docstring; s = 1 if absent):
+        the force, and so y, scales with s (eqs 25, 28).
+        """
+        loss, scale = tuple(base[:4]), (base[4] if len(base) > 4 else 1.0)
         comps = cand.components(x, self.context)
         bm = batch.flux_density_amplitude if flux is None else np.asarray(flux, float)
+
+        def evaluate(bm):
+            res = steady_state(self.params, batch.frequency, batch.current_amplitude, bm,
+                               loss, comps, harmonics=self.k.size)
+            return res.displacement * scale, res.flux_density
+
         if flux is None and not batch.has_b.all():
             nob = ~batch.has_b
             bm = bm.copy()
             bm[nob] = flux_density_from_ratio(self.params, batch.frequency[nob],
-                                              batch.current_amplitude[nob], batch.ratio[nob],
-                                              comps)
-        res = steady_state(self.params, batch.frequency, batch.current_amplitude, bm, loss,
-                           comps, harmonics=self.k.size)
-        y, b = res.displacement, res.flux_density
+                                              batch.current_amplitude[nob],
+                                              batch.ratio[nob] / scale, comps)
+            # B_m of a run without B is its own unknown: one Gauss-Newton step in ln B_m on
+            # that run's y harmonics from the path's estimate (module docstring)
+            y0, _ = evaluate(bm)
+            step = np.where(nob, 1e-6, 0.0)
+            y1, _ = evaluate(bm * (1.0 + step))
+            sd = batch.y_sd if batch.y_sd is not None else np.ones_like(y0.real)
+            r = (y0 - batch.y) / sd
+            jac = (y1 - y0) / sd / np.where(nob, 1e-6, 1.0)[:, None]
+            num = np.sum((np.conj(jac) * r).real, axis=1)
+            den = np.sum(np.abs(jac) ** 2, axis=1)
+            bm = bm * np.exp(np.where(nob & (den > 0), -num / np.where(den > 0, den, 1.0), 0.0))
+        y, b = evaluate(bm)
         s_off = np.zeros(len(batch))
         s_y1 = np.zeros(len(batch), complex)
         for cls, values in comps:
             if cls.stage == "strain":
                 for j, rf in enumerate(batch.runs):
-                    s_off[j], s_y1[j] = cls.feature_slopes(values, rf.time, rf.t_start,
-                                                           rf.t_mid, rf.current_amplitude,
-                                                           y[j, 0])
+                    gain, s_off[j], s_y1[j] = cls.feature_drift(
+                        values, rf.time, rf.t_start, rf.t_mid, rf.current_amplitude, y[j, 0])
+                    y[j] = y[j] * gain
         return y, b, s_off, s_y1
 
-    def residuals(self, batch: Batch, loss, cand: Candidate = PAPER, x=()):
+    def residuals(self, batch: Batch, base, cand: Candidate = PAPER, x=()):
         """Model minus data over each feature's standard deviation, all runs, flat.
 
         y's harmonics (real, imaginary), B's for the runs that have them, then
         the three drift features of each run.
         """
-        y, b, s_off, s_y1 = self.predict(batch, loss, cand, x)
+        y, b, s_off, s_y1 = self.predict(batch, base, cand, x)
         dy = (y - batch.y) / batch.y_sd
         parts = [dy.real.ravel(), dy.imag.ravel()]
         if batch.has_b.any():
@@ -219,9 +251,9 @@ class Evaluator:
         parts += [(s_off - batch.drift) / batch.drift_sd, ds.real, ds.imag]
         return np.concatenate(parts)
 
-    def parts(self, batch: Batch, loss, cand: Candidate = PAPER, x=()):
+    def parts(self, batch: Batch, base, cand: Candidate = PAPER, x=()):
         """chi^2 per run of y (harmonics), of B (0 without B), of the drift features."""
-        y, b, s_off, s_y1 = self.predict(batch, loss, cand, x)
+        y, b, s_off, s_y1 = self.predict(batch, base, cand, x)
         dy = np.abs((y - batch.y) / batch.y_sd) ** 2
         cy = np.sum(dy, axis=1)
         db = np.abs((b - batch.b) / batch.b_sd) ** 2
@@ -234,10 +266,10 @@ class Evaluator:
         """Number of features of y, of B (0 without a sense voltage), of the drift."""
         return 2 * self.k.size, 2 * self.k.size * rf.has_b, 3
 
-    def samples(self, rf, loss, cand: Candidate = PAPER, x=()):
+    def samples(self, rf, base, cand: Candidate = PAPER, x=()):
         """Model y at the run's samples, best constant offset fitted, [m]."""
         batch = Batch([rf])
-        y, _, _, _ = self.predict(batch, loss, cand, x)
+        y, _, _, _ = self.predict(batch, base, cand, x)
         th = rf.phase(rf.time)
         out = np.real(np.exp(1j * np.outer(th, self.k)) @ y[0])
         for cls, values in cand.components(x, self.context):

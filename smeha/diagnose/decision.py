@@ -1,17 +1,19 @@
 """The decision: none, the cause(s), or unexplained.
 
 * ``none`` when the paper's model is within noise: reduced chi^2 at most
-  :data:`WITHIN_NOISE` on the training fit and on the held-out runs;
+  :data:`WITHIN_NOISE` on the training fit and on the held-out runs (the
+  predictive chi^2 there, :mod:`smeha.diagnose.fit`);
 * otherwise **forward selection** (:func:`select`): the best single
-  candidate (lowest held-out score, every form of every cause) is named when
-  it passes the rule against the paper's model (:func:`passes`): it lowers the
-  held-out score by more than :data:`MIN_BIC_DROP` **and** removes at least
-  :data:`MIN_EXPLAINED` of the paper's held-out excess chi^2 (chi^2 - n). Then
-  every extension that can join it is fitted together with it (all unknowns
-  and the loss coefficients refitted), and the best such combination is kept
-  when it passes the same rule against the model before it; and so on, up to
-  :data:`MAX_CAUSES` causes, while the model is still outside noise on the
-  held-out runs;
+  candidate (every form of every cause, ranked over all the data by
+  :attr:`smeha.diagnose.fit.Fit.total_score`) is named when it passes the rule
+  against the paper's model on the held-out runs (:func:`passes`): it lowers
+  the held-out score by more than :data:`MIN_BIC_DROP` **and** removes at
+  least :data:`MIN_EXPLAINED` of the paper's held-out excess chi^2 (chi^2 - n).
+  Then every extension that can join it is fitted together with it (all
+  unknowns and the loss coefficients refitted), and the best-ranked such
+  combination is kept when it passes the same rule against the model before
+  it; and so on, up to :data:`MAX_CAUSES` causes, while the model is still
+  outside noise on the held-out runs;
 * ``unexplained`` when even the best single candidate fails the rule
   (structure beyond noise that no candidate removes).
 
@@ -50,13 +52,15 @@ def passes(base: Fit, new: Fit) -> bool:
             and explained(base, new) >= MIN_EXPLAINED)
 
 
-def within_noise(fit: Fit, train_dof_lost: int = 4) -> bool:
-    """Reduced chi^2 at most :data:`WITHIN_NOISE` on the training fit and the held-out runs."""
+def within_noise(fit: Fit, train_dof_lost: int = 5) -> bool:
+    """Reduced chi^2 at most :data:`WITHIN_NOISE` on the training fit and on the held-out
+    runs (there the predictive chi^2, with the fit's own uncertainty; smeha.diagnose.fit)."""
     red_train = fit.train_chi2 / max(fit.train_n - train_dof_lost - fit.n_params, 1)
-    return red_train <= WITHIN_NOISE and fit.heldout_chi2 / fit.heldout_n <= WITHIN_NOISE
+    return (red_train <= WITHIN_NOISE
+            and fit.heldout_predictive_chi2 / fit.heldout_n <= WITHIN_NOISE)
 
 
-def select(ev, train, held, paper: Fit, singles: list) -> tuple:
+def select(ev, train, held, paper: Fit, singles: list, fit_scale=True) -> tuple:
     """Forward selection (module docstring): (answer, chosen fit, combinations tried).
 
     ``answer`` is "none", "unexplained" or the first cause; ``chosen`` the
@@ -64,7 +68,7 @@ def select(ev, train, held, paper: Fit, singles: list) -> tuple:
     """
     if within_noise(paper):
         return "none", paper, []
-    best = min(singles, key=lambda f: f.score)
+    best = min(singles, key=lambda f: f.total_score)
     if not passes(paper, best):
         return "unexplained", paper, []
     current, tried = best, []
@@ -80,14 +84,15 @@ def select(ev, train, held, paper: Fit, singles: list) -> tuple:
             own[member] = single.x
             start = tuple(v for m in cand.members for v in own[m])
             try:
-                fit = fit_and_score(ev, train, held, cand, current.loss, starts=[start])
+                fit = fit_and_score(ev, train, held, cand, current.base, starts=[start],
+                                    fit_scale=fit_scale)
             except ValueError:
                 continue
             round_fits.append(fit)
         tried += round_fits
         if not round_fits:
             break
-        nxt = min(round_fits, key=lambda f: f.score)
+        nxt = min(round_fits, key=lambda f: f.total_score)
         if not passes(current, nxt):
             break
         current = nxt

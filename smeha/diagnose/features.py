@@ -10,10 +10,11 @@ time and a fundamental linear in time, in the same basis); B_m = |B_1| (eq 22).
 mechanics start at rest, an operator with memory starts demagnetised). Its
 first period is compared with the periods after it (:func:`leading_transient`):
 it is dropped only when it differs from them beyond noise, and then the next
-one is checked in the same way, while at least :data:`MIN_CYCLES` periods
-remain. So a run of 2 or 3 periods is used as it is when its start has
-settled. A run that cannot be used (fewer than :data:`MIN_CYCLES` whole
-periods, no current) is skipped with its reason (:class:`SkippedRun`).
+one is checked in the same way, while a later period remains to compare it
+with. So a run of 2 or 3 periods is used as it is when its start has settled,
+and a run of 2 whose first period is transient gives its second. A run that
+cannot be used (fewer than :data:`MIN_CYCLES` whole periods, no current) is
+skipped with its reason (:class:`SkippedRun`).
 
 **Noise** comes from the data alone: with a whole number of samples a period,
 the scatter from period to period at the same phase after a straight line
@@ -45,7 +46,8 @@ from ..measured import Run
 
 #: Harmonics of y and B in the features and the models.
 HARMONICS = 8
-#: Fewest whole periods a run needs after its transient.
+#: Fewest whole periods a record needs: one to use, one more to tell whether the first is
+#: still transient.
 MIN_CYCLES = 2
 #: Most harmonics of the noise estimate's fit when the samples of a period are not a
 #: whole number (module docstring); fewer when the sampling resolves fewer.
@@ -103,6 +105,11 @@ class RunFeatures:
     dropped_cycles: int = 0
     #: where the noise came from: "period scatter", "harmonic fit" or "pooled"
     noise_source: str = "period scatter"
+    current_amplitude_var: float = 0.0  # variance of I_m, [A^2]
+    current_phase_var: float = 0.0  # variance of phi, [rad^2]
+    b_prop_var: np.ndarray = field(default=None)  # current's errors carried into B, [T^2]
+    #: whether the first period used was compared with the later ones (module docstring)
+    transient_checked: bool = True
 
     @property
     def has_b(self) -> bool:
@@ -136,12 +143,28 @@ def _lstsq(basis, x):
 
 
 def current_fundamental(time, current, frequency):
-    """(I_m [A], phi [rad]) of i = I_m cos(w t + phi) by least squares over the record."""
+    """The current's fundamental i = I_m cos(w t + phi) by least squares over ``time``.
+
+    Returns (I_m [A], phi [rad], var(I_m) [A^2], var(phi) [rad^2]): the variances
+    from the fit's residual (offset, a drift line and harmonics 1-3 in the
+    basis). Every feature is referred to phi and the model is driven by I_m, so
+    their errors are carried into the features' variances
+    (:func:`smeha.diagnose.workflow.propagate_errors`).
+    """
     t = np.asarray(time, dtype=float)
     w = 2.0 * math.pi * frequency
-    c, *_ = np.linalg.lstsq(_basis(t, w, 3, float(t.mean()))[:, :8], current, rcond=None)
+    basis = _basis(t, w, 3, float(t.mean()))[:, :8]
+    c, gram = _lstsq(basis, current)
+    r = current - basis @ c
+    sigma2 = float(r @ r) / max(t.size - basis.shape[1], 1)
+    cov = sigma2 * np.linalg.inv(gram)[2:4, 2:4]
     i1 = complex(c[2], -c[3])
-    return abs(i1), math.atan2(i1.imag, i1.real)
+    im = abs(i1)
+    # along the phasor: amplitude; across it: phase (i1 = a - j b, components (a, b))
+    along = np.array([i1.real, -i1.imag]) / im if im > 0 else np.array([1.0, 0.0])
+    across = np.array([along[1], -along[0]])
+    return (im, math.atan2(i1.imag, i1.real), float(along @ cov @ along),
+            float(across @ cov @ across) / max(im * im, 1e-300))
 
 
 def _samples_per_period(t, f):
@@ -202,8 +225,15 @@ def leading_transient(t, x, f, t_start, whole, noise=None) -> int:
     extrapolated into it. The misfit chi^2 over its n samples, with the
     prediction's own variance, gives z = (chi^2 - n) / sqrt(2 n); above
     :data:`TRANSIENT_Z` the period is transient and the next one is checked,
-    while more than :data:`MIN_CYCLES` remain. ``noise`` is the per-sample
-    noise if known (else the later periods give it).
+    while a later period remains to compare it with. ``noise`` is the
+    per-sample noise if known (else the later periods give it).
+
+    Returns
+    -------
+    (int, bool)
+        The periods dropped, and whether the first period kept was checked
+        (False when the later periods were too few to give the noise and
+        ``noise`` was not given).
     """
     span = 1.0 / f
     _, per, n_per = _samples_per_period(t, f)
@@ -214,15 +244,17 @@ def leading_transient(t, x, f, t_start, whole, noise=None) -> int:
         if rows.size == whole * n_per:
             mat = rows.reshape(whole, n_per)
     dropped = 0
-    while whole - dropped > MIN_CYCLES:
+    while whole - dropped >= 2:
         if mat is not None:
             z = _period_misfit(mat[dropped], mat[dropped + 1:], noise)
         else:
             z = _fit_misfit(t, x, f, t_start + dropped * span, whole - dropped, per, noise)
-        if z is None or z <= TRANSIENT_Z:
+        if z is None:
+            return dropped, False
+        if z <= TRANSIENT_Z:
             break
         dropped += 1
-    return dropped
+    return dropped, True
 
 
 def _period_misfit(first, later, noise):
@@ -306,20 +338,25 @@ def run_features(run: Run, params: gmt.TransducerParameters | None = None,
     t = np.asarray(run.time, dtype=float)
     h = float(np.median(np.diff(t)))
     t_start = float(t[0])
-    im, phi = current_fundamental(t, run.current, f)
-    if not im > 0:
-        raise SkippedRun(run.name, f"the current has no fundamental at {f:g} Hz")
     span = (t[-1] - t[0] + h) * f
-    whole = int(math.floor(span + 1e-6))
+    # a period short of less than one sample (a lab rate that is not a multiple of f) counts
+    whole = int(math.floor(span + h * f + 1e-9))
     if whole < MIN_CYCLES:
         raise SkippedRun(run.name, f"{span:.3g} periods; a run needs at least {MIN_CYCLES} "
                                    "whole periods")
     pooled_y, pooled_e = pooled_noise or (None, None)
-    dropped = leading_transient(t, run.displacement, f, t_start, whole, pooled_y)
+    dropped, checked = leading_transient(t, run.displacement, f, t_start, whole, pooled_y)
+    if run.sense_voltage is not None:
+        dropped_e, checked_e = leading_transient(t, run.sense_voltage, f, t_start, whole,
+                                                 pooled_e)
+        dropped, checked = max(dropped, dropped_e), checked and checked_e
     cycles = whole - dropped
     t0 = t_start + dropped / f
     t1 = t0 + cycles / f
     mask = (t >= t0 - 1e-9 / f) & (t < t1 - 1e-9 / f)
+    im, phi, im_var, phi_var = current_fundamental(t[mask], run.current[mask], f)
+    if not im > 0:
+        raise SkippedRun(run.name, f"the current has no fundamental at {f:g} Hz")
     ts, ys = t[mask], run.displacement[mask]
     t_mid = float(ts.mean())
     basis = _basis(ts, w, harmonics, t_mid)
@@ -370,14 +407,16 @@ def run_features(run: Run, params: gmt.TransducerParameters | None = None,
         noise_y=noise_y, noise_e=noise_e, time=ts, displacement=ys,
         current=run.current[mask], t_start=t_start, t_mid=t_mid,
         flux_density_source=b_source, magnetization_ratio=ratio, dropped_cycles=dropped,
-        noise_source=source)
+        noise_source=source, current_amplitude_var=im_var, current_phase_var=phi_var,
+        transient_checked=checked)
 
 
 def extract(runs, params) -> tuple[dict, list]:
     """Features of every usable run and the skipped ones: ({name: RunFeatures}, [(name, reason)]).
 
     Runs with at least 3 usable periods are reduced first; their median noise
-    is the pooled noise of the shorter ones (module docstring).
+    is the pooled noise of the shorter ones, and of those whose start could not
+    be checked without it (module docstring).
     """
     feats, skipped = {}, []
     for run in runs:
@@ -385,8 +424,9 @@ def extract(runs, params) -> tuple[dict, list]:
             feats[run.name] = run_features(run, params)
         except SkippedRun as exc:
             skipped.append((run.name, exc.reason))
-    short = [r for r in runs if r.name in feats and feats[r.name].cycles < 3]
-    long_ = [rf for rf in feats.values() if rf.cycles >= 3]
+    short = [r for r in runs if r.name in feats and (feats[r.name].cycles < 3
+                                                     or not feats[r.name].transient_checked)]
+    long_ = [rf for rf in feats.values() if rf.cycles >= 3 and rf.transient_checked]
     if short and long_:
         ny = float(np.median([rf.noise_y for rf in long_]))
         ne = [rf.noise_e for rf in long_ if rf.noise_e is not None]

@@ -1,17 +1,48 @@
 """Fitting a candidate on the training runs and scoring it on the held-out runs.
 
-The unknowns are the four loss coefficients of eq 16 (K_h, n, K_e, K_ex),
-shared by all runs and scaled by their start values, and the candidate's own
-(:class:`smeha.diagnose.candidates.Candidate`). Least squares
+The unknowns are the base ones, the four loss coefficients of eq 16
+(K_h, n, K_e, K_ex, scaled by their start values) and the strain scale s
+(:mod:`smeha.diagnose.candidates`; fixed at 1 when no training run has a sense
+voltage, as y alone cannot tell s from B_m), shared by all runs, and the
+candidate's own (:class:`smeha.diagnose.candidates.Candidate`). Least squares
 (:func:`scipy.optimize.least_squares`, bounded) on the training features,
 each residual over its standard deviation; every start vector is tried and
 the best kept.
 
 The **score** is the held-out chi^2 over every feature (y and B harmonics,
-drift terms) plus k ln n for the k added parameters (the Bayesian information
-criterion; Schwarz, Ann. Statist. 6 (1978) 461-464). The held-out RMS error of
-y is over the samples of the held-out runs used for the features, with one
-constant offset fitted per run (displacements are relative).
+drift terms), each residual over its feature's standard deviation, plus k ln n
+for the k added parameters (the Bayesian information criterion; Schwarz, Ann.
+Statist. 6 (1978) 461-464): how well the fitted model predicts runs it never
+saw, at its fitted values. The candidates are *ranked* by the same criterion
+over all the data, training and held-out together (:attr:`Fit.total_score`):
+where the held-out features are few, or a formulation is not quite the data's,
+the training runs carry evidence the held-out ones alone would miss; the
+held-out score then decides whether the best-ranked model is named
+(:mod:`smeha.diagnose.decision`).
+
+Whether a model is within noise on the held-out runs asks more: the fitted
+unknowns carry the uncertainty the training data leave them, so the held-out
+residuals r have the covariance C = I + J_h Cov J_h^T, with J_h their Jacobian
+in the unknowns and Cov = (J_t^T J_t)^-1 from the training fit's Jacobian J_t,
+and the *predictive* chi^2 is r^T C^-1 r (of a linearised least-squares fit;
+e.g. Seber & Wild, *Nonlinear Regression*, Wiley 1989, sec. 5.1;
+``heldout_predictive_chi2``). Without it, four loss coefficients fitted within
+noise on the training runs predict the held-out ones outside it, and a model
+within noise would look like one that is not. It is not the score: it grows
+lenient as a model's unknowns grow uncertain, which would favour a loosely
+determined model over a sharp one.
+
+Two held-out RMS errors of y are reported. ``heldout_rms``: over the samples of
+the held-out runs used for the features, with one constant offset fitted per
+run (displacements are relative); it includes the sensor's noise, so it cannot
+fall below it. ``heldout_misfit``: the model against the deterministic part of
+the measured y, the one the features hold with the noise averaged over the
+periods: over one period the RMS of the difference of the harmonics,
+sqrt(sum_k |dY_k|^2 / 2), and over the run the RMS of the difference of the
+drift lines, (|d offset slope|^2 + |d Y_1 slope|^2 / 2) T^2 / 12 for a run of
+duration T, summed in quadrature and averaged over the held-out runs. The gain
+of a model (:attr:`smeha.diagnose.Diagnosis.gain`) is the ratio of misfits, so
+it measures the model and not the sensor.
 """
 from __future__ import annotations
 
@@ -25,8 +56,9 @@ import gmt
 
 from .candidates import Batch, Candidate, Evaluator
 
-LOSS_LOWER = (0.0, 1.0, 0.0, 0.0)
-LOSS_UPPER = (np.inf, 3.0, np.inf, np.inf)
+#: Bounds of the base unknowns (K_h, n, K_e, K_ex, s).
+BASE_LOWER = (0.0, 1.0, 0.0, 0.0, 0.2)
+BASE_UPPER = (np.inf, 3.0, np.inf, np.inf, 5.0)
 #: Most function evaluations of one start of a fit.
 MAX_EVALUATIONS = 300
 
@@ -36,19 +68,31 @@ class Fit:
     """A candidate fitted on the training runs and scored on the held-out runs."""
 
     candidate: Candidate
-    loss: tuple
+    base: tuple  # (K_h, n, K_e, K_ex, s)
     x: tuple
     train_chi2: float
     train_n: int
     heldout_chi2: float
+    heldout_predictive_chi2: float
     heldout_n: int
     heldout_chi2_y: float
     heldout_chi2_b: float
     heldout_chi2_drift: float
     heldout_rms: float
+    heldout_misfit: float
     score: float
     parameters: dict
     at_bounds: tuple = field(default=())
+
+    @property
+    def loss(self):
+        """(K_h, n, K_e, K_ex) of eq 16."""
+        return self.base[:4]
+
+    @property
+    def strain_scale(self):
+        """s = K_lambda / K_lambda of Table 2, [-]."""
+        return self.base[4]
 
     @property
     def cause(self):
@@ -75,39 +119,59 @@ class Fit:
         return self.heldout_chi2 - self.heldout_n
 
     @property
+    def total_score(self):
+        """chi^2 of the training and the held-out features plus k ln n over both: how well
+        the model describes all the data (module docstring; the ranking)."""
+        n = self.train_n + self.heldout_n
+        return self.train_chi2 + self.heldout_chi2 + self.n_params * math.log(max(n, 2))
+
+    @property
     def weak(self) -> bool:
         """True when an unknown sits on a bound the fit pressed on (a weak finding)."""
         return bool(self.at_bounds)
 
 
-def _loss_scale(loss0):
-    return np.array([max(abs(loss0[0]), 1.0), 1.0, max(abs(loss0[2]), 1.0),
-                     max(abs(loss0[3]), 1.0)])
+def base_factor(base0):
+    """Scale factors of the base unknowns in the fit (n and s are not scaled)."""
+    return np.array([max(abs(base0[0]), 1.0), 1.0, max(abs(base0[2]), 1.0),
+                     max(abs(base0[3]), 1.0), 1.0])
 
 
-def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, loss0, starts=None) -> tuple:
-    """Least squares on the training features: (loss, x, chi^2, number of residuals).
+def _split(z, nb, base0, factor):
+    """(base, x) of the fit's unknowns ``z`` (the first ``nb`` are the base's)."""
+    base = np.array(base0, float)
+    base[:nb] = z[:nb] * factor[:nb]
+    return tuple(float(v) for v in base), tuple(float(v) for v in z[nb:])
 
-    ``starts`` replaces the candidate's own start vectors (e.g. a combination
-    started from its members' fitted values).
+
+def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=None,
+                  fit_scale=True) -> tuple:
+    """Least squares on the training features: (base, x, chi^2, residuals, cov).
+
+    ``base0`` is (K_h, n, K_e, K_ex, s) to start from (s held there when
+    ``fit_scale`` is False); ``starts`` replaces the candidate's own start
+    vectors (e.g. a combination started from its members' fitted values).
+    ``cov`` is the covariance (J^T J)^-1 of the unknowns (the base ones over
+    :func:`base_factor`, then the candidate's), [-].
     """
-    scale = _loss_scale(loss0)
-    factor = np.array([scale[0], 1.0, scale[2], scale[3]])
-    l0 = np.clip(np.asarray(loss0, float), LOSS_LOWER, LOSS_UPPER) / factor
-    l0[1] = min(max(loss0[1], 1.0 + 1e-6), 3.0 - 1e-6)
-    lo = np.concatenate((LOSS_LOWER, cand.lower)).astype(float)
-    hi = np.concatenate((LOSS_UPPER, cand.upper)).astype(float)
+    nb = 5 if fit_scale else 4
+    factor = base_factor(base0)
+    b0 = np.clip(np.asarray(base0, float), BASE_LOWER, BASE_UPPER) / factor
+    b0[1] = min(max(base0[1], 1.0 + 1e-6), 3.0 - 1e-6)
+    lo = np.concatenate((BASE_LOWER[:nb], cand.lower)).astype(float)
+    hi = np.concatenate((BASE_UPPER[:nb], cand.upper)).astype(float)
 
-    def fun(x):
-        return ev.residuals(train, tuple(x[:4] * factor), cand, tuple(x[4:]))
+    def fun(z):
+        base, x = _split(z, nb, base0, factor)
+        return ev.residuals(train, base, cand, x)
 
     best = None
     for start in (starts if starts is not None else cand.starts()):
-        x0 = np.concatenate((l0, np.asarray(start, float)))
+        z0 = np.concatenate((b0[:nb], np.asarray(start, float)))
         pad = 1e-9 * (1.0 + np.abs(np.where(np.isfinite(lo), lo, 0.0)))
-        x0 = np.minimum(np.maximum(x0, lo + pad), np.where(np.isfinite(hi), hi - pad, np.inf))
+        z0 = np.minimum(np.maximum(z0, lo + pad), np.where(np.isfinite(hi), hi - pad, np.inf))
         try:
-            sol = least_squares(fun, x0, bounds=(lo, hi), x_scale="jac",
+            sol = least_squares(fun, z0, bounds=(lo, hi), x_scale="jac",
                                 max_nfev=MAX_EVALUATIONS, xtol=1e-10, ftol=1e-10)
         except (ValueError, gmt.ParameterError, FloatingPointError):
             continue
@@ -117,29 +181,63 @@ def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, loss0, starts=No
             best = sol
     if best is None:
         raise ValueError(f"{cand.label}: no start of the fit gave a finite chi^2")
-    loss = tuple(float(v) for v in best.x[:4] * factor)
-    return loss, tuple(float(v) for v in best.x[4:]), float(2.0 * best.cost), int(best.fun.size)
+    base, x = _split(best.x, nb, base0, factor)
+    cov = np.linalg.pinv(best.jac.T @ best.jac)
+    return base, x, float(2.0 * best.cost), int(best.fun.size), cov
 
 
-def score(ev: Evaluator, cand: Candidate, loss, x, chi2_train, n_train, held: Batch) -> Fit:
+def predictive_chi2(ev: Evaluator, held: Batch, cand: Candidate, base, x, cov) -> float:
+    """chi^2 of the held-out residuals with the fit's own uncertainty (module docstring)."""
+    factor = base_factor(base)
+    nb = cov.shape[0] - len(x)
+    z0 = np.concatenate((np.asarray(base[:nb]) / factor[:nb], np.asarray(x, float)))
+    upper = np.concatenate((BASE_UPPER[:nb], cand.upper))
+
+    def res(z):
+        b, xx = _split(z, nb, base, factor)
+        return ev.residuals(held, b, cand, xx)
+
+    r = res(z0)
+    jac = np.empty((r.size, z0.size))
+    for j in range(z0.size):
+        dz = 1e-6 * max(abs(z0[j]), 1e-3)
+        if z0[j] + dz > upper[j]:  # step into the allowed range
+            dz = -dz
+        z = z0.copy()
+        z[j] += dz
+        jac[:, j] = (res(z) - r) / dz
+    c = np.eye(r.size) + jac @ cov @ jac.T
+    return float(r @ np.linalg.solve(c, r))
+
+
+def score(ev: Evaluator, cand: Candidate, base, x, chi2_train, n_train, held: Batch,
+          cov=None) -> Fit:
     """The held-out score and RMS of a fitted candidate (module docstring)."""
-    cy, cb, cd = ev.parts(held, loss, cand, x)
+    cy, cb, cd = ev.parts(held, base, cand, x)
     n = sum(sum(ev.n_features(rf)) for rf in held.runs)
+    y, _, s_off, s_y1 = ev.predict(held, base, cand, x)
+    span = np.array([rf.time[-1] - rf.time[0] for rf in held.runs])
+    misfit2 = (0.5 * np.sum(np.abs(y - held.y) ** 2, axis=1)
+               + (np.abs(s_off - held.drift) ** 2 + 0.5 * np.abs(s_y1 - held.y1_slope) ** 2)
+               * span ** 2 / 12.0)
     sq, ns = 0.0, 0
     for rf in held.runs:
-        r = rf.displacement - ev.samples(rf, loss, cand, x)
+        r = rf.displacement - ev.samples(rf, base, cand, x)
         sq += float(r @ r)
         ns += r.size
     chi = float(cy.sum() + cb.sum() + cd.sum())
-    return Fit(candidate=cand, loss=loss, x=tuple(x), train_chi2=chi2_train, train_n=n_train,
-               heldout_chi2=chi, heldout_n=n, heldout_chi2_y=float(cy.sum()),
+    pred = chi if cov is None else predictive_chi2(ev, held, cand, base, x, cov)
+    return Fit(candidate=cand, base=tuple(base), x=tuple(x), train_chi2=chi2_train, train_n=n_train,
+               heldout_chi2=chi, heldout_predictive_chi2=pred, heldout_n=n,
+               heldout_chi2_y=float(cy.sum()),
                heldout_chi2_b=float(cb.sum()), heldout_chi2_drift=float(cd.sum()),
                heldout_rms=math.sqrt(sq / max(ns, 1)),
+               heldout_misfit=math.sqrt(float(np.mean(misfit2))),
                score=chi + cand.n_params * math.log(max(n, 2)),
                parameters=cand.parameters(x, ev.context), at_bounds=cand.at_bounds(x))
 
 
-def fit_and_score(ev, train, held, cand, loss0, starts=None) -> Fit:
+def fit_and_score(ev, train, held, cand, base0, starts=None, fit_scale=True) -> Fit:
     """:func:`fit_candidate` then :func:`score`."""
-    loss, x, chi2, n = fit_candidate(ev, train, cand, loss0, starts)
-    return score(ev, cand, loss, x, chi2, n, held)
+    base, x, chi2, n, cov = fit_candidate(ev, train, cand, base0, starts, fit_scale)
+    return score(ev, cand, base, x, chi2, n, held, cov)

@@ -20,14 +20,14 @@ def _synth(harm, theta):
     return np.real(np.exp(1j * np.outer(theta, k)) @ harm)
 
 
-def characterise(ev: Evaluator, feats, loss) -> dict:
+def characterise(ev: Evaluator, feats, base) -> dict:
     """Residual structure of the paper's model over all runs (module docstring, step 3)."""
     theta = 2.0 * np.pi * np.arange(128) / 128
     falling = theta < np.pi  # i = I_m cos(theta) falls on (0, pi)
     rows = []
     for rf in feats:
         one = Batch([rf])
-        y, b, _, _ = ev.predict(one, loss)
+        y, b, _, _ = ev.predict(one, base)
         y, b = y[0], b[0]
         ry = rf.y - y
         rb = rf.b - b if rf.has_b else None
@@ -36,7 +36,7 @@ def characterise(ev: Evaluator, feats, loss) -> dict:
         data = _synth(rf.y, theta)
         opening = float(_synth(rf.y, np.array([np.pi / 2]))[0]
                         - _synth(rf.y, np.array([3 * np.pi / 2]))[0])
-        cy_y, cy_b, cy_d = (float(v[0]) for v in ev.parts(one, loss))
+        cy_y, cy_b, cy_d = (float(v[0]) for v in ev.parts(one, base))
         n_y, n_b, n_d = ev.n_features(rf)
         rows.append({
             "run": rf.name, "frequency_Hz": rf.frequency,
@@ -135,8 +135,10 @@ def evidence(d) -> list[str]:
     out.append(f"paper's model, all runs: chi^2/n = {cy / ny:.3g} on y harmonics, "
                f"{b_text}, {cd / nd:.3g} on the drift terms "
                f"(1 = within noise); training reduced chi^2 "
-               f"{p.train_chi2 / max(p.train_n - 4, 1):.3g}, held-out "
-               f"{p.heldout_chi2 / p.heldout_n:.3g} (threshold {WITHIN_NOISE:g})")
+               f"{p.train_chi2 / max(p.train_n - 5, 1):.3g}, held-out "
+               f"{p.heldout_chi2 / p.heldout_n:.3g} (predictive, with the fit's own "
+               f"uncertainty, {p.heldout_predictive_chi2 / p.heldout_n:.3g}; threshold "
+               f"{WITHIN_NOISE:g})")
     carriers = [name for name, v in (("y", cy / ny), ("B", cb / nb if nb else 0.0),
                                      ("drift of y", cd / nd))
                 if v > WITHIN_NOISE]
@@ -200,8 +202,9 @@ def evidence(d) -> list[str]:
                f"{zg['gain_drift_per_s'] * 100:.3g} %/s (z = {zg['gain_drift_z']:.3g}, "
                f"{zg['run']})")
     ranked = sorted(d.fits, key=lambda f: f.score)
-    out.append(f"held-out RMS of y: paper {p.heldout_rms * 1e6:.4g} um; candidates "
-               + ", ".join(f"{f.label} {f.heldout_rms * 1e6:.4g} um (score {f.score:.4g})"
+    out.append(f"held-out misfit of y (the model against y's harmonics and drift, the noise "
+               f"averaged out): paper {p.heldout_misfit * 1e6:.4g} um; candidates "
+               + ", ".join(f"{f.label} {f.heldout_misfit * 1e6:.4g} um (score {f.score:.4g})"
                            for f in ranked) + f"; paper's score {p.score:.4g}")
     if d.cause in CAUSES:
         e = d.extended
@@ -209,13 +212,13 @@ def evidence(d) -> list[str]:
         out.append(f"named {first.label} (acts on {SIGNALS[d.cause]}): held-out BIC lower by "
                    f"{p.score - first.score:.4g} (threshold {MIN_BIC_DROP:g}), "
                    f"{100 * explained(p, first):.3g} % of the paper's excess chi^2 removed; "
-                   f"held-out RMS {p.heldout_rms * 1e6:.4g} -> "
-                   f"{first.heldout_rms * 1e6:.4g} um")
+                   f"held-out misfit {p.heldout_misfit * 1e6:.4g} -> "
+                   f"{first.heldout_misfit * 1e6:.4g} um")
         if len(e.causes) > 1:
             out.append(f"forward selection: {e.label} together lower the held-out BIC by "
                        f"{first.score - e.score:.4g} beyond {first.label} alone; the model "
-                       f"with all {len(e.causes)} gives held-out RMS "
-                       f"{e.heldout_rms * 1e6:.4g} um, gain {d.gain:.3g}x")
+                       f"with all {len(e.causes)} gives held-out misfit "
+                       f"{e.heldout_misfit * 1e6:.4g} um, gain {d.gain:.3g}x")
         elif d.combinations:
             best = min(d.combinations, key=lambda f: f.score)
             out.append(f"forward selection: the best second cause, {best.label}, lowers the "
@@ -231,7 +234,7 @@ def evidence(d) -> list[str]:
         if d.also_consistent:
             out.append("also consistent: " + ", ".join(
                 f"{f.label} (score {f.score - first.score:+.3g} from the named one, held-out "
-                f"RMS {f.heldout_rms * 1e6:.4g} um)" for f in d.also_consistent)
+                f"misfit {f.heldout_misfit * 1e6:.4g} um)" for f in d.also_consistent)
                 + f"; the data prefer {first.label} by less than the BIC margin "
                 f"({MIN_BIC_DROP:g}), so they do not separate these causes"
                 + (" (without B, see above)" if without else ""))
@@ -276,15 +279,20 @@ def format_diagnosis(d, path: str = "") -> str:
     if d.skipped:
         lines.append("runs not used: " + "; ".join(f"{n} ({why})" for n, why in d.skipped))
     lines.append(f"held-out runs: {', '.join(d.heldout_runs)}")
-    lines.append(f"held-out RMS of y: paper {d.paper.heldout_rms * 1e6:.4g} um, extended "
-                 f"{d.extended.heldout_rms * 1e6:.4g} um, gain {d.gain:.3g}x")
+    lines.append(f"held-out misfit of y (noise averaged out): paper "
+                 f"{d.paper.heldout_misfit * 1e6:.4g} um, extended "
+                 f"{d.extended.heldout_misfit * 1e6:.4g} um, gain {d.gain:.3g}x")
+    lines.append(f"held-out RMS of y over the samples (noise included): paper "
+                 f"{d.paper.heldout_rms * 1e6:.4g} um, extended "
+                 f"{d.extended.heldout_rms * 1e6:.4g} um")
     lines.append("")
-    head = f"{'candidate':<42} {'held-out RMS [um]':>18} {'chi2/n':>10} {'score':>12} {'k':>3}"
+    head = (f"{'candidate':<42} {'misfit [um]':>12} {'RMS [um]':>10} {'chi2/n':>10} "
+            f"{'score':>12} {'k':>3}")
     lines += [head, "-" * len(head)]
     for f in sorted([d.paper] + d.fits + d.combinations, key=lambda f: f.score):
         lines.append(f"{('paper (none)' if f.cause == 'none' else f.label):<42.42} "
-                     f"{f.heldout_rms * 1e6:>18.4g} {f.heldout_chi2 / f.heldout_n:>10.4g} "
-                     f"{f.score:>12.5g} {f.n_params:>3}")
+                     f"{f.heldout_misfit * 1e6:>12.4g} {f.heldout_rms * 1e6:>10.4g} "
+                     f"{f.heldout_chi2 / f.heldout_n:>10.4g} {f.score:>12.5g} {f.n_params:>3}")
     lines.append("")
     lines.append("evidence:")
     lines += [f"  - {e}" for e in d.evidence]
@@ -294,13 +302,16 @@ def format_diagnosis(d, path: str = "") -> str:
 def _fit_dict(fit) -> dict:
     return {"cause": fit.cause, "form": fit.form, "causes": list(fit.causes),
             "label": fit.label, "heldout_rms_um": fit.heldout_rms * 1e6,
-            "score": fit.score, "heldout_chi2": fit.heldout_chi2, "heldout_n": fit.heldout_n,
+            "heldout_misfit_um": fit.heldout_misfit * 1e6,
+            "score": fit.score, "heldout_chi2": fit.heldout_chi2,
+            "heldout_predictive_chi2": fit.heldout_predictive_chi2, "heldout_n": fit.heldout_n,
             "heldout_chi2_y": fit.heldout_chi2_y, "heldout_chi2_b": fit.heldout_chi2_b,
             "heldout_chi2_drift": fit.heldout_chi2_drift,
             "train_chi2": fit.train_chi2, "train_n": fit.train_n,
             "added_parameters": fit.n_params, "parameters": fit.parameters,
             "at_bounds": list(fit.at_bounds),
-            "loss_coefficients": dict(zip(("K_h", "n", "K_e", "K_ex"), fit.loss))}
+            "loss_coefficients": dict(zip(("K_h", "n", "K_e", "K_ex"), fit.loss)),
+            "strain_scale": fit.strain_scale}
 
 
 def sense_voltage_report(d) -> dict:
@@ -328,6 +339,8 @@ def as_dict(d) -> dict:
         "noise_um": d.noise_um,
         "heldout_rms_um": {"paper": d.paper.heldout_rms * 1e6,
                            "extended": d.extended.heldout_rms * 1e6},
+        "heldout_misfit_um": {"paper": d.paper.heldout_misfit * 1e6,
+                              "extended": d.extended.heldout_misfit * 1e6},
         "gain": d.gain,
         "extended": _fit_dict(d.extended),
         "also_consistent": [{"cause": f.cause, "form": f.form, "score": f.score,
@@ -361,8 +374,8 @@ def write_report(d, directory) -> list:
     ev = d.context["evaluator"]
     paths = []
     for name, rf in d.context["features"].items():
-        yp = ev.samples(rf, d.paper.loss)
-        ye = ev.samples(rf, d.extended.loss, d.extended.candidate, d.extended.x)
+        yp = ev.samples(rf, d.paper.base)
+        ye = ev.samples(rf, d.extended.base, d.extended.candidate, d.extended.x)
         th = np.mod(rf.phase(rf.time), 2 * np.pi)
         falling = th < np.pi
         fig, axes = plt.subplots(1, 3, figsize=(14, 4))

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -13,10 +13,7 @@ from ..plausibility import check_plausible
 from .candidates import CAUSES, PAPER, Batch, Evaluator, candidates
 from .decision import also_consistent, select
 from .features import extract
-from .fit import Fit, fit_and_score, fit_candidate, score
-
-#: Play-operator thresholds as fractions of the largest field amplitude of the runs.
-PLAY_THRESHOLDS = gmt.extensions.PLAY_THRESHOLDS
+from .fit import Fit, fit_and_score
 
 #: Without B (no sense voltage) these causes are told apart only by the shape of y:
 #: each magnetic cause that changes B and y together against the causes that change y only
@@ -71,7 +68,8 @@ class Diagnosis:
 
     @property
     def gain(self):
-        return self.paper.heldout_rms / self.extended.heldout_rms
+        """Held-out misfit of the paper's model over the extended one's (smeha.diagnose.fit)."""
+        return self.paper.heldout_misfit / self.extended.heldout_misfit
 
     def variant(self) -> gmt.ModelVariant:
         """The extended model as a :class:`gmt.ModelVariant` (the paper's for none/unexplained)."""
@@ -90,20 +88,26 @@ class Diagnosis:
 
 
 def default_holdout(runs) -> list[str]:
-    """Names of the default held-out runs.
+    """Names of the default held-out runs: every run at the held-out frequencies.
 
-    With at least five distinct frequencies, all runs at the middle frequency
-    (index (n - 1) // 2 of the sorted frequencies) and at the second-highest
-    one, so the held-out runs lie inside the trained range; with three or four
-    frequencies, the runs at the middle one; fewer needs ``holdout`` explicitly.
+    Of the n sorted distinct frequencies: with at least seven, the
+    second-lowest, the middle one (index (n - 1) // 2) and the second-highest;
+    with five or six, the middle and the second-highest; with three or four,
+    the middle one; fewer needs ``holdout`` explicitly. The held-out runs lie
+    inside the trained range, and with seven or more frequencies a long
+    low-frequency record is among them too (a drift shows over time, so in the
+    long records of the low frequencies).
     """
     freqs = sorted({float(r.frequency) for r in runs})
-    if len(freqs) >= 5:
-        chosen = {freqs[(len(freqs) - 1) // 2], freqs[-2]}
-    elif len(freqs) >= 3:
-        chosen = {freqs[(len(freqs) - 1) // 2]}
+    n = len(freqs)
+    if n >= 7:
+        chosen = {freqs[1], freqs[(n - 1) // 2], freqs[-2]}
+    elif n >= 5:
+        chosen = {freqs[(n - 1) // 2], freqs[-2]}
+    elif n >= 3:
+        chosen = {freqs[(n - 1) // 2]}
     else:
-        raise ValueError(f"{len(freqs)} distinct frequencies: the default hold-out needs at "
+        raise ValueError(f"{n} distinct frequencies: the default hold-out needs at "
                          "least 3; name the held-out runs (holdout=...)")
     return [r.name for r in runs if float(r.frequency) in chosen]
 
@@ -123,18 +127,37 @@ def _loss_start(train_runs, params):
     return (max(loss0[0], 0.0), loss0[1], max(loss0[2], 0.0), max(loss0[3], 0.0))
 
 
-def _propagate_flux_error(ev, feats, loss):
-    """Carry each run's B_m error into the variance of its y harmonics."""
+def propagate_errors(ev, feats, base):
+    """Carry the errors of what drives the model into the variances of the features.
+
+    Per run: B_m's (measured, eq 22) into y's harmonics; the current's amplitude
+    I_m (which sets H_m) into y's and B's; the current's phase phi, to which every
+    feature is referred, as a rotation of the k-th harmonic X_k by k phi (error
+    k |X_k| sigma_phi, split evenly between the real and imaginary parts). Each
+    through the paper's model at the start values of the loss coefficients.
+    Without a sense voltage B_m comes from y's own fundamental, whose error is
+    y's noise, already counted.
+    """
     for rf in feats:
-        if not rf.has_b:
-            # B_m comes from y's own fundamental: its error is y's noise, already counted
-            rf.y_prop_var = np.zeros(rf.y.size)
-            continue
-        d = 1e-3 * rf.flux_density_amplitude
         one = Batch([rf])
-        y0 = ev.predict(one, loss, flux=[rf.flux_density_amplitude])[0][0]
-        y1 = ev.predict(one, loss, flux=[rf.flux_density_amplitude + d])[0][0]
-        rf.y_prop_var = 0.5 * (np.abs(y1 - y0) / d * rf.flux_density_stderr) ** 2
+        k = np.arange(1, rf.y.size + 1)
+        y0, b0, _, _ = ev.predict(one, base)
+        y_var = 0.5 * (k * np.abs(rf.y) * math.sqrt(rf.current_phase_var)) ** 2
+        b_var = np.zeros(rf.y.size)
+        if rf.has_b:
+            b_var = b_var + 0.5 * (k * np.abs(rf.b) * math.sqrt(rf.current_phase_var)) ** 2
+            d = 1e-3 * rf.flux_density_amplitude
+            y1 = ev.predict(one, base, flux=[rf.flux_density_amplitude + d])[0]
+            y_var = y_var + 0.5 * (np.abs(y1[0] - y0[0]) / d * rf.flux_density_stderr) ** 2
+        di = 1e-3 * rf.current_amplitude
+        shifted = Batch([replace(rf, current_amplitude=rf.current_amplitude + di)])
+        y2, b2, _, _ = ev.predict(shifted, base, flux=[rf.flux_density_amplitude])
+        si = math.sqrt(rf.current_amplitude_var) / di
+        y_var = y_var + 0.5 * (np.abs(y2[0] - y0[0]) * si) ** 2
+        if rf.has_b:
+            b_var = b_var + 0.5 * (np.abs(b2[0] - b0[0]) * si) ** 2
+        rf.y_prop_var = y_var
+        rf.b_prop_var = b_var
 
 
 def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
@@ -200,19 +223,20 @@ def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
         raise ValueError(f"{len(train_runs)} training run(s); the four loss coefficients of "
                          "eq 16 need at least 4 (hold out fewer runs)")
     hmax = max(params.field_per_ampere * rf.current_amplitude for rf in feats.values())
-    ev = Evaluator(params, tuple(c * hmax for c in PLAY_THRESHOLDS))
-    loss0 = _loss_start(train_runs, params)
-    _propagate_flux_error(ev, feats.values(), loss0)
+    ev = Evaluator(params, hmax)
+    base0 = _loss_start(train_runs, params) + (1.0,)
+    propagate_errors(ev, feats.values(), base0)
     train = Batch([feats[r.name] for r in train_runs])
     held = Batch([feats[h] for h in holdout])
-    context = {"params": params, "thresholds": ev.thresholds, "evaluator": ev,
+    context = {"params": params, "field_max": hmax, "evaluator": ev,
                "features": feats}
-    paper_loss, x0, chi2, n = fit_candidate(ev, train, PAPER, loss0)
-    paper = score(ev, PAPER, paper_loss, x0, chi2, n, held)
-    fits = [fit_and_score(ev, train, held, cand, paper.loss)
+    # y alone cannot tell the strain scale from B_m: fitted only with sense voltages
+    fit_scale = bool(train.has_b.any())
+    paper = fit_and_score(ev, train, held, PAPER, base0, fit_scale=fit_scale)
+    fits = [fit_and_score(ev, train, held, cand, paper.base, fit_scale=fit_scale)
             for cand in candidates()[1:] if cand.cause in causes]
-    cause, chosen, combos = select(ev, train, held, paper, fits)
-    character = characterise(ev, list(feats.values()), paper.loss)
+    cause, chosen, combos = select(ev, train, held, paper, fits, fit_scale)
+    character = characterise(ev, list(feats.values()), paper.base)
     noise = float(np.median([rf.noise_y for rf in feats.values()])) * 1e6
     diag = Diagnosis(cause=cause, evidence=[], heldout_runs=holdout,
                      training_runs=[r.name for r in train_runs], paper=paper,

@@ -41,7 +41,7 @@ from .diffusion import (DIFFUSION_GEOMETRIES, CylinderDiffusionForm, EddyCurrent
                         ModalBank, SlabDiffusionForm)
 from .drift import DriftForm, LinearDrift
 from .eddy import EddyCurrentLag, EddyLagForm, SectionBank, eddy_calibrated_permeability
-from .hysteresis import PLAY_THRESHOLDS, HysteresisForm, PrandtlIshlinskii
+from .hysteresis import PLAY_GRID, HysteresisForm, PrandtlIshlinskii, play_thresholds
 from .resonance import MechanicsForm, ReidentifiedMechanics, TwoMassForm, TwoMassMechanics
 from .saturation import SaturationForm, SoftSaturation
 
@@ -159,7 +159,7 @@ __all__ = [
     "DelayForm", "TransportDelay", "DIFFUSION_GEOMETRIES", "CylinderDiffusionForm",
     "EddyCurrentDiffusion", "ModalBank", "SlabDiffusionForm", "DriftForm", "LinearDrift",
     "EddyCurrentLag", "EddyLagForm", "SectionBank", "eddy_calibrated_permeability",
-    "PLAY_THRESHOLDS", "HysteresisForm", "PrandtlIshlinskii", "MechanicsForm",
+    "PLAY_GRID", "play_thresholds", "HysteresisForm", "PrandtlIshlinskii", "MechanicsForm",
     "ReidentifiedMechanics", "TwoMassForm", "TwoMassMechanics", "SaturationForm",
     "SoftSaturation", "EXTENSIONS", "REGISTRY", "CAUSES", "FORMS", "PAPER", "forms_of",
     "lookup", "variant_name", "VARIANTS", "ordered", "combination_name", "parse_name",

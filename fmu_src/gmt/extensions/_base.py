@@ -57,9 +57,10 @@ class Parameter:
     is_list : bool
         A non-empty list of numbers rather than one number.
     optional : bool
-        A value the diagnosis reports but derives from the others (e.g. the
-        joint's frequency from its stiffness and mass): it may be left out, and
-        when given :meth:`Extension.validate` checks that it agrees.
+        A value that may be left out: one the diagnosis reports but derives
+        from the others (e.g. the joint's frequency from its stiffness and
+        mass; when given, :meth:`Extension.validate` checks that it agrees), or
+        one with a default (the extension says which).
     """
 
     name: str
@@ -144,7 +145,8 @@ class Steady(NamedTuple):
     [rad/s], ``current_amplitude`` [A], ``field_amplitude`` H_m [A/m],
     ``flux_density_amplitude`` B_m [T] (what the coil measures), ``loss`` the
     coefficients (K_h, n, K_e, K_ex) of eq 16, ``step`` None for the
-    continuous model or h [s] for the ZOH-sampled one.
+    continuous model or h [s] for the ZOH-sampled one. Arrays of runs or
+    scalars.
     """
 
     params: object
@@ -255,14 +257,29 @@ class Extension:
     # Hooks of gmt.extensions.steady.steady_state; the defaults leave the paper's model.
 
     @classmethod
-    def steady_field(cls, values, steady: Steady) -> FieldState | None:
-        """Field stage: M_1, B_1, F_1, F_2 of the run, or None for the paper's."""
+    def steady_field(cls, values, steady: Steady, adder=None) -> FieldState | None:
+        """Field stage: the paper part's M_1, B_1, F_1, F_2 of the run.
+
+        ``adder`` gives the fundamental the magnetisation stage adds per unit
+        H_m for the paper part's M_1, for
+        :func:`gmt.extensions.steady.paper_permeability` (None: none).
+        """
         return None
 
     @classmethod
-    def steady_remainder(cls, values, steady: Steady, magnetization, theta):
-        """Magnetisation stage: the non-fundamental part this effect adds to M(theta), [A/m]."""
-        return np.zeros_like(theta)
+    def loss_flux_factor(cls, values, angular_frequency):
+        """Field stage: the flux density eq 16 is evaluated at, per mu_0 |mu| H_m, [-]."""
+        return 1.0
+
+    @classmethod
+    def steady_output(cls, values, steady: Steady, magnetization, theta, memo=None):
+        """Magnetisation stage: M after this effect from M before it over one period, [A/m].
+
+        ``magnetization`` has a row per run, ``theta`` the phases of its columns;
+        ``memo`` (a dict, or None) may keep what does not depend on M between
+        calls for the same runs.
+        """
+        return magnetization
 
     @classmethod
     def steady_mechanics(cls, values, params, angular_frequencies, step=None):

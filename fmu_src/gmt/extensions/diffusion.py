@@ -401,7 +401,7 @@ class EddyDiffusionForm(FilterBankState, Extension):
         return cls.diffusion_of(values).transfer(angular_frequency)
 
     @classmethod
-    def steady_field(cls, values, steady):
+    def steady_field(cls, values, steady, adder=None):
         """M_1, B_1, F_1, F_2 with the field diffusing into the rod.
 
         H_in(x) = g(x) H, M(x) = (mu - 1) H_in(x) and B(x) = mu_0 mu H_in(x)
@@ -413,17 +413,14 @@ class EddyDiffusionForm(FilterBankState, Extension):
         (eqs 25, 28): with M_s = (mu - 1) H_m at the surface, its fundamental is
         2 c M_b <g> M_s and its second harmonic c M_s^2 <g^2> / 2.
         """
-        from .steady import force_gain, mu_imag_from_losses
+        from .steady import force_gain, paper_permeability
 
         dif = cls.diffusion_of(values)
         w, hm = steady.angular_frequency, steady.field_amplitude
         g1 = dif.transfer(w)
         g_sq = dif.mean_squares(w)[0]
-        b_surface = steady.flux_density_amplitude / np.abs(g1)
-        mod = b_surface / (MU_0 * hm)
-        mu_i = np.minimum(mu_imag_from_losses(steady.loss, steady.frequency, b_surface, hm),
-                          0.999 * mod)
-        mu = np.sqrt(mod * mod - mu_i * mu_i) - 1j * mu_i
+        mu = paper_permeability(steady.loss, steady.frequency, hm,
+                                steady.flux_density_amplitude / (MU_0 * hm), g1, adder)
         ms = (mu - 1.0) * hm
         c = force_gain(steady.params)
         return FieldState(ms * g1, MU_0 * mu * g1 * hm,
@@ -432,23 +429,13 @@ class EddyDiffusionForm(FilterBankState, Extension):
 
     # time-stepped form
     def __init__(self, values, params, point, upstream=None):
+        """``point`` carries the paper part's mu at the surface
+        (:meth:`gmt.variants.Chain.paper_point`)."""
         super().__init__(values, params, point, upstream)
         self.diffusion = EddyCurrentDiffusion(values["time_constant_s"], self.form)
         g1 = complex(self.diffusion.transfer(point.angular_frequency))
-        f, hm = point.frequency, point.field_amplitude
-        b_surface = point.flux_density_amplitude / abs(g1)
-        mu_i = imaginary_permeability(separate_losses(params, f, hm, b_surface).total, hm, f,
-                                      params.rod_volume)
-        if not amplitude_permeability(b_surface, hm) > mu_i:
-            raise ParameterError(
-                f"{self.cause} ({self.form}): time_constant_s = "
-                f"{self.diffusion.time_constant:g} s makes mu' imaginary at f = {f:g} Hz: the "
-                f"surface flux density B_m / |<g>| = {b_surface:g} T gives B_s / (mu_0 H_m) = "
-                f"{amplitude_permeability(b_surface, hm):g}, which must exceed mu'' = {mu_i:g} "
-                "(eqs 16, 20)")
-        self.point = replace(point, mu_real=real_permeability(b_surface, hm, mu_i),
-                             mu_imag=mu_i)
-        self.magnetization_phasor = complex(self.point.mu_real - 1.0, -mu_i) * hm * g1
+        self.magnetization_phasor = complex(point.mu_real - 1.0, -point.mu_imag) \
+            * point.field_amplitude * g1
         self.bank = ModalBank(self.diffusion)
         self.filters = np.zeros((2, self.bank.size))
 

@@ -5,16 +5,24 @@ mount. K_lambda and M_b fall with temperature and the rod and mount expand
 (Engdahl (ed.), *Handbook of Giant Magnetostrictive Materials*, Academic Press
 2000, ch. 2 and 4; Clark, "Magnetostrictive rare earth-Fe2 compounds",
 Ferromagnetic Materials vol. 1, North-Holland 1980), so with the heating
-"dose" u(t) = I_m^2 t_th (1 - e^{-t/t_th}) (a first-order thermal lag; u =
-I_m^2 t, a linear drift, for t_th -> inf)
+"dose" u(t) = (I_m^2 - I_s^2) t_th (1 - e^{-t/t_th}) (a first-order thermal lag
+from the start temperature towards the run's equilibrium; u = (I_m^2 - I_s^2) t,
+a linear drift, for t_th -> inf)
 
     y_meas(t) = (1 + g u(t)) y(t) + o u(t),
 
-t from the start of the run, with o [m/(A^2 s)] and g [1/(A^2 s)].
+t from the start of the run, with o [m/(A^2 s)] and g [1/(A^2 s)]. I_s is the
+current whose equilibrium temperature the rod has at the start of a run: 0 for
+a run started cold, more when the runs follow one another with the coil still
+warm, so that a run at a lower current cools while it is recorded (the
+equilibrium temperature rise of a coil is proportional to its Joule loss,
+I_m^2 R / 2). A constant temperature offset of all runs changes K_lambda
+alike in every run; the diagnosis' strain scale (``smeha.diagnose``) takes it.
 
-* periodic form: the drift is not periodic; the diagnosis compares its
-  slopes of the offset and of the fundamental with the features' and applies
-  it to the samples (:meth:`DriftForm.feature_slopes`, :meth:`DriftForm.apply_samples`);
+* periodic form: the drift is not periodic; the diagnosis compares the gain
+  it gives the harmonics on average over a run and its slopes of the offset and
+  of the fundamental with the features', and applies it to the samples
+  (:meth:`DriftForm.feature_drift`, :meth:`DriftForm.apply_samples`);
 * time-stepped form: on the strain, about the operating point's mean strain
   lambda_0 (eq 25's mean term): lambda' = lambda_0 + (1 + g u) (lambda - lambda_0)
   + (o / L) u, o / L being the rod's free thermal strain rate, so the rod pushes
@@ -43,12 +51,14 @@ class LinearDrift:
     Coil heating i^2 R (mean I_m^2 R / 2 for a sinusoid) warms rod and sensor
     mount. K_lambda and M_b fall with temperature and the rod and mount expand
     (Engdahl 2000, ch. 2 and 4; Clark 1980), so with the heating "dose"
-    u(t) = I_m^2 t_th (1 - e^{-t/t_th}) (first-order thermal lag; u = I_m^2 t,
-    a linear drift, for t_th -> inf, the default)
+    u(t) = (I_m^2 - I_s^2) t_th (1 - e^{-t/t_th}) (first-order thermal lag from
+    the equilibrium of I_s; u = (I_m^2 - I_s^2) t, a linear drift, for
+    t_th -> inf, the default)
 
         y_meas(t) = (1 + g u(t)) y(t) + o u(t),
 
-    t from the start of the run, with o [m/(A^2 s)] and g [1/(A^2 s)].
+    t from the start of the run, with o [m/(A^2 s)] and g [1/(A^2 s)] (module
+    docstring).
 
     Attributes
     ----------
@@ -58,11 +68,14 @@ class LinearDrift:
         g, [1/(A^2 s)].
     thermal_time_constant : float
         t_th, [s], > 0; inf (default) for a drift linear in time.
+    start_current : float
+        I_s, [A], >= 0 (default 0: the run starts cold).
     """
 
     offset_rate: float
     gain_rate: float
     thermal_time_constant: float = math.inf
+    start_current: float = 0.0
 
     def __post_init__(self):
         for name in ("offset_rate", "gain_rate"):
@@ -70,13 +83,15 @@ class LinearDrift:
                 raise ParameterError(f"{name} = {getattr(self, name)!r} is not finite")
         check_range("thermal_time_constant", self.thermal_time_constant, 0.0, math.inf,
                     unit="s", high_open=False)
+        check_range("start_current", self.start_current, 0.0, math.inf, unit="A",
+                    low_open=False)
 
     def dose(self, time, current_amplitude):
-        """u(t) = I_m^2 t_th (1 - e^{-t/t_th}), [A^2 s]; t from the start of the run."""
+        """u(t) = (I_m^2 - I_s^2) t_th (1 - e^{-t/t_th}), [A^2 s]; t from the run's start."""
         t = np.asarray(time, dtype=float)
         tc = self.thermal_time_constant
         base = t if math.isinf(tc) else -tc * np.expm1(-t / tc)
-        return current_amplitude ** 2 * base
+        return (current_amplitude ** 2 - self.start_current ** 2) * base
 
     def apply(self, displacement, time, current_amplitude):
         """y_meas from the drift-free y (about its mean), [m]; per sample as is."""
@@ -88,20 +103,23 @@ class DriftForm(Extension):
     """Strain drifting with the heating dose (:class:`LinearDrift`).
 
     lambda' = lambda_0 + (1 + g u(t)) (lambda - lambda_0) + (o / L) u(t) with
-    u(t) = I_m^2 t_th (1 - e^{-t/t_th}), t from the start of the run (module
-    docstring); I_m is the operating point's. No memory beyond the elapsed
+    u(t) = (I_m^2 - I_s^2) t_th (1 - e^{-t/t_th}), t from the start of the run
+    (module docstring); I_m is the operating point's. No memory beyond the elapsed
     time the stepper keeps.
     """
 
     cause = "thermal_drift"
     stage = "strain"
     signals = "y only"
-    fit = FitSpec(("offset_rate_um_per_A2s", "gain_rate_pct_per_A2s", "log10_time_constant_s"),
-                  ((0.0, 0.0, 0.0), (0.0, 0.0, 2.0)), (-math.inf, -math.inf, -1.5),
-                  (math.inf, math.inf, 3.0))
+    fit = FitSpec(("offset_rate_um_per_A2s", "gain_rate_pct_per_A2s", "log10_time_constant_s",
+                   "I_s2_A2"),
+                  ((0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 2.0, 0.0), (0.0, 0.0, 1.0, 0.3)),
+                  (-math.inf, -math.inf, -1.5, 0.0), (math.inf, math.inf, 3.0, 4.0))
     parameters = (Parameter("offset_rate_m_per_A2s", "m/(A^2 s)"),
                   Parameter("gain_rate_per_A2s", "1/(A^2 s)"),
-                  Parameter("thermal_time_constant_s", "s", 0.0, math.inf, high_open=False))
+                  Parameter("thermal_time_constant_s", "s", 0.0, math.inf, high_open=False),
+                  Parameter("start_current_A", "A", 0.0, math.inf, low_open=False,
+                            optional=True))
 
     @classmethod
     def validate(cls, values):
@@ -110,34 +128,41 @@ class DriftForm(Extension):
     @staticmethod
     def drift_of(values) -> LinearDrift:
         return LinearDrift(values["offset_rate_m_per_A2s"], values["gain_rate_per_A2s"],
-                           values["thermal_time_constant_s"])
+                           values["thermal_time_constant_s"], values.get("start_current_A", 0.0))
 
     @classmethod
     def from_fit(cls, x, context):
         return {"offset_rate_m_per_A2s": x[0] * 1e-6, "gain_rate_per_A2s": x[1] * 1e-2,
-                "thermal_time_constant_s": 10.0 ** x[2]}
+                "thermal_time_constant_s": 10.0 ** x[2],
+                "start_current_A": math.sqrt(max(x[3], 0.0))}
 
     @classmethod
     def at_bounds(cls, x, tolerance=1e-3):
         # a thermal time constant at its upper end is a drift linear in time, a form the
         # drift may take; the short end is a bound pressed on
-        return tuple(n for n, v in zip(cls.fit.names[2:], x[2:])
-                     if v <= cls.fit.lower[2] + tolerance * (cls.fit.upper[2] - cls.fit.lower[2]))
+        span = cls.fit.upper[2] - cls.fit.lower[2]
+        out = tuple(n for n, v in zip(cls.fit.names[2:3], x[2:3])
+                    if v <= cls.fit.lower[2] + tolerance * span)
+        # I_s^2 = 0 is a run started cold; its upper end is a bound pressed on
+        return out + tuple(n for n, v in zip(cls.fit.names[3:], x[3:])
+                           if v >= cls.fit.upper[3] * (1.0 - tolerance))
 
-    # periodic form: the drift of the features (the diagnosis' least-squares slopes)
+    # periodic form: the drift of the features (the diagnosis' least-squares terms)
     @classmethod
-    def feature_slopes(cls, values, time, start, middle, current_amplitude, fundamental):
-        """(d mean y/dt [m/s], d Y_1/dt [m/s]) the drift gives a run's features.
+    def feature_drift(cls, values, time, start, middle, current_amplitude, fundamental):
+        """(gain at the middle [-], d mean y/dt [m/s], d Y_1/dt [m/s]) the drift gives a run.
 
-        The features' slopes are the least-squares slopes over the run's
-        samples ``time`` [s] about ``middle`` [s]; the drift's are those of its
-        heating dose u(t - ``start``) times o and g Y_1 (``fundamental``, [m]).
+        The features are least-squares terms over the run's samples ``time`` [s]
+        about ``middle`` [s]: harmonics at the middle, scaled by 1 + g times the
+        mean heating dose u(t - ``start``) over the samples, and slopes, those of
+        the dose times o and g Y_1 (``fundamental``, [m]).
         """
         u = cls.drift_of(values).dose(np.asarray(time) - start, current_amplitude)
         tau = np.asarray(time) - middle
         slope = float(tau @ (u - u.mean()) / (tau @ tau))
-        return (values["offset_rate_m_per_A2s"] * slope,
-                values["gain_rate_per_A2s"] * slope * fundamental)
+        g = values["gain_rate_per_A2s"]
+        return (1.0 + g * float(u.mean()), values["offset_rate_m_per_A2s"] * slope,
+                g * slope * fundamental)
 
     @classmethod
     def apply_samples(cls, values, displacement, time_since_start, current_amplitude):
@@ -149,7 +174,8 @@ class DriftForm(Extension):
         super().__init__(values, params, point, upstream)
         # on the strain: the offset is the rod's free thermal strain, o / L per unit dose
         self.drift = LinearDrift(values["offset_rate_m_per_A2s"] / params.rod_length,
-                                 values["gain_rate_per_A2s"], values["thermal_time_constant_s"])
+                                 values["gain_rate_per_A2s"], values["thermal_time_constant_s"],
+                                 values.get("start_current_A", 0.0))
         self.mean_strain = float(np.real(strain_harmonics(params, point)[0]))
 
     def adjust(self, base, step, time):

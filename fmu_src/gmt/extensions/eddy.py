@@ -272,18 +272,19 @@ class EddyLagForm(FilterBankState, Extension):
         return cls.lag_of(values).transfer(angular_frequency)
 
     @classmethod
-    def steady_field(cls, values, steady):
-        from .steady import force_gain, mu_imag_from_losses
+    def loss_flux_factor(cls, values, angular_frequency):
+        # the lag form evaluates eq 16 at the section-mean flux density, the measured B_m
+        return np.abs(cls.field_gain(values, angular_frequency))
 
-        hm, bm = steady.field_amplitude, steady.flux_density_amplitude
-        mod = bm / (MU_0 * hm)
-        mu_i = np.minimum(mu_imag_from_losses(steady.loss, steady.frequency, bm, hm),
-                          0.999 * mod)
-        g1 = cls.field_gain(values, steady.angular_frequency)
-        # mu' keeping the measured B_m (eddy_calibrated_permeability); 1 where none can
-        mod_in = mod / np.abs(g1)
-        mu_r = np.where(mod_in > mu_i, np.sqrt(np.maximum(mod_in ** 2 - mu_i ** 2, 0.0)), 1.0)
-        mu = mu_r - 1j * mu_i
+    @classmethod
+    def steady_field(cls, values, steady, adder=None):
+        from .steady import force_gain, paper_permeability
+
+        hm, w = steady.field_amplitude, steady.angular_frequency
+        g1 = cls.field_gain(values, w)
+        mu = paper_permeability(steady.loss, steady.frequency, hm,
+                                steady.flux_density_amplitude / (MU_0 * hm), g1, adder,
+                                cls.loss_flux_factor(values, w))
         m1 = (mu - 1.0) * g1 * hm
         c = force_gain(steady.params)
         return FieldState(m1, MU_0 * mu * g1 * hm, 2.0 * c * steady.params.bias_magnetization
@@ -291,19 +292,11 @@ class EddyLagForm(FilterBankState, Extension):
 
     # time-stepped form
     def __init__(self, values, params, point, upstream=None):
+        """``point`` carries the paper part's mu (:meth:`gmt.variants.Chain.paper_point`)."""
         super().__init__(values, params, point, upstream)
         self.lag = self.lag_of(values)
         g1 = complex(self.lag.transfer(point.angular_frequency))
-        mu_r = eddy_calibrated_permeability(point.flux_density_amplitude,
-                                            point.field_amplitude, point.mu_imag, g1)
-        if not math.isfinite(mu_r):
-            raise ParameterError(
-                f"{self.cause}: time_constant_s = {self.lag.time_constant:g} s and order = "
-                f"{self.lag.order:g} make mu' imaginary at f = {point.frequency:g} Hz: "
-                f"B_m / (mu_0 H_m |g|) = {abs(point.mu_real - 1j * point.mu_imag) / abs(g1):g}"
-                f" must exceed mu'' = {point.mu_imag:g}")
-        self.point = replace(point, mu_real=mu_r)
-        self.magnetization_phasor = complex(mu_r - 1.0, -point.mu_imag) * g1 \
+        self.magnetization_phasor = complex(point.mu_real - 1.0, -point.mu_imag) * g1 \
             * point.field_amplitude
         self.bank = SectionBank(self.lag)
         self.filters = np.zeros((2, self.bank.size))

@@ -9,21 +9,31 @@ Pokrovskii 1989; Brokate & Sprekels 1996, ch. 2; Kuhnen 2003):
     P[H](t) = sum_j w_j F_{r_j}[H](t),
     F_r[H](t_k) = max(H_k - r, min(H_k + r, F_r[H](t_{k-1}))).
 
-Only the part of P that is not its fundamental enters M: the paper's mu' and
-mu'' are the describing function of the magnetisation at the operating point
-(Gelb & Vander Velde 1968), measured through B_m and the losses, so the
-operator's fundamental is already in them.
+The operator's output is added to the paper's magnetisation (eq 5), whole:
+its fundamental, whose quadrature part is its loss per cycle and depends on
+H_m as the play operators do (not as eq 16's K_h B_m^n term, which follows
+B_m), and its harmonics. The sensing coil measures the sum, so the paper's part
+is the one whose flux density makes the total's |B_1| the measured B_m, with
+eq 16's mu'' at its own flux density
+(:func:`gmt.extensions.steady.paper_permeability`).
 
 * periodic form: :meth:`PrandtlIshlinskii.periodic` in closed form for
-  H = H_m cos(theta), its non-fundamental part added to M;
-* time-stepped form: the plays advance with each held H
-  (:meth:`PrandtlIshlinskii.step`) and M gains P[H] - (c_h H + c_q H_q), the
-  operator's output minus its fundamental at the operating point,
-  c_h - j c_q = (2 / (N H_m)) sum_n P_n e^{-j theta_n} over one period of
-  N = :data:`GRID` samples, H_q = H_m sin(w t) the quadrature field of eq 31;
-* parameters: the thresholds r_j [A/m] and weights w_j [-]; the diagnosis
-  fixes the thresholds at 0.2, 0.4, 0.6, 0.8 of the largest field amplitude of
-  the data and fits 10 w_j >= 0.
+  H = H_m cos(theta), added to M (:meth:`HysteresisForm.steady_output`);
+* time-stepped form: the operating point carries the paper part's mu
+  (:meth:`gmt.variants.Chain.paper_point`); the plays advance with each held H
+  (:meth:`PrandtlIshlinskii.step`) and M gains P[H];
+* parameters: the thresholds r_j [A/m] and weights w_j [-]. The diagnosis
+  puts 40 thresholds on a geometric grid from 0.005 H_max to H_max (H_max the
+  largest field amplitude of the data, :func:`play_thresholds`), so that the
+  small thresholds of the order of Terfenol-D's coercive field (1-2 kA/m,
+  against drive amplitudes of 10-15 kA/m; Engdahl (ed.), *Handbook of Giant
+  Magnetostrictive Materials*, Academic Press 2000, ch. 1) are there as well
+  as the large ones, and weighs them by a smooth threshold density (a Preisach
+  density along its coercive axis; Mayergoyz, *Mathematical Models of
+  Hysteresis*, Springer 1991, ch. 1), the gamma family
+  p(r) = r^(k - 1) e^{-r/r_0} (k = 1: exponential; k > 1: peaked at
+  (k - 1) r_0), w_j = chi p(r_j) dr_j / sum_j p(r_j) dr_j: three unknowns,
+  the total weight chi, log10(r_0 / H_max) and k.
 
 References
 ----------
@@ -42,11 +52,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError, check_range
-from ._base import Extension, FitSpec, Parameter, harmonic_remainder
+from ._base import Extension, FitSpec, Parameter
 from .magnetic import MagnetizationStage
 
-#: Play-operator thresholds as fractions of the largest field amplitude of the data.
-PLAY_THRESHOLDS = (0.2, 0.4, 0.6, 0.8)
+#: Plays of the diagnosis' operator: thresholds spaced geometrically from this fraction of
+#: the largest field amplitude of the data to that amplitude (module docstring).
+PLAY_GRID = (0.005, 1.0, 40)
+
+
+def play_thresholds(field_max, grid=PLAY_GRID):
+    """The diagnosis' play thresholds r_j and their widths dr_j for H_max [A/m], [A/m]."""
+    low, high, count = grid
+    edges = field_max * np.geomspace(low, high, count + 1)
+    return np.sqrt(edges[1:] * edges[:-1]), np.diff(edges)
 
 
 @dataclass(frozen=True)
@@ -110,15 +128,14 @@ class PrandtlIshlinskii:
         phase : array
             theta, [rad].
         """
-        th = np.mod(np.asarray(phase, dtype=float), 2 * np.pi)
-        hm = np.asarray(field_amplitude, dtype=float)
+        hm, th = np.broadcast_arrays(np.asarray(field_amplitude, dtype=float),
+                                     np.mod(np.asarray(phase, dtype=float), 2 * np.pi))
+        hm, th = hm[..., None], th[..., None]  # against the thresholds, last axis
         h = hm * np.cos(th)
-        falling = th <= np.pi
-        out = np.zeros(np.broadcast(hm, th).shape)
-        for r, w in zip(self.thresholds, self.weights):
-            z = np.where(falling, np.minimum(hm - r, h + r), np.maximum(-hm + r, h - r))
-            out += w * np.where(r < hm, z, 0.0)
-        return out
+        r = np.asarray(self.thresholds, dtype=float)
+        z = np.where(th <= np.pi, np.minimum(hm - r, h + r), np.maximum(-hm + r, h - r))
+        z = np.where(r < hm, z, 0.0)
+        return z @ np.asarray(self.weights, dtype=float)
 
 
 class HysteresisForm(MagnetizationStage, Extension):
@@ -134,9 +151,9 @@ class HysteresisForm(MagnetizationStage, Extension):
     parameters = (Parameter("thresholds_A_per_m", "A/m", 0.0, math.inf, low_open=False,
                             is_list=True),
                   Parameter("weights", "-", is_list=True))
-    fit = FitSpec(tuple(f"w_{k + 1}" for k in range(len(PLAY_THRESHOLDS))),
-                  ((0.5,) * len(PLAY_THRESHOLDS), (0.05,) * len(PLAY_THRESHOLDS)),
-                  (0.0,) * len(PLAY_THRESHOLDS), (100.0,) * len(PLAY_THRESHOLDS))
+    fit = FitSpec(("chi", "log10_r0_per_Hmax", "shape"),
+                  ((0.2, -1.0, 1.0), (0.5, -0.5, 2.0), (0.1, -1.5, 1.0)),
+                  (0.0, -2.5, 0.3), (3.0, 1.0, 30.0))
 
     @classmethod
     def validate(cls, values):
@@ -149,35 +166,44 @@ class HysteresisForm(MagnetizationStage, Extension):
 
     @classmethod
     def from_fit(cls, x, context):
-        return {"thresholds_A_per_m": list(context["thresholds"]),
-                "weights": [0.1 * v for v in x]}
+        field_max = context["field_max"]
+        r, dr = play_thresholds(field_max)
+        r0, shape = field_max * 10.0 ** x[1], x[2]
+        # the density in logs, scaled to its largest value on the grid (no overflow)
+        log_p = (shape - 1.0) * np.log(r / field_max) - r / r0 + np.log(dr)
+        p = np.exp(log_p - log_p.max())
+        return {"thresholds_A_per_m": [float(v) for v in r],
+                "weights": [float(v) for v in x[0] * p / p.sum()]}
 
     @classmethod
     def at_bounds(cls, x, tolerance=1e-3):
-        # a weight at 0 is a play the data do not need, not a bound the fit pressed on
-        return tuple(n for n, v in zip(cls.fit.names, x) if v >= cls.fit.upper[0] * (1 - tolerance))
+        # chi = 0 is the paper's model (no hysteresis), not a bound pressed on
+        return tuple(n for n in super().at_bounds(x, tolerance)
+                     if not (n == "chi" and x[0] <= tolerance * cls.fit.upper[0]))
 
     # periodic form
     @classmethod
-    def steady_remainder(cls, values, steady, magnetization, theta):
+    def steady_output(cls, values, steady, magnetization, theta, memo=None):
+        if memo is not None and "output" in memo:
+            return magnetization + memo["output"]
         hm = np.asarray(steady.field_amplitude)[..., None]
-        return harmonic_remainder(cls.operator_of(values).periodic(hm, theta))
+        out = cls.operator_of(values).periodic(hm, theta)
+        if memo is not None:
+            memo["output"] = out
+        return magnetization + out
 
     # time-stepped form
     def __init__(self, values, params, point, upstream=None):
         super().__init__(values, params, point, upstream)
         self.operator = self.operator_of(values)
         self.plays = np.zeros(len(self.operator.thresholds))
-        self.coefficients = self.fundamental(
-            self.operator.periodic(point.field_amplitude, self.grid()))
 
-    def addition(self, mag):
+    def adjust(self, mag, step, time):
         out, self.plays = self.operator.step(mag.field, self.plays)
-        return out
+        return self.with_magnetization(mag, out)
 
     def waveform(self, theta, upstream):
-        return upstream(theta) + harmonic_remainder(
-            self.operator.periodic(self.point.field_amplitude, theta))
+        return upstream(theta) + self.operator.periodic(self.point.field_amplitude, theta)
 
     def reset(self, rest_displacement):
         self.plays = np.zeros(len(self.operator.thresholds))

@@ -1,22 +1,24 @@
-"""Magnetisation saturation: a tanh law of the total magnetisation about the bias.
+"""Magnetisation saturation: a tanh law of the total magnetisation.
 
-The paper's M (eq 5) is the linear response about the bias M_b. With a
-saturation magnetisation M_s the total follows
+The paper's M (eq 5) is linear in H about the bias M_b. A material with a
+saturation magnetisation M_s cannot follow it: its total magnetisation is
+the linear one through an anhysteretic law with unit slope at zero (a
+tanh-type law: Jiles & Atherton, J. Magn. Magn. Mater. 61 (1986) 48-60;
+Calkins, Smith & Flatau, IEEE Trans. Magn. 36 (2000) 429),
 
-    M_b + M_sat = M_s tanh(x_b + M / (M_s (1 - m_b^2))),
-    m_b = M_b / M_s,  x_b = artanh(m_b),
+    M_b + M_sat = M_s tanh((M_b + M) / M_s),
 
-which keeps the bias (M = 0 gives M_b) and the slope there (d M_sat/dM = 1),
-so it reduces to eq 5 as M_s -> inf, while the top of the loop (towards
-saturation) flattens and the bottom steepens, more at larger amplitude (a
-tanh-type anhysteretic: Jiles & Atherton, J. Magn. Magn. Mater. 61 (1986)
-48-60; Calkins, Smith & Flatau, IEEE Trans. Magn. 36 (2000) 429).
+which tends to M_b + M as M_s -> inf. The bias itself sits on that curve:
+the total at M = 0 is M_s tanh(M_b / M_s) < M_b and the slope there is
+sech^2(M_b / M_s) < 1, so the strain per unit magnetisation falls (eq 25), and
+the loop flattens towards saturation and steepens away from it, more at
+larger amplitude. The paper's part M is the linear magnetisation the coil
+would see without saturation; the coil sees the total.
 
-* periodic form: the non-fundamental part of M_sat(M) - M over one period
-  added to M (the paper's mu', mu'' are the fundamental; module
-  :mod:`gmt.extensions.magnetic`);
-* time-stepped form: memoryless, per sample M gains M_sat(M) - M minus its
-  fundamental at the operating point;
+* periodic form: M_sat(M) over one period (:meth:`SaturationForm.steady_output`;
+  the paper's part of M is the one whose saturated total gives the measured
+  B_m, :func:`gmt.extensions.steady.paper_permeability`);
+* time-stepped form: memoryless, per sample M becomes M_sat(M);
 * parameter: M_s [A/m] > M_b; the diagnosis fits M_b/M_s in (0, 1).
 """
 from __future__ import annotations
@@ -27,13 +29,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError, check_range
-from ._base import Extension, FitSpec, Parameter, harmonic_remainder
+from ._base import Extension, FitSpec, Parameter
 from .magnetic import MagnetizationStage
 
 
 @dataclass(frozen=True)
 class SoftSaturation:
-    """tanh saturation of the total magnetisation about the bias (module docstring).
+    """tanh saturation of the total magnetisation (module docstring).
 
     Attributes
     ----------
@@ -51,11 +53,10 @@ class SoftSaturation:
                     self.bias_magnetization, math.inf, unit="A/m")
 
     def magnetization(self, magnetization):
-        """Coil magnetisation after saturation, M_sat, [A/m] (memoryless: per sample as is)."""
+        """M_sat = M_s tanh((M_b + M) / M_s) - M_b of the linear M, [A/m] (per sample)."""
         ms = self.saturation_magnetization
-        mb = self.bias_magnetization / ms
-        x = math.atanh(mb) + np.asarray(magnetization, dtype=float) / (ms * (1.0 - mb * mb))
-        return ms * np.tanh(x) - self.bias_magnetization
+        total = self.bias_magnetization + np.asarray(magnetization, dtype=float)
+        return ms * np.tanh(total / ms) - self.bias_magnetization
 
 
 class SaturationForm(MagnetizationStage, Extension):
@@ -85,21 +86,17 @@ class SaturationForm(MagnetizationStage, Extension):
 
     # periodic form
     @classmethod
-    def steady_remainder(cls, values, steady, magnetization, theta):
-        sat = cls.law(values, steady.params)
-        return harmonic_remainder(sat.magnetization(magnetization) - magnetization)
+    def steady_output(cls, values, steady, magnetization, theta, memo=None):
+        return cls.law(values, steady.params).magnetization(magnetization)
 
     # time-stepped form
     def __init__(self, values, params, point, upstream=None):
         super().__init__(values, params, point, upstream)
         self.saturation = self.law(values, params)
-        m = upstream(self.grid())
-        self.coefficients = self.fundamental(self.saturation.magnetization(m) - m)
 
-    def addition(self, mag):
+    def adjust(self, mag, step, time):
         m = mag.magnetization
-        return float(self.saturation.magnetization(m)) - m
+        return self.with_magnetization(mag, float(self.saturation.magnetization(m)) - m)
 
     def waveform(self, theta, upstream):
-        m = upstream(theta)
-        return m + harmonic_remainder(self.saturation.magnetization(m) - m)
+        return self.saturation.magnetization(upstream(theta))

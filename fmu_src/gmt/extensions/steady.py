@@ -14,24 +14,29 @@ to compare the time-stepped forms with the periodic ones at the same step.)
 
 The stages (:data:`gmt.extensions.STAGES`):
 
-1. **field**: the paper's complex permeability at the run's measured B_m
-   (mu'' of eq 16 from the loss coefficients, mu' of eq 20), M_1 = (mu - 1) H_m
-   (eq 5), B_1 = mu_0 mu H_m (eq 4). While M is that sinusoid the force of
-   eqs 25 and 28, A_r E^H K_lambda (M_b + M)^2, has F_1 = 2 c M_b M_1 and
-   F_2 = c M_1^2 / 2 (c = A_r E^H K_lambda). An eddy-current extension
-   replaces this stage (the field inside the rod lags the applied field).
-2. **magnetisation**: hysteresis and saturation add to M(theta) the part of
-   their output that is not its fundamental (their describing function is
-   mu' and mu'', :func:`gmt.extensions.harmonic_remainder`); the force then
-   gains c (2 (M_b + M) r + r^2) for the remainder r, sampled over one
-   period on :data:`GRID` points (exact for the quadratic force up to
-   harmonic GRID/2 of r).
+1. **field**: the paper's part of the magnetisation: its complex
+   permeability (mu'' of eq 16 from the loss coefficients, mu' of eq 20) at
+   the flux density that makes the total's |B_1| the run's measured B_m
+   (:func:`paper_permeability`; the measured B_m itself when nothing else
+   changes the fundamental), M_1 = (mu - 1) H_m (eq 5), B_1 = mu_0 mu H_m
+   (eq 4). While M is that sinusoid the force of eqs 25 and 28,
+   A_r E^H K_lambda (M_b + M)^2, has F_1 = 2 c M_b M_1 and F_2 = c M_1^2 / 2
+   (c = A_r E^H K_lambda). An eddy-current extension replaces this stage (the
+   field inside the rod lags the applied field).
+2. **magnetisation**: hysteresis adds its output to M, saturation maps M
+   through its law; the whole change r(theta) of M over one period (its
+   fundamental too) is added to M and mu_0 r to B, and the force gains
+   c (2 (M_b + M) r + r^2), all sampled over one period on :data:`GRID` points
+   (exact for the quadratic force up to harmonic GRID/2 of r). The sensing
+   coil measures the total, which is why the paper's part is solved for in
+   step 1 (the paper's model then describes the magnetisation it was built
+   for, and the extension what it adds).
 3. **strain**: the thermal drift is not periodic; the diagnosis applies it to
    the samples (:class:`gmt.extensions.drift.DriftForm`).
 4. **mechanics**: eq 27's G, or an extension's.
 5. **sensor**: a factor on each harmonic of y (the delay).
 
-B = mu_0 (H + M) (eq 4), with the field stage's B_1.
+B = mu_0 (H + M) (eq 4).
 """
 from __future__ import annotations
 
@@ -73,24 +78,99 @@ def force_gain(params):
     return params.rod_area * params.youngs_modulus * params.magnetostriction_coefficient
 
 
-def complex_permeability(steady: Steady, flux_density_amplitude=None):
-    """mu' - j mu'' of the material at B_m (eqs 16, 20); mu'' capped below |mu|, [-]."""
-    bm = steady.flux_density_amplitude if flux_density_amplitude is None \
-        else flux_density_amplitude
+def paper_permeability(loss, frequency, field_amplitude, modulus, gain=1.0, adder=None,
+                       loss_flux_factor=1.0):
+    """mu_p = mu' - j mu'' of the paper's part of the magnetisation, [-] (arrays allowed).
+
+    The coil measures |B_1| = mu_0 H_m |mu_p g + p| = mu_0 H_m ``modulus`` (eq 22),
+    where g is the field stage's mean field per applied field (1 without eddy
+    currents) and p the fundamental the magnetisation stage adds to M per unit
+    H_m, ``adder(M_1)`` of the paper part's fundamental M_1 = (mu_p - 1) g H_m
+    (None: p = 0). mu''_p follows eq 16 at the paper part's own flux density
+    amplitude, mu_0 |mu_p| H_m times ``loss_flux_factor`` (capped just below
+    |mu_p|), and mu'_p eq 20, mu'_p = sqrt(|mu_p|^2 - mu''_p^2). For p = 0 this
+    is |mu_p| = modulus / |g| in closed form (the paper's eqs 16, 20 for g = 1);
+    otherwise |mu_p| = a is the root of |mu_p(a) g + p| - modulus, found by the
+    secant method from a fixed-point step off the closed form (a few
+    iterations: p changes slowly with a against mu_p g).
+    """
+    g = np.asarray(gain, dtype=complex)
+    hm = np.asarray(field_amplitude, dtype=float)
+
+    def mu_of(a):
+        mu_i = np.minimum(mu_imag_from_losses(loss, frequency, MU_0 * a * hm * loss_flux_factor,
+                                              hm), 0.999 * a)
+        return np.sqrt(a * a - mu_i * mu_i) - 1j * mu_i
+
+    a = modulus / np.abs(g)
+    if adder is not None:
+        # secant iteration on e(a) = |mu_p(a) g + p(a)| - modulus from the closed form
+        def err(a):
+            mu = mu_of(a)
+            return np.abs(mu * g + adder((mu - 1.0) * g * hm)) - modulus
+
+        e0 = err(a)
+        a1 = a * modulus / (e0 + modulus)
+        for _ in range(30):
+            e1 = err(a1)
+            if np.all(np.abs(e1) <= 1e-13 * modulus):
+                break
+            slope = np.where(a1 != a, (e1 - e0) / np.where(a1 != a, a1 - a, 1.0), np.abs(g))
+            slope = np.where(slope > 0.0, slope, np.abs(g))  # |mu_p g + p| grows with a
+            # steps kept within a factor 2, so that a stays positive
+            a, e0, a1 = a1, e1, np.clip(a1 - e1 / slope, 0.5 * a1, 2.0 * a1)
+        a = a1
+    return mu_of(a)
+
+
+def complex_permeability(steady: Steady, adder=None):
+    """mu' - j mu'' of the paper's part at the run's B_m (eqs 16, 20), [-]."""
     hm = steady.field_amplitude
-    mod = bm / (MU_0 * hm)
-    mu_i = np.minimum(mu_imag_from_losses(steady.loss, steady.frequency, bm, hm), 0.999 * mod)
-    return np.sqrt(mod * mod - mu_i * mu_i) - 1j * mu_i
+    return paper_permeability(steady.loss, steady.frequency, hm,
+                              steady.flux_density_amplitude / (MU_0 * hm), adder=adder)
 
 
-def paper_field(steady: Steady) -> FieldState:
-    """The paper's field stage (module docstring, step 1)."""
-    mu = complex_permeability(steady)
+def paper_field(steady: Steady, adder=None) -> FieldState:
+    """The paper's field stage (module docstring, step 1): its part of M, B and the force."""
+    mu = complex_permeability(steady, adder)
     hm = steady.field_amplitude
     m1 = (mu - 1.0) * hm
     c = force_gain(steady.params)
     return FieldState(m1, MU_0 * mu * hm, 2.0 * c * steady.params.bias_magnetization * m1,
                       0.5 * c * m1 * m1)
+
+
+def magnetization_stage(magnetic, steady: Steady, paper_magnetization, theta, memo=None):
+    """(M of the paper's part, M after the magnetisation stage) over one period, [A/m].
+
+    ``paper_magnetization`` is the paper part's fundamental M_1 per run; the
+    extensions of ``magnetic`` act on it in order (hysteresis, then saturation),
+    each through its periodic form (:meth:`gmt.extensions.Extension.steady_output`).
+    ``memo`` (a dict) keeps what an extension computes independently of M
+    between calls on the same runs.
+    """
+    m = np.real(np.asarray(paper_magnetization)[..., None] * np.exp(1j * theta))
+    out = m
+    for k, (cls, values) in enumerate(magnetic):
+        out = cls.steady_output(values, steady, out, theta,
+                                None if memo is None else memo.setdefault(k, {}))
+    return m, out
+
+
+def stage_adder(magnetic, steady: Steady):
+    """p(M_1): the fundamental the magnetisation stage adds per unit H_m, for
+    :func:`paper_permeability` (None without a magnetisation-stage extension)."""
+    if not magnetic:
+        return None
+    theta = 2.0 * np.pi * np.arange(GRID) / GRID
+    memo = {}
+
+    def adder(m1):
+        m, out = magnetization_stage(magnetic, steady, m1, theta, memo)
+        c1 = 2.0 * np.fft.rfft(out - m, axis=-1)[..., 1] / GRID
+        return c1 / steady.field_amplitude
+    adder.memo = memo
+    return adder
 
 
 def mechanics_response(mass, damping, stiffness, angular_frequencies, step=None):
@@ -159,31 +239,35 @@ def steady_state(params, frequency, current_amplitude, flux_density_amplitude, l
     hm = params.field_per_ampere * im
     st = Steady(params, f, w, im, hm, bm, tuple(loss), step)
     comps = _ordered(components)
+    magnetic = [(cls, v) for cls, v in comps if cls.stage == "magnetization"]
+    adder = stage_adder(magnetic, st)
     k = np.arange(1, harmonics + 1)
     wk = np.outer(w, k)
     field = None
     for cls, values in comps:
         if cls.stage == "field":
-            field = cls.steady_field(values, st)
+            field = cls.steady_field(values, st, adder)
     if field is None:
-        field = paper_field(st)
+        field = paper_field(st, adder)
     fk = np.zeros((f.size, harmonics), complex)
     mk = np.zeros((f.size, harmonics), complex)
+    bk = np.zeros((f.size, harmonics), complex)
     fk[:, 0] = field.force_first
     if harmonics > 1:
         fk[:, 1] = field.force_second
     mk[:, 0] = field.magnetization
-    magnetic = [(cls, v) for cls, v in comps if cls.stage == "magnetization"]
-    if magnetic:
+    bk[:, 0] = field.flux_density
+    if magnetic:  # the stage adds its whole change r of M: to M, B and the force
         theta = 2.0 * np.pi * np.arange(GRID) / GRID
-        m_wave = np.real(np.asarray(field.magnetization)[:, None] * np.exp(1j * theta))
-        r = np.zeros_like(m_wave)
-        for cls, values in magnetic:
-            r = r + cls.steady_remainder(values, st, m_wave + r, theta)
+        m_paper, m_total = magnetization_stage(magnetic, st, field.magnetization, theta,
+                                               adder.memo)
+        r = m_total - m_paper
         c = force_gain(params)
-        extra = c * (2.0 * (params.bias_magnetization + m_wave) * r + r * r)
+        extra = c * (2.0 * (params.bias_magnetization + m_paper) * r + r * r)
         scale = 2.0 / GRID
-        mk = mk + np.fft.rfft(r, axis=-1)[:, k] * scale
+        rk = np.fft.rfft(r, axis=-1)[:, k] * scale
+        mk = mk + rk
+        bk = bk + MU_0 * rk
         fk = fk + np.fft.rfft(extra, axis=-1)[:, k] * scale
     g = None
     sensor = np.ones_like(wk, dtype=complex)
@@ -195,8 +279,7 @@ def steady_state(params, frequency, current_amplitude, flux_density_amplitude, l
     if g is None:
         g = mechanics_response(params.mass, params.damping, params.stiffness, wk, step)
     y = fk * g * sensor
-    b = MU_0 * mk
-    b[:, 0] = field.flux_density
+    b = bk
     if scalar:
         return SteadyResult(y[0], b[0])
     return SteadyResult(y, b)
