@@ -33,7 +33,7 @@ BENCHMARKS = {
                                "--cycles", "4"]),
     "identify_diagnose_speed": ([], ["--repeats", "1"]),
     "sweep_throughput": ([], ["--frequencies", "50,100", "--no-dask"]),
-    "diagnose_detection": ([], ["--seeds", "2", "--strengths", "1", "--noises", "0.05"]),
+    "diagnose_detection": (["--seeds", "20"], ["--seeds", "1", "--rates", "100"]),
     "system_step": ([], ["--steps", "1e-5", "--frequencies", "100", "--cycles", "4"]),
 }
 

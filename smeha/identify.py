@@ -263,11 +263,12 @@ class Identification:
 def _harmonic_fit(time, signal, frequency, harmonics=HARMONICS):
     """Least-squares offset + harmonics; returns (coef, covariance, residual)."""
     basis = harmonic_basis(time, frequency, harmonics)
-    coef, *_ = np.linalg.lstsq(basis, signal, rcond=None)
+    gram_inv = np.linalg.pinv(basis.T @ basis)
+    coef = gram_inv @ (basis.T @ signal)  # normal equations: near-orthogonal columns
     resid = signal - basis @ coef
     dof = max(time.size - basis.shape[1], 1)
     sigma2 = float(resid @ resid) / dof
-    cov = sigma2 * np.linalg.pinv(basis.T @ basis)
+    cov = sigma2 * gram_inv
     return coef, cov, resid
 
 
@@ -660,8 +661,17 @@ def identify(runs, params: gmt.TransducerParameters | None = None, **kwargs) -> 
     Returns
     -------
     Identification
+
+    Raises
+    ------
+    DataError
+        Implausible magnitudes (:func:`smeha.plausibility.check_plausible`).
     """
+    from .plausibility import check_plausible
+
     params = params or gmt.TransducerParameters()
+    runs = list(runs)
+    check_plausible(runs, params)  # a column in the wrong unit, before any fit
     results = tuple(identify_run(r, params, **kwargs) for r in runs)
     fit = fit_losses(results, params)
     note = ""

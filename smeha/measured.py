@@ -176,7 +176,8 @@ def harmonic_basis(time, frequency, harmonics):
 def _sinusoid_rss(time, signal, frequency, harmonics=3):
     """Residual sum of squares of the best offset + harmonics 1..``harmonics`` of ``frequency``."""
     basis = harmonic_basis(time, frequency, harmonics)
-    coef, *_ = np.linalg.lstsq(basis, signal, rcond=None)
+    # normal equations: the trigonometric columns are near-orthogonal over a whole run
+    coef = np.linalg.solve(basis.T @ basis, basis.T @ signal)
     r = signal - basis @ coef
     return float(r @ r)
 

@@ -364,7 +364,7 @@ def run_features(run: Run, params: gmt.TransducerParameters | None = None,
         raise SkippedRun(run.name, f"{ts.size} samples in {cycles} periods; the features need "
                                    f"at least {2 * basis.shape[1]}")
     gram_inv = np.linalg.pinv(basis.T @ basis)
-    cy, *_ = np.linalg.lstsq(basis, ys, rcond=None)
+    cy = gram_inv @ (basis.T @ ys)  # normal equations: near-orthogonal columns
     if cycles >= 3 or pooled_y is None:
         noise_y, source = noise_estimate(t, run.displacement, f, t0, cycles)
     else:
@@ -379,7 +379,7 @@ def run_features(run: Run, params: gmt.TransducerParameters | None = None,
     ratio = None
     if run.sense_voltage is not None:
         es = run.sense_voltage[mask]
-        ce, *_ = np.linalg.lstsq(basis, es, rcond=None)
+        ce = gram_inv @ (basis.T @ es)
         if cycles >= 3 or pooled_e is None:
             noise_e, _ = noise_estimate(t, run.sense_voltage, f, t0, cycles)
         else:

@@ -286,11 +286,11 @@ def format_diagnosis(d, path: str = "") -> str:
                  f"{d.paper.heldout_rms * 1e6:.4g} um, extended "
                  f"{d.extended.heldout_rms * 1e6:.4g} um")
     lines.append("")
-    head = (f"{'candidate':<42} {'misfit [um]':>12} {'RMS [um]':>10} {'chi2/n':>10} "
+    head = (f"{'candidate':<72} {'misfit [um]':>12} {'RMS [um]':>10} {'chi2/n':>10} "
             f"{'score':>12} {'k':>3}")
     lines += [head, "-" * len(head)]
     for f in sorted([d.paper] + d.fits + d.combinations, key=lambda f: f.score):
-        lines.append(f"{('paper (none)' if f.cause == 'none' else f.label):<42.42} "
+        lines.append(f"{('paper (none)' if f.cause == 'none' else f.label):<72.72} "
                      f"{f.heldout_misfit * 1e6:>12.4g} {f.heldout_rms * 1e6:>10.4g} "
                      f"{f.heldout_chi2 / f.heldout_n:>10.4g} {f.score:>12.5g} {f.n_params:>3}")
     lines.append("")
@@ -385,15 +385,19 @@ def write_report(d, directory) -> list:
                 label="measured")
         order = np.argsort(rf.time)
         ax.plot(rf.current[order], yp[order] * 1e6, "-", lw=1.0, color="tab:blue",
-                label="paper")
+                label="paper (eq 30)")
         if d.extended.cause != "none":
             ax.plot(rf.current[order], ye[order] * 1e6, "--", lw=1.0, color="tab:red",
-                    label=f"extended ({d.extended.label})")
+                    label="extended")
         ax.set_xlabel("current i [A]")
         ax.set_ylabel("displacement y [um]")
-        tag = " (held out)" if name in d.heldout_runs else ""
+        tag = " (held out)" if name in d.heldout_runs else " (training)"
         ax.set_title(f"{name}{tag}: loop")
-        ax.legend(fontsize=7)
+        ax.legend(fontsize=7, loc="upper left")
+        answer = (f"{d.extended.label}: held-out gain {d.gain:.3g}x"
+                  + (" (weak: parameters on bounds)" if d.weak else "")
+                  if d.cause in CAUSES else d.cause)
+        fig.suptitle(f"diagnosis: {answer}", fontsize=10)
         for ax, model, label in ((axes[1], yp, "paper"), (axes[2], ye, "extended")):
             r = (rf.displacement - model) * 1e6
             ax.plot(th[falling], r[falling], ".", ms=1.5, color="tab:purple",
