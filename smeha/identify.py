@@ -25,8 +25,9 @@ The paper's procedure ("Simulation and experiments"), with a few additions:
    the data were sampled (uniform or not, at any rate). The paper's scan of
    mu'' over [0, 10] (bounded above by |mu| = B_m/(mu_0 H_m), where mu' of
    eq 20 stops being real) brackets the minimum of the sum of squares; a
-   bounded Brent search refines it, and one Gauss-Newton step polishes it. The standard error comes from the curvature of the sum of
-   squares (Gauss-Newton, 2 J^T J) and the residual variance, with the
+   bounded Brent search refines it, and one Gauss-Newton step polishes it.
+   The standard error comes from the curvature of the sum of squares
+   (Gauss-Newton, 2 J^T J) and the residual variance, with the
    uncertainty of B_m propagated through the sensitivity d mu''/d B_m of the
    fit.
 3. **Loss coefficients across runs.** The set of eqs 16,
@@ -155,7 +156,8 @@ class RunIdentification:
         return math.pi * self.frequency * MU_0 * self.mu_imag * self.field_amplitude ** 2
 
     def as_dict(self) -> dict:
-        """JSON-able dict: SI fields plus ``lag_deg``, ``rms_residual_um``, ``loss_density_W_m3``."""
+        """JSON-able dict: SI fields plus ``lag_deg``, ``rms_residual_um``,
+        ``loss_density_W_m3``."""
         d = {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
              for k, v in asdict(self).items()}
         d["lag_deg"] = math.degrees(self.lag)
@@ -242,7 +244,8 @@ class Identification:
     note: str = ""
 
     def as_dict(self) -> dict:
-        """``{"runs": [...], "loss_coefficients": {...} | None, "correlation": ..., "loss_fit": ...}``."""
+        """``{"runs": [...], "loss_coefficients": {...} | None, "correlation": ...,
+        "loss_fit": ...}``."""
         lf = self.loss_fit
         return {
             "runs": [r.as_dict() for r in self.runs],

@@ -144,8 +144,9 @@ def paper_data_diagnosis(params: gmt.TransducerParameters | None = None) -> dict
         "form": best["form"] if better else "",
         "weak": bool(better and best["at_bounds"]),
         "at_bounds": best["at_bounds"] if better else [],
-        "heldout_rms_um": {"paper": paper["heldout_rms_um"],
-                           "extended": best["heldout_rms_um"] if better else paper["heldout_rms_um"]},
+        "heldout_rms_um": {
+            "paper": paper["heldout_rms_um"],
+            "extended": best["heldout_rms_um"] if better else paper["heldout_rms_um"]},
         "gain": paper["heldout_rms_um"] / (best["heldout_rms_um"] if better
                                            else paper["heldout_rms_um"]),
         "train": list(TRAIN), "heldout": list(HELDOUT),

@@ -17,9 +17,11 @@ module                 equations
 ``forward``            composed model, eq 30 (stepper and steady state)
 ``inverse``            inverse model and compensator, eqs 31-37, Fig. 9
 ``transducer``         drive chain: amplifier, compensator, eq 30
-``extensions``         candidate extensions of the model (issue #5)
-``variants``           the model variant: paper, or paper plus one
-                       extension, time-stepped
+``extensions``         candidate extensions, one module per effect
+                       (periodic form, time-stepped form, SI
+                       parameters) and the one registry
+``variants``           the model variant: paper, or paper plus one or
+                       more extensions, time-stepped
 =====================  ==============================================
 
 SI units throughout. This package imports no FMI, file or plotting code.

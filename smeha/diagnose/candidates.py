@@ -122,7 +122,8 @@ class Candidate:
         return {ext.variant_name(m.cause, m.form): v for m, v in comps}
 
     def at_bounds(self, x) -> tuple:
-        """The unknowns on a bound the fit pressed on (:meth:`gmt.extensions.Extension.at_bounds`)."""
+        """The unknowns on a bound the fit pressed on
+        (:meth:`gmt.extensions.Extension.at_bounds`)."""
         if len(self.members) == 1:
             return self.members[0].at_bounds(x)
         return tuple(f"{m.cause}.{n}" for m, xm in zip(self.members, self.split(x))

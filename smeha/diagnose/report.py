@@ -227,7 +227,8 @@ def evidence(d) -> list[str]:
                        f"enough for a second name (the same rule)")
         out.append(f"parameters of the extended model: {_fmt_params(e.parameters)}")
         if e.weak:
-            out.append(f"weak finding: {', '.join(e.at_bounds)} on the bound{'s' if len(e.at_bounds) > 1 else ''} "
+            plural = "s" if len(e.at_bounds) > 1 else ""
+            out.append(f"weak finding: {', '.join(e.at_bounds)} on the bound{plural} "
                        "of the fit; the extended model predicts the held-out runs better, but "
                        "these parameters are not a physical result (the effect may be another "
                        "one, or the data do not fix it)")
