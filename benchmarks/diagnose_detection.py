@@ -16,7 +16,7 @@ only its public API is used) or, with ``--generator synthetic``, from the projec
 
     python benchmarks/diagnose_detection.py [--generator labsim|synthetic] [--seeds 20]
         [--first-seed 0] [--rates 100,800,20000Hz] [--cases clean,singles,pairs]
-        [--strengths 1] [--noises 0.05] [--workers 2] [--json]
+        [--strengths 1] [--noises 0.05] [--workers 2] [--no-sense] [--json]
 
 ``--rates``: samples per period (``100``) or one fixed sample rate for every frequency
 (``20000Hz``; labsim only). Every (case, rate, strength, noise) combination runs
@@ -55,14 +55,16 @@ def _rate_kwargs(rate):
     return {"samples_per_cycle": int(rate)}
 
 
-def _runs(generator, effects, seed, rate, strength, noise):
+def _runs(generator, effects, seed, rate, strength, noise, sense=True):
     """The runs of one dataset, without the truth."""
     if generator == "labsim":
         sys.path.insert(0, str(TESTS))
         from labsim_runs import runs
 
         return runs({e: strength for e in effects} or None, seed=seed, noise_um=noise,
-                    **_rate_kwargs(rate))
+                    sense_coil=sense, **_rate_kwargs(rate))
+    if not sense:
+        raise ValueError("--no-sense is a labsim option")
     from smeha.synthetic import generate_runs
 
     if len(effects) > 1:
@@ -78,22 +80,22 @@ def _runs(generator, effects, seed, rate, strength, noise):
 
 
 def _one(task):
-    generator, effects, seed, rate, strength, noise = task
+    generator, effects, seed, rate, strength, noise, sense = task
     from smeha import diagnose
 
     t = time.perf_counter()
-    runs = _runs(generator, effects, seed, rate, strength, noise)
+    runs = _runs(generator, effects, seed, rate, strength, noise, sense)
     t_gen = time.perf_counter() - t
     t = time.perf_counter()
     try:
         d = diagnose.diagnose(runs)
         out = {"cause": d.cause, "causes": d.causes, "gain": d.gain, "weak": d.weak,
-               "form": d.extended.form}
+               "form": d.form}
     except Exception as exc:  # a failure is a result of the study, reported as such
         out = {"cause": f"error: {type(exc).__name__}: {exc}", "causes": [], "gain": 1.0,
                "weak": False, "form": ""}
     return {"effects": list(effects), "seed": seed, "rate": rate, "strength": strength,
-            "noise_um": noise, "seconds": time.perf_counter() - t, "generation_s": t_gen,
+            "noise_um": noise, "sense_voltage": sense, "seconds": time.perf_counter() - t, "generation_s": t_gen,
             **out}
 
 
@@ -142,10 +144,11 @@ def summarise(results):
     return rows
 
 
-def format_table(rows, generator, wall):
+def format_table(rows, generator, wall, sense=True):
     head = (f"{'hidden effects':<56} {'rate':>8} {'str':>5} {'noise':>6} {'n':>3} "
             f"{'named':>6} {'mis':>4} {'gain med':>9} {'min':>7} {'>=2':>5}  answers")
-    lines = [f"generator: {generator}", head, "-" * len(head)]
+    lines = [f"generator: {generator}" + ("" if sense else ", runs without sense voltage"),
+             head, "-" * len(head)]
     for r in rows:
         label = " + ".join(r["effects"]) or "clean (none expected)"
         answers = ", ".join(f"{k} x{v}" for k, v in sorted(r["answers"].items(),
@@ -168,6 +171,8 @@ def main(argv=None):
     ap.add_argument("--strengths", default="1")
     ap.add_argument("--noises", default="0.05")
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--no-sense", action="store_true",
+                    help="labsim runs without the sense-coil voltage (B_m not measured)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     if args.generator == "labsim":
@@ -181,7 +186,8 @@ def main(argv=None):
     rates = args.rates.split(",")
     strengths = [float(s) for s in args.strengths.split(",")]
     noises = [float(s) for s in args.noises.split(",")]
-    tasks = [(args.generator, case, seed, rate, strength if case else 1.0, noise)
+    tasks = [(args.generator, case, seed, rate, strength if case else 1.0, noise,
+              not args.no_sense)
              for case in cases for rate in rates for noise in noises
              for strength in (strengths if case else [1.0])
              for seed in range(args.first_seed, args.first_seed + args.seeds)]
@@ -193,11 +199,12 @@ def main(argv=None):
     rows = summarise(results)
     if args.json:
         json.dump({"generator": args.generator, "rows": rows, "results": results,
-                   "wall_seconds": wall, "pairs": [list(p) for p in PAIRS]}, sys.stdout,
+                   "wall_seconds": wall, "pairs": [list(p) for p in PAIRS],
+                   "sense_voltage": not args.no_sense}, sys.stdout,
                   indent=1)
         sys.stdout.write("\n")
         return 0
-    print(format_table(rows, args.generator, wall))
+    print(format_table(rows, args.generator, wall, sense=not args.no_sense))
     return 0
 
 

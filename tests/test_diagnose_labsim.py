@@ -65,6 +65,9 @@ def test_names_both_causes_of_a_pair(pair):
     _check(result, pair)
     out = result.as_dict()
     assert out["cause"] == out["causes"][0] and set(out["causes"]) == set(pair)
+    # "causes" in the order forward selection added them (not the model chain's order):
+    # first the single candidate that ranks best
+    assert out["causes"][0] == min(result.fits, key=lambda f: f.total_score).cause
     variant = diagnose.variant_from_diagnosis(json.loads(json.dumps(out)))
     assert set(variant.causes) == set(pair) and "+" in variant.name
 

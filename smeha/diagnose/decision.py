@@ -61,17 +61,20 @@ def within_noise(fit: Fit, train_dof_lost: int = 5) -> bool:
 
 
 def select(ev, train, held, paper: Fit, singles: list, fit_scale=True) -> tuple:
-    """Forward selection (module docstring): (answer, chosen fit, combinations tried).
+    """Forward selection (module docstring): (answer, chosen fit, combinations tried,
+    causes in the order they were added).
 
     ``answer`` is "none", "unexplained" or the first cause; ``chosen`` the
-    paper's fit for the first two.
+    paper's fit for the first two (and no causes). A combination's members are
+    in the order of the model's chain (gmt.extensions.ordered), which is not the
+    order of contribution: that is the fourth item.
     """
     if within_noise(paper):
-        return "none", paper, []
+        return "none", paper, [], []
     best = min(singles, key=lambda f: f.total_score)
     if not passes(paper, best):
-        return "unexplained", paper, []
-    current, tried = best, []
+        return "unexplained", paper, [], []
+    current, tried, order = best, [], [best.cause]
     while len(current.causes) < MAX_CAUSES and not within_noise(current):
         round_fits = []
         for single in singles:
@@ -95,11 +98,12 @@ def select(ev, train, held, paper: Fit, singles: list, fit_scale=True) -> tuple:
         nxt = min(round_fits, key=lambda f: f.total_score)
         if not passes(current, nxt):
             break
+        order += [c for c in nxt.causes if c not in order]
         current = nxt
-    return current.cause, current, tried
+    return order[0], current, tried, order
 
 
-def also_consistent(paper: Fit, fits, chosen: Fit) -> list:
+def also_consistent(paper: Fit, fits, chosen: Fit, first_cause: str) -> list:
     """Other causes the held-out data do not separate from the first named one.
 
     The best form of each other cause that passes the rule against the paper
@@ -108,7 +112,7 @@ def also_consistent(paper: Fit, fits, chosen: Fit) -> list:
     """
     if not chosen.causes:
         return []
-    first = [f for f in fits if f.causes == (chosen.cause,)]
+    first = [f for f in fits if f.causes == (first_cause,)]
     ref = min(first, key=lambda f: f.score) if first else chosen
     best = {}
     for f in fits:

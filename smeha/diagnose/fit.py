@@ -36,13 +36,22 @@ Two held-out RMS errors of y are reported. ``heldout_rms``: over the samples of
 the held-out runs used for the features, with one constant offset fitted per
 run (displacements are relative); it includes the sensor's noise, so it cannot
 fall below it. ``heldout_misfit``: the model against the deterministic part of
-the measured y, the one the features hold with the noise averaged over the
-periods: over one period the RMS of the difference of the harmonics,
+the measured y, the one the features hold (the noise averaged over the
+periods): over one period the RMS of the difference of the harmonics,
 sqrt(sum_k |dY_k|^2 / 2), and over the run the RMS of the difference of the
 drift lines, (|d offset slope|^2 + |d Y_1 slope|^2 / 2) T^2 / 12 for a run of
-duration T, summed in quadrature and averaged over the held-out runs. The gain
-of a model (:attr:`smeha.diagnose.Diagnosis.gain`) is the ratio of misfits, so
-it measures the model and not the sensor.
+duration T, summed in quadrature and averaged over the held-out runs. The
+measured features carry the sensor's noise, whose share of that mean square is
+known from their variances (per run, sum_k 2 var_k / 2 over the harmonics'
+real components plus (var(offset slope) + var(Y_1 slope)) T^2 / 12): it is
+subtracted, so that the misfit estimates the model's distance from the
+deterministic y whatever the sampling (with fewer samples a period the noise's
+share is larger, and a good model's misfit would otherwise be the noise's). It
+is floored at the noise share's own scatter, sqrt(2 / m) of it for m real
+features (a chi^2 with m degrees of freedom), below which no misfit can be told
+from zero. ``heldout_noise_misfit`` is the noise's share alone. The gain of a
+model (:attr:`smeha.diagnose.Diagnosis.gain`) is the ratio of misfits, so it
+measures the model and not the sensor or the sampling.
 """
 from __future__ import annotations
 
@@ -81,6 +90,7 @@ class Fit:
     heldout_rms: float
     heldout_misfit: float
     score: float
+    heldout_noise_misfit: float
     parameters: dict
     at_bounds: tuple = field(default=())
 
@@ -220,6 +230,10 @@ def score(ev: Evaluator, cand: Candidate, base, x, chi2_train, n_train, held: Ba
     misfit2 = (0.5 * np.sum(np.abs(y - held.y) ** 2, axis=1)
                + (np.abs(s_off - held.drift) ** 2 + 0.5 * np.abs(s_y1 - held.y1_slope) ** 2)
                * span ** 2 / 12.0)
+    noise2 = (np.sum(held.y_sd ** 2, axis=1)
+              + (held.drift_sd ** 2 + held.y1_slope_sd ** 2) * span ** 2 / 12.0)
+    m = held.y.shape[1] * 2 + 3
+    floor2 = float(np.mean(noise2)) * math.sqrt(2.0 / (m * len(held)))
     sq, ns = 0.0, 0
     for rf in held.runs:
         r = rf.displacement - ev.samples(rf, base, cand, x)
@@ -232,7 +246,8 @@ def score(ev: Evaluator, cand: Candidate, base, x, chi2_train, n_train, held: Ba
                heldout_chi2_y=float(cy.sum()),
                heldout_chi2_b=float(cb.sum()), heldout_chi2_drift=float(cd.sum()),
                heldout_rms=math.sqrt(sq / max(ns, 1)),
-               heldout_misfit=math.sqrt(float(np.mean(misfit2))),
+               heldout_misfit=math.sqrt(max(float(np.mean(misfit2 - noise2)), floor2)),
+               heldout_noise_misfit=math.sqrt(float(np.mean(noise2))),
                score=chi + cand.n_params * math.log(max(n, 2)),
                parameters=cand.parameters(x, ev.context), at_bounds=cand.at_bounds(x))
 

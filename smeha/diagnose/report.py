@@ -7,7 +7,7 @@ import numpy as np
 
 from gmt import extensions as ext
 
-from .candidates import CAUSES, FORMS, Batch, Evaluator
+from .candidates import CAUSES, FORMS, Batch, Evaluator, label
 from .decision import MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, explained
 from .workflow import CONFUSABLE_WITHOUT_B
 
@@ -202,20 +202,22 @@ def evidence(d) -> list[str]:
                f"{zg['gain_drift_per_s'] * 100:.3g} %/s (z = {zg['gain_drift_z']:.3g}, "
                f"{zg['run']})")
     ranked = sorted(d.fits, key=lambda f: f.score)
-    out.append(f"held-out misfit of y (the model against y's harmonics and drift, the noise "
-               f"averaged out): paper {p.heldout_misfit * 1e6:.4g} um; candidates "
+    out.append(f"held-out misfit of y (the model against y's harmonics and drift, the "
+               f"noise's share removed): paper {p.heldout_misfit * 1e6:.4g} um; candidates "
                + ", ".join(f"{f.label} {f.heldout_misfit * 1e6:.4g} um (score {f.score:.4g})"
                            for f in ranked) + f"; paper's score {p.score:.4g}")
     if d.cause in CAUSES:
         e = d.extended
-        first = min((f for f in d.fits if f.causes == (d.cause,)), key=lambda f: f.score)
+        first = min((f for f in d.fits if f.causes == (d.cause,)),
+                    key=lambda f: f.total_score)
         out.append(f"named {first.label} (acts on {SIGNALS[d.cause]}): held-out BIC lower by "
                    f"{p.score - first.score:.4g} (threshold {MIN_BIC_DROP:g}), "
                    f"{100 * explained(p, first):.3g} % of the paper's excess chi^2 removed; "
                    f"held-out misfit {p.heldout_misfit * 1e6:.4g} -> "
                    f"{first.heldout_misfit * 1e6:.4g} um")
         if len(e.causes) > 1:
-            out.append(f"forward selection: {e.label} together lower the held-out BIC by "
+            out.append(f"forward selection: {_contribution_label(d)} together lower the "
+                       f"held-out BIC by "
                        f"{first.score - e.score:.4g} beyond {first.label} alone; the model "
                        f"with all {len(e.causes)} gives held-out misfit "
                        f"{e.heldout_misfit * 1e6:.4g} um, gain {d.gain:.3g}x")
@@ -258,17 +260,23 @@ def _fmt_params(p: dict) -> str:
     return ", ".join(f"{k} = {f(v)}" for k, v in p.items())
 
 
+def _contribution_label(d) -> str:
+    """The named model's members in the order forward selection added them."""
+    return " + ".join(label(m) for c in d.causes for m in d.extended.candidate.members
+                      if m.cause == c)
+
+
 def format_diagnosis(d, path: str = "") -> str:
     """Plain-text report."""
     lines = []
     if path:
         lines.append(f"diagnosis of {path}")
     if d.cause in CAUSES:
-        lines.append(f"cause: {d.cause}" + (f" (model: {d.extended.form})"
+        lines.append(f"cause: {d.cause}" + (f" (model: {d.form})"
                                              if d.cause in FORMS else "")
                      + (" [weak: parameters on bounds]" if d.weak else ""))
         if len(d.causes) > 1:
-            lines.append(f"causes (in order of contribution): {d.extended.label}")
+            lines.append(f"causes (in order of contribution): {_contribution_label(d)}")
     else:
         lines.append(f"cause: {d.cause}")
     if d.also_consistent:
@@ -280,9 +288,10 @@ def format_diagnosis(d, path: str = "") -> str:
     if d.skipped:
         lines.append("runs not used: " + "; ".join(f"{n} ({why})" for n, why in d.skipped))
     lines.append(f"held-out runs: {', '.join(d.heldout_runs)}")
-    lines.append(f"held-out misfit of y (noise averaged out): paper "
+    lines.append(f"held-out misfit of y (the noise's share removed): paper "
                  f"{d.paper.heldout_misfit * 1e6:.4g} um, extended "
-                 f"{d.extended.heldout_misfit * 1e6:.4g} um, gain {d.gain:.3g}x")
+                 f"{d.extended.heldout_misfit * 1e6:.4g} um, gain {d.gain:.3g}x (the "
+                 f"noise's share: {d.paper.heldout_noise_misfit * 1e6:.3g} um)")
     lines.append(f"held-out RMS of y over the samples (noise included): paper "
                  f"{d.paper.heldout_rms * 1e6:.4g} um, extended "
                  f"{d.extended.heldout_rms * 1e6:.4g} um")
@@ -329,7 +338,7 @@ def as_dict(d) -> dict:
     named = d.cause in CAUSES
     return {
         "cause": d.cause,
-        "form": d.extended.form,
+        "form": d.form,
         "causes": d.causes,
         "weak": d.weak,
         "model": d.variant().as_dict() if named else {"cause": d.cause},
@@ -341,7 +350,8 @@ def as_dict(d) -> dict:
         "heldout_rms_um": {"paper": d.paper.heldout_rms * 1e6,
                            "extended": d.extended.heldout_rms * 1e6},
         "heldout_misfit_um": {"paper": d.paper.heldout_misfit * 1e6,
-                              "extended": d.extended.heldout_misfit * 1e6},
+                              "extended": d.extended.heldout_misfit * 1e6,
+                              "noise_share": d.paper.heldout_noise_misfit * 1e6},
         "gain": d.gain,
         "extended": _fit_dict(d.extended),
         "also_consistent": [{"cause": f.cause, "form": f.form, "score": f.score,

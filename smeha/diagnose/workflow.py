@@ -50,11 +50,20 @@ class Diagnosis:
     also_consistent: list = field(default_factory=list)
     combinations: list = field(default_factory=list)
     skipped: list = field(default_factory=list)
+    #: the named causes in the order forward selection added them
+    order: list = field(default_factory=list)
 
     @property
     def causes(self) -> list:
         """Every named cause, in the order forward selection added them."""
-        return list(self.extended.causes) if self.cause in CAUSES else []
+        return list(self.order) if self.cause in CAUSES else []
+
+    @property
+    def form(self) -> str:
+        """The form of the first named cause ("" when it has one form or none is named)."""
+        if self.cause not in CAUSES:
+            return ""
+        return next(m.form for m in self.extended.candidate.members if m.cause == self.cause)
 
     @property
     def weak(self) -> bool:
@@ -235,14 +244,14 @@ def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
     paper = fit_and_score(ev, train, held, PAPER, base0, fit_scale=fit_scale)
     fits = [fit_and_score(ev, train, held, cand, paper.base, fit_scale=fit_scale)
             for cand in candidates()[1:] if cand.cause in causes]
-    cause, chosen, combos = select(ev, train, held, paper, fits, fit_scale)
+    cause, chosen, combos, order = select(ev, train, held, paper, fits, fit_scale)
     character = characterise(ev, list(feats.values()), paper.base)
     noise = float(np.median([rf.noise_y for rf in feats.values()])) * 1e6
     diag = Diagnosis(cause=cause, evidence=[], heldout_runs=holdout,
                      training_runs=[r.name for r in train_runs], paper=paper,
                      extended=chosen, fits=fits, noise_um=noise,
                      characterisation=character, context=context,
-                     also_consistent=also_consistent(paper, fits, chosen),
-                     combinations=combos, skipped=skipped)
+                     also_consistent=also_consistent(paper, fits, chosen, cause),
+                     combinations=combos, skipped=skipped, order=order)
     diag.evidence = evidence(diag)
     return diag
