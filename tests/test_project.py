@@ -67,6 +67,18 @@ def test_packages_and_test_configuration():
         assert (ROOT / path).is_dir(), path
 
 
+def test_every_package_folder_is_listed():
+    # setuptools installs the listed packages only, none of their subpackages: a package
+    # folder left out is missing from a non-editable install (an editable one hides that)
+    setup = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    dirs = setup.get("package-dir", {})
+    listed = {dirs.get(p, p.replace(".", "/")) for p in setup["packages"]}
+    tops = [dirs.get(p, p) for p in setup["packages"] if "." not in p]
+    found = {init.parent.relative_to(ROOT).as_posix() for top in tops
+             for init in (ROOT / top).rglob("__init__.py")}
+    assert found <= listed, sorted(found - listed)
+
+
 def _readme_command_rows():
     """(command, options) of each row of the README's command table."""
     rows = re.findall(r"^\| `smeha (\w+)([^`]*)`", README, flags=re.M)
