@@ -97,10 +97,14 @@ def characterise(ev: Evaluator, feats, base) -> dict:
                 (lag - 2 * np.pi * fr * tau) ** 2))))}
 
 
-def evidence(d) -> list[str]:
-    """The evidence lines of the text report (and ``evidence`` in the JSON)."""
-    p, c = d.paper, d.characterisation
-    rows = c["runs"]
+def _amplitudes(rows) -> list:
+    """The runs' current amplitudes, rounded to 10 mA, sorted, [A]."""
+    return sorted({round(r["current_amplitude_A"], 2) for r in rows})
+
+
+def _data_lines(d) -> list[str]:
+    """What was used of the data: runs skipped, transients dropped, B missing, the noise."""
+    rows = d.characterisation["runs"]
     brows = [r for r in rows if r["b_residual_harmonics_mT"] is not None]  # runs with B
     without = d.runs_without_sense_voltage
     out = []
@@ -125,6 +129,13 @@ def evidence(d) -> list[str]:
                f"{d.noise_um:.3g} um per "
                "sample (median over runs), sense voltage "
                + (f"{np.median(e_noise):.3g} V" if e_noise else "not measured"))
+    return out
+
+
+def _paper_lines(d) -> list[str]:
+    """The paper's model against noise: chi^2 per signal, and which signals carry the misfit."""
+    p, rows = d.paper, d.characterisation["runs"]
+    out = []
     ny = sum(r["n_y"] for r in rows)
     nb = sum(r["n_b"] for r in rows)
     nd = sum(r["n_drift"] for r in rows)
@@ -144,6 +155,14 @@ def evidence(d) -> list[str]:
                 if v > WITHIN_NOISE]
     out.append("the discrepancy is carried by: " + (", ".join(carriers) if carriers
                                                      else "neither signal (within noise)"))
+    return out
+
+
+def _residual_lines(d) -> list[str]:
+    """The shape of the paper's residual: by run, branch, harmonic, amplitude, loop opening."""
+    c = d.characterisation
+    rows = c["runs"]
+    out = []
     res = np.array([r["periodic_residual_rms_um"] for r in rows])
     nse = np.array([r["periodic_noise_rms_um"] for r in rows])
     out.append(f"periodic residual RMS of y per run: {res.min():.3g} to {res.max():.3g} um "
@@ -163,7 +182,7 @@ def evidence(d) -> list[str]:
         + "/".join(f"{v:.3g}" for v in lo["y_residual_harmonics_um"])
         + f"; {hi['run']} " + "/".join(f"{v:.3g}" for v in hi["y_residual_harmonics_um"])
         + f"; B residual (mT): {bres(lo)} and {bres(hi)}")
-    amps = sorted({round(r["current_amplitude_A"], 2) for r in rows})
+    amps = _amplitudes(rows)
     if len(amps) >= 2:
         def mean3(a, key):
             v = [r[key] for r in rows
@@ -183,6 +202,16 @@ def evidence(d) -> list[str]:
                    f"largest amplitude: {c['opening_lowest_f_rel']:.3g} at the lowest f, "
                    f"{c['opening_highest_f_rel']:.3g} at the highest; best law {better} in f "
                    f"with intercept {law[better]['intercept']:.3g} at f -> 0")
+    return out
+
+
+def _fundamental_lines(d) -> list[str]:
+    """The fundamentals' extra lag and gain against f, and the drift within runs."""
+    c = d.characterisation
+    rows = c["runs"]
+    brows = [r for r in rows if r["b_residual_harmonics_mT"] is not None]  # runs with B
+    amps = _amplitudes(rows)
+    out = []
     lag = " ".join(f"{r['frequency_Hz']:g}Hz:{r['y_extra_lag_deg']:+.2f}" for r in rows
                    if round(r["current_amplitude_A"], 2) == amps[-1])
     out.append(f"extra lag of y's fundamental behind the model (deg): {lag}; as a delay "
@@ -201,46 +230,20 @@ def evidence(d) -> list[str]:
                f"(z = {zo['offset_drift_z']:.3g}, {zo['run']}), largest gain drift "
                f"{zg['gain_drift_per_s'] * 100:.3g} %/s (z = {zg['gain_drift_z']:.3g}, "
                f"{zg['run']})")
+    return out
+
+
+def _verdict_lines(d) -> list[str]:
+    """The candidates' held-out misfits, then why the answer is what it is."""
+    p = d.paper
+    out = []
     ranked = sorted(d.fits, key=lambda f: f.score)
     out.append(f"held-out misfit of y (the model against y's harmonics and drift, the "
                f"noise's share removed): paper {p.heldout_misfit * 1e6:.4g} um; candidates "
                + ", ".join(f"{f.label} {f.heldout_misfit * 1e6:.4g} um (score {f.score:.4g})"
                            for f in ranked) + f"; paper's score {p.score:.4g}")
     if d.cause in CAUSES:
-        e = d.extended
-        first = min((f for f in d.fits if f.causes == (d.cause,)),
-                    key=lambda f: f.total_score)
-        out.append(f"named {first.label} (acts on {SIGNALS[d.cause]}): held-out BIC lower by "
-                   f"{p.score - first.score:.4g} (threshold {MIN_BIC_DROP:g}), "
-                   f"{100 * explained(p, first):.3g} % of the paper's excess chi^2 removed; "
-                   f"held-out misfit {p.heldout_misfit * 1e6:.4g} -> "
-                   f"{first.heldout_misfit * 1e6:.4g} um")
-        if len(e.causes) > 1:
-            out.append(f"forward selection: {_contribution_label(d)} together lower the "
-                       f"held-out BIC by "
-                       f"{first.score - e.score:.4g} beyond {first.label} alone; the model "
-                       f"with all {len(e.causes)} gives held-out misfit "
-                       f"{e.heldout_misfit * 1e6:.4g} um, gain {d.gain:.3g}x")
-        elif d.combinations:
-            best = min(d.combinations, key=lambda f: f.score)
-            out.append(f"forward selection: the best second cause, {best.label}, lowers the "
-                       f"held-out BIC by {first.score - best.score:.4g} and removes "
-                       f"{100 * explained(first, best):.3g} % of the remaining excess; not "
-                       f"enough for a second name (the same rule)")
-        out.append(f"parameters of the extended model: {_fmt_params(e.parameters)}")
-        if e.weak:
-            plural = "s" if len(e.at_bounds) > 1 else ""
-            out.append(f"weak finding: {', '.join(e.at_bounds)} on the bound{plural} "
-                       "of the fit; the extended model predicts the held-out runs better, but "
-                       "these parameters are not a physical result (the effect may be another "
-                       "one, or the data do not fix it)")
-        if d.also_consistent:
-            out.append("also consistent: " + ", ".join(
-                f"{f.label} (score {f.score - first.score:+.3g} from the named one, held-out "
-                f"misfit {f.heldout_misfit * 1e6:.4g} um)" for f in d.also_consistent)
-                + f"; the data prefer {first.label} by less than the BIC margin "
-                f"({MIN_BIC_DROP:g}), so they do not separate these causes"
-                + (" (without B, see above)" if without else ""))
+        out += _named_lines(d)
     elif d.cause == "none":
         out.append("none: the paper's model is within noise on training and held-out runs")
     else:
@@ -248,6 +251,53 @@ def evidence(d) -> list[str]:
                    f"at least {100 * MIN_EXPLAINED:g} % of its held-out excess with a BIC drop "
                    f"above {MIN_BIC_DROP:g}")
     return out
+
+
+def _named_lines(d) -> list[str]:
+    """Why the named cause(s): BIC and explained share, forward selection, parameters."""
+    p, e = d.paper, d.extended
+    without = d.runs_without_sense_voltage
+    out = []
+    first = min((f for f in d.fits if f.causes == (d.cause,)),
+                key=lambda f: f.total_score)
+    out.append(f"named {first.label} (acts on {SIGNALS[d.cause]}): held-out BIC lower by "
+               f"{p.score - first.score:.4g} (threshold {MIN_BIC_DROP:g}), "
+               f"{100 * explained(p, first):.3g} % of the paper's excess chi^2 removed; "
+               f"held-out misfit {p.heldout_misfit * 1e6:.4g} -> "
+               f"{first.heldout_misfit * 1e6:.4g} um")
+    if len(e.causes) > 1:
+        out.append(f"forward selection: {_contribution_label(d)} together lower the "
+                   f"held-out BIC by "
+                   f"{first.score - e.score:.4g} beyond {first.label} alone; the model "
+                   f"with all {len(e.causes)} gives held-out misfit "
+                   f"{e.heldout_misfit * 1e6:.4g} um, gain {d.gain:.3g}x")
+    elif d.combinations:
+        best = min(d.combinations, key=lambda f: f.score)
+        out.append(f"forward selection: the best second cause, {best.label}, lowers the "
+                   f"held-out BIC by {first.score - best.score:.4g} and removes "
+                   f"{100 * explained(first, best):.3g} % of the remaining excess; not "
+                   f"enough for a second name (the same rule)")
+    out.append(f"parameters of the extended model: {_fmt_params(e.parameters)}")
+    if e.weak:
+        plural = "s" if len(e.at_bounds) > 1 else ""
+        out.append(f"weak finding: {', '.join(e.at_bounds)} on the bound{plural} "
+                   "of the fit; the extended model predicts the held-out runs better, but "
+                   "these parameters are not a physical result (the effect may be another "
+                   "one, or the data do not fix it)")
+    if d.also_consistent:
+        out.append("also consistent: " + ", ".join(
+            f"{f.label} (score {f.score - first.score:+.3g} from the named one, held-out "
+            f"misfit {f.heldout_misfit * 1e6:.4g} um)" for f in d.also_consistent)
+            + f"; the data prefer {first.label} by less than the BIC margin "
+            f"({MIN_BIC_DROP:g}), so they do not separate these causes"
+            + (" (without B, see above)" if without else ""))
+    return out
+
+
+def evidence(d) -> list[str]:
+    """The evidence lines of the text report (and ``evidence`` in the JSON)."""
+    return (_data_lines(d) + _paper_lines(d) + _residual_lines(d) + _fundamental_lines(d)
+            + _verdict_lines(d))
 
 
 def _fmt_params(p: dict) -> str:
@@ -409,7 +459,7 @@ def write_report(d, directory) -> list:
                   + (" (weak: parameters on bounds)" if d.weak else "")
                   if d.cause in CAUSES else d.cause)
         fig.suptitle(f"diagnosis: {answer}", fontsize=10)
-        for ax, model, label in ((axes[1], yp, "paper"), (axes[2], ye, "extended")):
+        for ax, model, which in ((axes[1], yp, "paper"), (axes[2], ye, "extended")):
             r = (rf.displacement - model) * 1e6
             ax.plot(th[falling], r[falling], ".", ms=1.5, color="tab:purple",
                     label="falling current")
@@ -418,7 +468,7 @@ def write_report(d, directory) -> list:
             ax.axhline(0.0, color="k", lw=0.5)
             ax.set_xlabel("phase of the current [rad]")
             ax.set_ylabel("measured - model [um]")
-            ax.set_title(f"residual, {label} (RMS {np.sqrt(np.mean(r * r)):.3g} um)")
+            ax.set_title(f"residual, {which} (RMS {np.sqrt(np.mean(r * r)):.3g} um)")
             ax.legend(fontsize=7)
         fig.tight_layout()
         path = out / f"diagnose_{name}.png"
