@@ -312,6 +312,48 @@ def _fit_misfit(t, x, f, a, cycles, per, noise):
     return (chi2 - n) / math.sqrt(2.0 * n)
 
 
+def _periods_used(run: Run, t, h, f, pooled_y, pooled_e):
+    """Whole periods used, those dropped at the start as transient, and whether the first
+    one used was checked (module docstring); SkippedRun for too few periods."""
+    span = (t[-1] - t[0] + h) * f
+    # a period short of less than one sample (a lab rate that is not a multiple of f) counts
+    whole = int(math.floor(span + h * f + 1e-9))
+    if whole < MIN_CYCLES:
+        raise SkippedRun(run.name, f"{span:.3g} periods; a run needs at least {MIN_CYCLES} "
+                                   "whole periods")
+    t_start = float(t[0])
+    dropped, checked = leading_transient(t, run.displacement, f, t_start, whole, pooled_y)
+    if run.sense_voltage is not None:
+        dropped_e, checked_e = leading_transient(t, run.sense_voltage, f, t_start, whole,
+                                                 pooled_e)
+        dropped, checked = max(dropped, dropped_e), checked and checked_e
+    return whole - dropped, dropped, checked
+
+
+def _noise(t, x, f, t0, cycles, pooled):
+    """(per-sample noise, source) of ``x``: its own with 3 periods or more (or nothing
+    pooled), else the pooled one (module docstring)."""
+    if cycles >= 3 or pooled is None:
+        return noise_estimate(t, x, f, t0, cycles)
+    return pooled, "pooled"
+
+
+def _phasors(coef, harmonics):
+    """Complex harmonics a_k - j b_k of the fit's cos/sin coefficients (:func:`_basis`)."""
+    return coef[2:2 + 2 * harmonics:2] - 1j * coef[3:3 + 2 * harmonics:2]
+
+
+def _flux_density_from_y(run: Run, params, mask):
+    """B_m [T] and its standard error from y's fundamental (eq 19), and M_1/H_m [-]
+    (module docstring); SkippedRun when that B_m is not positive."""
+    bm, se_b, mu_r, mu_i = flux_density_from_displacement(run, params, mask)
+    bm, se_b = float(bm), float(se_b)
+    if not (bm > 0 and math.isfinite(bm)):
+        raise SkippedRun(run.name, f"B_m = {bm:g} T from the displacement's fundamental "
+                                   "is not positive (no sense voltage)")
+    return bm, se_b, complex(mu_r - 1.0, -mu_i)
+
+
 def run_features(run: Run, params: gmt.TransducerParameters | None = None,
                  harmonics: int = HARMONICS, pooled_noise=None) -> RunFeatures:
     """Reduce a run to its features (module docstring).
@@ -338,19 +380,8 @@ def run_features(run: Run, params: gmt.TransducerParameters | None = None,
     t = np.asarray(run.time, dtype=float)
     h = float(np.median(np.diff(t)))
     t_start = float(t[0])
-    span = (t[-1] - t[0] + h) * f
-    # a period short of less than one sample (a lab rate that is not a multiple of f) counts
-    whole = int(math.floor(span + h * f + 1e-9))
-    if whole < MIN_CYCLES:
-        raise SkippedRun(run.name, f"{span:.3g} periods; a run needs at least {MIN_CYCLES} "
-                                   "whole periods")
     pooled_y, pooled_e = pooled_noise or (None, None)
-    dropped, checked = leading_transient(t, run.displacement, f, t_start, whole, pooled_y)
-    if run.sense_voltage is not None:
-        dropped_e, checked_e = leading_transient(t, run.sense_voltage, f, t_start, whole,
-                                                 pooled_e)
-        dropped, checked = max(dropped, dropped_e), checked and checked_e
-    cycles = whole - dropped
+    cycles, dropped, checked = _periods_used(run, t, h, f, pooled_y, pooled_e)
     t0 = t_start + dropped / f
     t1 = t0 + cycles / f
     mask = (t >= t0 - 1e-9 / f) & (t < t1 - 1e-9 / f)
@@ -365,38 +396,27 @@ def run_features(run: Run, params: gmt.TransducerParameters | None = None,
                                    f"at least {2 * basis.shape[1]}")
     gram_inv = np.linalg.pinv(basis.T @ basis)
     cy = gram_inv @ (basis.T @ ys)  # normal equations: near-orthogonal columns
-    if cycles >= 3 or pooled_y is None:
-        noise_y, source = noise_estimate(t, run.displacement, f, t0, cycles)
-    else:
-        noise_y, source = pooled_y, "pooled"
+    noise_y, source = _noise(t, run.displacement, f, t0, cycles, pooled_y)
     if noise_y is None:
         raise SkippedRun(run.name, "too few samples to estimate the noise")
     k = np.arange(1, harmonics + 1)
     rot = np.exp(-1j * k * phi)
-    yk = (cy[2:2 + 2 * harmonics:2] - 1j * cy[3:3 + 2 * harmonics:2]) * rot
+    yk = _phasors(cy, harmonics) * rot
     diag = np.diag(gram_inv)
     dvar = 0.5 * (diag[2:2 + 2 * harmonics:2] + diag[3:3 + 2 * harmonics:2])
     ratio = None
-    if run.sense_voltage is not None:
-        es = run.sense_voltage[mask]
-        ce = gram_inv @ (basis.T @ es)
-        if cycles >= 3 or pooled_e is None:
-            noise_e, _ = noise_estimate(t, run.sense_voltage, f, t0, cycles)
-        else:
-            noise_e = pooled_e
-        ek = (ce[2:2 + 2 * harmonics:2] - 1j * ce[3:3 + 2 * harmonics:2]) * rot
+    if run.sense_voltage is not None:  # B_k = j E_k / (k w N_c A_c), eq 21
+        ce = gram_inv @ (basis.T @ run.sense_voltage[mask])
+        noise_e, _ = _noise(t, run.sense_voltage, f, t0, cycles, pooled_e)
+        ek = _phasors(ce, harmonics) * rot
         na = params.sense_turns * params.sense_area
         bk = 1j * ek / (k * w * na)
         b_var = noise_e ** 2 * dvar / (k * w * na) ** 2
         bm, se_b, b_source = float(abs(bk[0])), float(math.sqrt(b_var[0])), "sense_voltage"
     else:
         bk = b_var = noise_e = None
-        bm, se_b, mu_r, mu_i = flux_density_from_displacement(run, params, mask)
-        bm, se_b, b_source = float(bm), float(se_b), "displacement"
-        ratio = complex(mu_r - 1.0, -mu_i)
-        if not (bm > 0 and math.isfinite(bm)):
-            raise SkippedRun(run.name, f"B_m = {bm:g} T from the displacement's fundamental "
-                                       "is not positive (no sense voltage)")
+        bm, se_b, ratio = _flux_density_from_y(run, params, mask)
+        b_source = "displacement"
     y1s = complex(cy[-2], -cy[-1]) * np.exp(-1j * phi)
     return RunFeatures(
         name=run.name, frequency=f, current_amplitude=im, current_phase=phi, step=h,
