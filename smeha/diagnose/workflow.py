@@ -169,6 +169,52 @@ def propagate_errors(ev, feats, base):
         rf.b_prop_var = b_var
 
 
+def _check_arguments(runs, holdout, causes):
+    """ValueError for names that are not unique, unknown causes, unknown held-out runs."""
+    names = [r.name for r in runs]
+    if len(set(names)) != len(names):
+        raise ValueError("run names must be unique")
+    unknown_c = [c for c in causes if c not in CAUSES]
+    if unknown_c:
+        raise ValueError(f"unknown cause(s) {unknown_c}; choose from {CAUSES}")
+    if holdout:
+        unknown = [h for h in holdout if h not in names]
+        if unknown:
+            raise ValueError(f"held-out run(s) {', '.join(map(repr, unknown))} not in the "
+                             f"data (runs: {', '.join(names)})")
+
+
+def _usable_features(runs, params):
+    """The usable runs' features and the skipped runs (:func:`.features.extract`);
+    DataError when no run is usable."""
+    feats, skipped = extract(runs, params)
+    if not feats:
+        where = runs[0].source.rsplit(":", 1)[0] if runs and runs[0].source else "the data"
+        raise DataError(f"{where}: no usable run: " + "; ".join(
+            f"{n}: {why}" for n, why in skipped))
+    return feats, skipped
+
+
+def _heldout_and_training(runs, feats, skipped, holdout):
+    """Names of the held-out runs (``holdout`` or :func:`default_holdout`) and the usable
+    training runs; ValueError for a skipped held-out run or fewer than 4 training runs."""
+    usable = [r for r in runs if r.name in feats]
+    reasons = dict(skipped)
+    if holdout:
+        gone = [h for h in holdout if h in reasons]
+        if gone:
+            raise ValueError("held-out run(s) cannot be used: " + "; ".join(
+                f"{h!r} ({reasons[h]})" for h in gone))
+        holdout = list(holdout)
+    else:
+        holdout = default_holdout(usable)
+    train_runs = [r for r in usable if r.name not in holdout]
+    if len(train_runs) < 4:
+        raise ValueError(f"{len(train_runs)} training run(s); the four loss coefficients of "
+                         "eq 16 need at least 4 (hold out fewer runs)")
+    return holdout, train_runs
+
+
 def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
              causes=CAUSES) -> Diagnosis:
     """Fit, characterise, name the cause(s) and measure the gain (:mod:`smeha.diagnose`).
@@ -200,37 +246,10 @@ def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
 
     params = params or gmt.TransducerParameters()
     runs = list(runs)
-    names = [r.name for r in runs]
-    if len(set(names)) != len(names):
-        raise ValueError("run names must be unique")
-    unknown_c = [c for c in causes if c not in CAUSES]
-    if unknown_c:
-        raise ValueError(f"unknown cause(s) {unknown_c}; choose from {CAUSES}")
-    if holdout:
-        unknown = [h for h in holdout if h not in names]
-        if unknown:
-            raise ValueError(f"held-out run(s) {', '.join(map(repr, unknown))} not in the "
-                             f"data (runs: {', '.join(names)})")
+    _check_arguments(runs, holdout, causes)
     check_plausible(runs, params)
-    feats, skipped = extract(runs, params)
-    if not feats:
-        where = runs[0].source.rsplit(":", 1)[0] if runs and runs[0].source else "the data"
-        raise DataError(f"{where}: no usable run: " + "; ".join(
-            f"{n}: {why}" for n, why in skipped))
-    usable = [r for r in runs if r.name in feats]
-    reasons = dict(skipped)
-    if holdout:
-        gone = [h for h in holdout if h in reasons]
-        if gone:
-            raise ValueError("held-out run(s) cannot be used: " + "; ".join(
-                f"{h!r} ({reasons[h]})" for h in gone))
-        holdout = list(holdout)
-    else:
-        holdout = default_holdout(usable)
-    train_runs = [r for r in usable if r.name not in holdout]
-    if len(train_runs) < 4:
-        raise ValueError(f"{len(train_runs)} training run(s); the four loss coefficients of "
-                         "eq 16 need at least 4 (hold out fewer runs)")
+    feats, skipped = _usable_features(runs, params)
+    holdout, train_runs = _heldout_and_training(runs, feats, skipped, holdout)
     hmax = max(params.field_per_ampere * rf.current_amplitude for rf in feats.values())
     ev = Evaluator(params, hmax)
     base0 = _loss_start(train_runs, params) + (1.0,)
