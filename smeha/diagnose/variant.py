@@ -72,8 +72,8 @@ def variant_from_diagnosis(diagnosis: Mapping, cause: str | None = None,
     if chosen in ("none", PAPER):
         return gmt.ModelVariant()
     candidates = [c for c in diagnosis.get("candidates") or () if isinstance(c, Mapping)]
-    names = [c.get("cause") for c in candidates]
     if chosen == "unexplained":
+        names = [c.get("cause") for c in candidates]
         raise gmt.ParameterError("the diagnosis names no extension (cause 'unexplained'); "
                                  f"choose one of its candidates {names} explicitly")
     model = diagnosis.get("model")
@@ -87,9 +87,25 @@ def variant_from_diagnosis(diagnosis: Mapping, cause: str | None = None,
     if wanted and wanted not in forms:
         raise gmt.ParameterError(f"form = {wanted!r} is not a form of {chosen!r}: the allowed "
                                  f"forms are {list(forms)}")
+    best = _best_candidate(candidates, chosen, wanted, forms)
+    return gmt.ModelVariant(chosen, dict(best.get("parameters") or {}), best.get("form") or "")
+
+
+def _rank(candidate) -> float:
+    """A candidate's ``"score"`` (smeha diagnose) or held-out RMS (smeha paper); inf without."""
+    for key in ("score", "heldout_rms_um"):
+        if isinstance(candidate.get(key), (int, float)):
+            return float(candidate[key])
+    return math.inf
+
+
+def _best_candidate(candidates, chosen, wanted, forms) -> Mapping:
+    """The best-ranked single candidate of cause ``chosen`` and, if ``wanted``, of that form
+    (a candidate without ``"form"`` is of the cause's first, ``forms[0]``)."""
     matches = [c for c in candidates if c.get("cause") == chosen
                and len(c.get("causes") or [chosen]) == 1]
     if not matches:
+        names = [c.get("cause") for c in candidates]
         raise gmt.ParameterError(f"cause = {chosen!r} has no candidate in the diagnosis "
                                  f"(candidates: {names})")
     if wanted:
@@ -99,14 +115,7 @@ def variant_from_diagnosis(diagnosis: Mapping, cause: str | None = None,
             raise gmt.ParameterError(f"cause = {chosen!r} has no candidate of form "
                                      f"{wanted!r} in the diagnosis (its forms there: "
                                      f"{sorted(set(present))})")
-
-    def rank(c):
-        for key in ("score", "heldout_rms_um"):
-            if isinstance(c.get(key), (int, float)):
-                return float(c[key])
-        return math.inf
-    best = min(matches, key=rank)
-    return gmt.ModelVariant(chosen, dict(best.get("parameters") or {}), best.get("form") or "")
+    return min(matches, key=_rank)
 
 
 def read_variant(data) -> gmt.ModelVariant:
