@@ -202,6 +202,36 @@ def _ordered(components):
     return sorted(components, key=lambda cv: STAGES.index(cv[0].stage))
 
 
+def _magnetization_change(params, st, magnetic, magnetization, memo, k):
+    """Harmonics ``k`` of the magnetisation stage's change r of M, [A/m], and of the
+    force's change A_r E^H K_lambda (2 (M_b + M) r + r^2) (eqs 25, 28), [N]."""
+    theta = 2.0 * np.pi * np.arange(GRID) / GRID
+    m_paper, m_total = magnetization_stage(magnetic, st, magnetization, theta, memo)
+    r = m_total - m_paper
+    c = force_gain(params)
+    extra = c * (2.0 * (params.bias_magnetization + m_paper) * r + r * r)
+    scale = 2.0 / GRID
+    rk = np.fft.rfft(r, axis=-1)[:, k] * scale
+    return rk, np.fft.rfft(extra, axis=-1)[:, k] * scale
+
+
+def _force_to_displacement(params, components, angular_frequencies, step):
+    """The path from the force to the measured y at ``angular_frequencies``: the
+    mechanics' response [m/N] (a mechanics extension's, else eq 29's) and the sensor
+    stage's factor [-] (1 without one)."""
+    g = None
+    sensor = np.ones_like(angular_frequencies, dtype=complex)
+    for cls, values in components:
+        if cls.stage == "mechanics":
+            g = cls.steady_mechanics(values, params, angular_frequencies, step)
+        elif cls.stage == "sensor":
+            sensor = sensor * cls.steady_sensor(values, angular_frequencies)
+    if g is None:
+        g = mechanics_response(params.mass, params.damping, params.stiffness,
+                               angular_frequencies, step)
+    return g, sensor
+
+
 def steady_state(params, frequency, current_amplitude, flux_density_amplitude, loss,
                  components=(), harmonics=HARMONICS, step=None) -> SteadyResult:
     """Harmonics of y and B of the paper's model plus ``components`` (module docstring).
@@ -258,26 +288,12 @@ def steady_state(params, frequency, current_amplitude, flux_density_amplitude, l
     mk[:, 0] = field.magnetization
     bk[:, 0] = field.flux_density
     if magnetic:  # the stage adds its whole change r of M: to M, B and the force
-        theta = 2.0 * np.pi * np.arange(GRID) / GRID
-        m_paper, m_total = magnetization_stage(magnetic, st, field.magnetization, theta,
-                                               adder.memo)
-        r = m_total - m_paper
-        c = force_gain(params)
-        extra = c * (2.0 * (params.bias_magnetization + m_paper) * r + r * r)
-        scale = 2.0 / GRID
-        rk = np.fft.rfft(r, axis=-1)[:, k] * scale
+        rk, extra_k = _magnetization_change(params, st, magnetic, field.magnetization,
+                                            adder.memo, k)
         mk = mk + rk
         bk = bk + MU_0 * rk
-        fk = fk + np.fft.rfft(extra, axis=-1)[:, k] * scale
-    g = None
-    sensor = np.ones_like(wk, dtype=complex)
-    for cls, values in comps:
-        if cls.stage == "mechanics":
-            g = cls.steady_mechanics(values, params, wk, step)
-        elif cls.stage == "sensor":
-            sensor = sensor * cls.steady_sensor(values, wk)
-    if g is None:
-        g = mechanics_response(params.mass, params.damping, params.stiffness, wk, step)
+        fk = fk + extra_k
+    g, sensor = _force_to_displacement(params, comps, wk, step)
     y = fk * g * sensor
     b = bk
     if scalar:
