@@ -20,10 +20,16 @@ from labsim_runs import runs, smeha_runs
 
 from smeha import diagnose
 from smeha.cli import main
+from smeha.diagnose.report import cautions
 
 #: Issue 11: the extended model at least halves the held-out misfit.
 MIN_GAIN = 2.0
 SEED = 101
+
+
+#: Causes that change y alone and linearly: the report cautions that a sensor chain's
+#: low-pass leaves the same signature (gmt.extensions._base.Y_LINEAR_LOOKALIKE).
+Y_LINEAR = {("transport_delay", ""), ("mechanical_resonance", "one_dof")}
 
 
 def _check(result, hidden):
@@ -31,9 +37,13 @@ def _check(result, hidden):
     if not hidden:
         assert result.cause == "none", text
         assert result.gain == 1.0
+        assert cautions(result) == []
         return
     assert set(result.causes) == set(hidden), text
     assert result.gain >= MIN_GAIN, text
+    linear = [m for m in result.extended.candidate.members if (m.cause, m.form) in Y_LINEAR]
+    assert (len(cautions(result)) > 0) == bool(linear), cautions(result)
+    assert all("sensor" in c for c in cautions(result))
 
 
 @pytest.mark.integration

@@ -253,6 +253,12 @@ def _verdict_lines(d) -> list[str]:
     return out
 
 
+def cautions(d) -> list[str]:
+    """What else leaves the named causes' signature (each extension's ``lookalike``)."""
+    members = d.extended.candidate.members if d.extended.causes else ()
+    return list(dict.fromkeys(f"{label(m)}: {m.lookalike}" for m in members if m.lookalike))
+
+
 def _named_lines(d) -> list[str]:
     """Why the named cause(s): BIC and explained share, forward selection, parameters."""
     p, e = d.paper, d.extended
@@ -278,6 +284,7 @@ def _named_lines(d) -> list[str]:
                    f"{100 * explained(first, best):.3g} % of the remaining excess; not "
                    f"enough for a second name (the same rule)")
     out.append(f"parameters of the extended model: {_fmt_params(e.parameters)}")
+    out += [f"caution, {c}" for c in cautions(d)]
     if e.weak:
         plural = "s" if len(e.at_bounds) > 1 else ""
         out.append(f"weak finding: {', '.join(e.at_bounds)} on the bound{plural} "
@@ -331,6 +338,7 @@ def format_diagnosis(d, path: str = "") -> str:
         lines.append(f"cause: {d.cause}")
     if d.also_consistent:
         lines.append("also consistent: " + ", ".join(f.label for f in d.also_consistent))
+    lines += [f"caution, {c}" for c in cautions(d)]
     without = d.runs_without_sense_voltage
     if without:
         lines.append(f"no sense voltage: {', '.join(without)} (B_m from the displacement; "
@@ -408,6 +416,7 @@ def as_dict(d) -> dict:
                              "score_above_named": f.score - d.extended.score,
                              "heldout_rms_um": f.heldout_rms * 1e6}
                             for f in d.also_consistent],
+        "cautions": cautions(d),
         "sense_voltage": sense_voltage_report(d),
         "candidates": [_fit_dict(f) for f in d.fits],
         "combinations": [_fit_dict(f) for f in d.combinations],

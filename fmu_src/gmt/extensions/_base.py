@@ -194,6 +194,20 @@ def agrees(cause, name, values, unit, implied, how):
                              "give a consistent value")
 
 
+#: The caution for a cause that changes y alone and linearly (a delay, re-identified
+#: one-DOF mechanics). A filter in the displacement sensor's chain (a conditioner's
+#: low-pass: first order, Butterworth or Bessel) is a linear filter on y too; below its
+#: corner it is 1 - j w tau_g - a w^2 + ..., and so are a delay (a = 0) and eq 27 with
+#: raised c and m: y alone fits each with the others to second order in w. Measured on
+#: the independent generator's order-2 Bessel sensor (group delay 100 us): named
+#: mechanical_resonance (one_dof) in 10 of 10 seeds (docs/DIAGNOSE.md, Limits).
+Y_LINEAR_LOOKALIKE = (
+    "y alone cannot tell a low-pass filter in the displacement sensor's chain (its "
+    "conditioner's bandwidth) from a delay or from changed mechanics: all are linear "
+    "filters on y that agree to second order in frequency; check the sensor chain's "
+    "bandwidth and delay before reading this as the named cause")
+
+
 class Extension:
     """One effect in one formulation: spec, periodic form and time-stepped form.
 
@@ -208,6 +222,9 @@ class Extension:
         One of :data:`STAGES`.
     signals : str
         What it changes: "B and y" or "y only" (for the evidence text).
+    lookalike : str
+        What else, outside the candidates, leaves the same signature in the
+        data (for the report's caution), "" when nothing known does.
     parameters : tuple of Parameter
         SI parameters.
     fit : FitSpec
@@ -224,6 +241,7 @@ class Extension:
     form = ""
     stage = ""
     signals = ""
+    lookalike = ""
     parameters: tuple = ()
     fit = FitSpec()
 

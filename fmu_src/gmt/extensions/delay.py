@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError, check_range
-from ._base import Extension, FitSpec, Parameter
+from ._base import Y_LINEAR_LOOKALIKE, Extension, FitSpec, Parameter
 
 
 @dataclass(frozen=True)
@@ -66,6 +66,7 @@ class DelayForm(Extension):
     cause = "transport_delay"
     stage = "sensor"
     signals = "y only"
+    lookalike = Y_LINEAR_LOOKALIKE
     fit = FitSpec(("tau_ms",), ((0.05,), (1.0,)), (0.0,), (20.0,))
     #: the line holds tau / h samples and is saved with every FMU state
     parameters = (Parameter("delay_s", "s", 0.0, 0.1, low_open=False, high_open=False),)

@@ -39,7 +39,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..errors import ParameterError, check_range
-from ._base import Extension, FitSpec, Parameter, agrees
+from ._base import Y_LINEAR_LOOKALIKE, Extension, FitSpec, Parameter, agrees
 from ._numerics import expm
 from .steady import mechanics_response
 
@@ -215,6 +215,7 @@ class MechanicsForm(Extension):
     form = "one_dof"
     stage = "mechanics"
     signals = "y only"
+    lookalike = Y_LINEAR_LOOKALIKE
     parameters = (Parameter("mass_kg", "kg", 0.0, math.inf),
                   Parameter("damping_N_s_per_m", "N s/m", 0.0, math.inf, low_open=False),
                   Parameter("stiffness_N_per_m", "N/m", 0.0, math.inf))
