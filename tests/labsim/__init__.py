@@ -1,8 +1,8 @@
 """labsim: an independent generator of lab-style measurements of the paper's transducer.
 
 It implements the paper's model (eqs 1-30, Tables 1-2) as a continuous-time system, six
-physical effects the model leaves out, and the way a lab records the signals (sample clock,
-anti-alias filter, noise, ADC). It shares no code or numerics with the project's packages;
+physical effects the model leaves out (each in two formulations from different literature),
+and the way a lab records the signals (sample clock, anti-alias filter, noise, ADC). It shares no code or numerics with the project's packages;
 see README.md in this folder for every formulation and its source.
 
 >>> import labsim
@@ -13,10 +13,11 @@ see README.md in this folder for every formulation and its source.
 """
 from .constants import LabsimError, Transducer
 from .dataset import DEFAULT_AMPLITUDES, DEFAULT_FREQUENCIES, Dataset, Run, make_dataset
-from .effects import EFFECTS
+from .effects import EFFECTS, FORMULATIONS
 
 __all__ = [
     "EFFECTS",
+    "FORMULATIONS",
     "DEFAULT_AMPLITUDES",
     "DEFAULT_FREQUENCIES",
     "Dataset",

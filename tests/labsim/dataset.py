@@ -10,7 +10,7 @@ import numpy as np
 from . import lti
 from .acquisition import Acquisition, record
 from .constants import LabsimError, Transducer
-from .effects import EffectSet
+from .effects import FORMULATIONS, EffectSet
 from .transducer import DECAY_CONSTANTS, simulate
 
 DEFAULT_FREQUENCIES = (5.0, 20.0, 50.0, 70.0, 80.0, 100.0, 150.0, 200.0)
@@ -60,9 +60,15 @@ class Dataset:
         header = ["run", "frequency_Hz", "time_s", "current_A", "displacement_um"]
         if sense:
             header.append("sense_voltage_V")
+        provenance = f"# seed = {self.truth['seed']}; effects = {self.truth['strengths'] or 'none'}"
+        defaults = {name: next(iter(forms)) for name, forms in FORMULATIONS.items()}
+        chosen = {name: form for name, form in self.truth.get("formulations", {}).items()
+                  if form != defaults[name]}
+        if chosen:
+            provenance += f"; formulations = {chosen}"
         lines = [
             "# synthetic lab measurements from labsim (independent generator, tests/labsim)",
-            f"# seed = {self.truth['seed']}; effects = {self.truth['strengths'] or 'none'}",
+            provenance,
             ",".join(header),
         ]
         for run in self.runs:
@@ -97,6 +103,8 @@ def make_dataset(
     anti_alias_cutoff: float | None = None,
     jitter: float = 0.0,
     transducer: Transducer | None = None,
+    formulation: str = "default",
+    formulations: dict | None = None,
 ) -> Dataset:
     """Make a dataset of runs (frequencies x amplitudes) with the given effects.
 
@@ -125,8 +133,14 @@ def make_dataset(
     jitter : float
         Relative standard deviation of per-seed jitter of K_lambda, M_b, m, c, K and of the
         B_m law's scale (0 = nominal Table 2 values).
+    formulation : {"default", "alt"}
+        Formulation of every effect: the first one, or the second one from other literature
+        (``labsim.FORMULATIONS``; README.md).
+    formulations : dict {name: formulation}, optional
+        Per-effect choice, overriding ``formulation``: a name from ``FORMULATIONS[name]`` or
+        "default" / "alt".
     """
-    effect_set = EffectSet.from_strengths(effects)
+    effect_set = EffectSet.from_strengths(effects, formulation, formulations)
     if samples_per_cycle is None and sample_rate is None:
         samples_per_cycle = 800
     settings = Acquisition(
@@ -155,6 +169,7 @@ def make_dataset(
         "seed": seed,
         "effects": effect_set.truth(),
         "strengths": {name: s for name, s in effect_set.strengths},
+        "formulations": dict(effect_set.formulations),
         "sensor_offset_m": offset,
         "jitter_factors": factors,
         "transducer": device,

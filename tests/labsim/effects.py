@@ -4,13 +4,25 @@ magnitude below), and their physical parameters.
 The values at strength 1 are physically plausible and chosen so that each effect changes the
 displacement by roughly 0.5-3 um RMS at 100 Hz, 1 A (measured figures in README.md). The
 formulations are this generator's own; see README.md for their literature sources.
+
+Every effect has two formulations (``FORMULATIONS``): the first ones below, and second ones
+from other literature in module ``alternatives``. Each class answers the simulator's
+questions for its effect: hysteresis ``periodic``/``sequence``/``window``, saturation
+``saturate``, eddy currents ``transfer``, sensor ``delay``/``sensor``, mechanics
+``mechanics``; the thermal drifts act through the force (``Thermal``) or the bias
+(``bias_drift``).
 """
 from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
 
+import numpy as np
+
+from . import alternatives, lti
+from .anhysteretic import langevin
 from .constants import LabsimError
+from .hysteresis import periodic_branches, play_sequence
 
 EFFECTS = (
     "rate_independent_hysteresis",
@@ -35,6 +47,20 @@ class Hysteresis:
         # (about 1-3 kA/m in published major loops; an assumption here).
         return Hysteresis(0.25 * strength)
 
+    phase_points = 8192
+
+    def periodic(self, amplitude: float, phase: np.ndarray) -> np.ndarray:
+        """Added magnetisation on the closed loop at u = A cos(phase), [A/m]."""
+        return periodic_branches(amplitude, phase, self.susceptibility, self.threshold_scale)
+
+    def sequence(self, u: np.ndarray) -> np.ndarray:
+        """Added magnetisation for the field samples u from the switch-on, [A/m]."""
+        return play_sequence(u, self.susceptibility, self.threshold_scale)
+
+    def window(self, omega: float, amplitude: float) -> float:
+        """Time after the switch-on when the state is periodic: both extremes swept, [s]."""
+        return 1.25 * 2.0 * math.pi / omega
+
 
 @dataclass(frozen=True)
 class Saturation:
@@ -48,6 +74,11 @@ class Saturation:
     def at(strength: float) -> "Saturation":
         # Terfenol-D: mu_0 M_s ~ 1.0 T, M_s ~ 0.8 MA/m (Engdahl 2000, ch. 1; Clark 1980).
         return Saturation(0.8e6 / strength)
+
+    def saturate(self, m, bias: float):
+        """M_tot for the paper's M_b + M (the bias does not enter the law), [A/m]."""
+        m_s = self.saturation_magnetization
+        return m_s * langevin(3.0 * m / m_s)
 
 
 @dataclass(frozen=True)
@@ -63,6 +94,9 @@ class EddyDiffusion:
         # effective mu_r ~ 19; the rod alone (mu_r ~ 4) would be ~0.2 ms (strength ~0.2).
         return EddyDiffusion(1.0e-3 * strength)
 
+    def transfer(self) -> lti.Modal:
+        return lti.cylinder_diffusion(self.diffusion_time)
+
 
 @dataclass(frozen=True)
 class Delay:
@@ -73,6 +107,9 @@ class Delay:
     @staticmethod
     def at(strength: float) -> "Delay":
         return Delay(100e-6 * strength)
+
+    def sensor(self) -> None:
+        return None  # no filter, only the delay
 
 
 @dataclass(frozen=True)
@@ -92,6 +129,10 @@ class Resonance:
     def uncoupled_frequency(self) -> float:
         """sqrt(k2 / m2) / (2 pi), [Hz]."""
         return math.sqrt(self.out_stiffness / self.out_mass) / (2 * math.pi)
+
+    def mechanics(self, transducer) -> lti.Zpk:
+        return lti.two_mass(transducer.mass, transducer.damping, transducer.stiffness,
+                            self.out_mass, self.out_damping, self.out_stiffness)
 
 
 @dataclass(frozen=True)
@@ -118,14 +159,51 @@ class Thermal:
         return self.final_rise_1A * current_amplitude**2
 
 
-_FACTORIES = {
-    "rate_independent_hysteresis": Hysteresis.at,
-    "magnetization_saturation": Saturation.at,
-    "eddy_current_diffusion": EddyDiffusion.at,
-    "transport_delay": Delay.at,
-    "mechanical_resonance": Resonance.at,
-    "thermal_drift": Thermal.at,
+#: Formulations of each effect, the first being the default; ``formulation="alt"`` picks the
+#: second for every effect (README.md, "Second formulations").
+FORMULATIONS = {
+    "rate_independent_hysteresis": {"preisach": Hysteresis.at,
+                                    "jiles_atherton": alternatives.JilesAtherton.at},
+    "magnetization_saturation": {"langevin": Saturation.at,
+                                 "froehlich_kennelly": alternatives.FroehlichKennelly.at},
+    "eddy_current_diffusion": {"solid_rod": EddyDiffusion.at,
+                               "conducting_housing": alternatives.ConductingHousing.at},
+    "transport_delay": {"pure_delay": Delay.at, "bessel_sensor": alternatives.BesselSensor.at},
+    "mechanical_resonance": {"two_mass": Resonance.at,
+                             "continuum_rod": alternatives.ContinuumRod.at},
+    "thermal_drift": {"strain_and_expansion": Thermal.at,
+                      "magnet_bias": alternatives.MagnetWarming.at},
 }
+_FIELDS = {
+    "rate_independent_hysteresis": "hysteresis",
+    "magnetization_saturation": "saturation",
+    "eddy_current_diffusion": "eddy",
+    "transport_delay": "delay",
+    "mechanical_resonance": "resonance",
+    "thermal_drift": "thermal",
+}
+
+
+def resolve_formulations(formulation: str = "default", formulations=None) -> dict:
+    """{effect: formulation name} for every effect from ``formulation`` ("default" or "alt",
+    for all effects) and per-effect choices ``formulations`` ({effect: name or "default" or
+    "alt"}), which take precedence."""
+    if formulation not in ("default", "alt"):
+        raise LabsimError(f"formulation = {formulation!r}: must be 'default' or 'alt'")
+    index = 0 if formulation == "default" else 1
+    chosen = {name: list(forms)[index] for name, forms in FORMULATIONS.items()}
+    for name, value in (formulations or {}).items():
+        if name not in FORMULATIONS:
+            raise LabsimError(f"formulations: effect {name!r} unknown; known effects: "
+                              f"{', '.join(EFFECTS)}")
+        forms = list(FORMULATIONS[name])
+        if value in ("default", "alt"):
+            value = forms[0 if value == "default" else 1]
+        if value not in forms:
+            raise LabsimError(f"formulations[{name!r}] = {value!r}: must be one of "
+                              f"{', '.join(forms)}, 'default' or 'alt'")
+        chosen[name] = value
+    return chosen
 
 
 @dataclass(frozen=True)
@@ -133,16 +211,19 @@ class EffectSet:
     """The effects of one dataset with their physical parameters (None = absent)."""
 
     strengths: tuple[tuple[str, float], ...] = ()
-    hysteresis: Hysteresis | None = None
-    saturation: Saturation | None = None
-    eddy: EddyDiffusion | None = None
-    delay: Delay | None = None
-    resonance: Resonance | None = None
-    thermal: Thermal | None = None
+    hysteresis: object | None = None
+    saturation: object | None = None
+    eddy: object | None = None
+    delay: object | None = None
+    resonance: object | None = None
+    thermal: object | None = None
+    formulations: tuple[tuple[str, str], ...] = ()
 
     @staticmethod
-    def from_strengths(effects) -> "EffectSet":
-        """Validate {name: strength} (or an iterable of names, strength 1) and build."""
+    def from_strengths(effects, formulation: str = "default", formulations=None) -> "EffectSet":
+        """Validate {name: strength} (or an iterable of names, strength 1) and build with the
+        chosen formulations (``resolve_formulations``)."""
+        chosen = resolve_formulations(formulation, formulations)
         if effects is None:
             effects = {}
         if isinstance(effects, str):
@@ -151,35 +232,28 @@ class EffectSet:
             effects = {name: 1.0 for name in effects}
         built, strengths = {}, []
         for name, strength in effects.items():
-            if name not in _FACTORIES:
+            if name not in FORMULATIONS:
                 raise LabsimError(f"effect {name!r}: unknown; known effects: {', '.join(EFFECTS)}")
             strength = float(strength)
             if not (math.isfinite(strength) and 0.0 <= strength <= 10.0):
                 raise LabsimError(f"effect {name!r}: strength = {strength}; allowed 0 to 10")
             strengths.append((name, strength))
             if strength > 0.0:
-                built[name] = _FACTORIES[name](strength)
-        return EffectSet(
-            tuple(strengths),
-            built.get("rate_independent_hysteresis"),
-            built.get("magnetization_saturation"),
-            built.get("eddy_current_diffusion"),
-            built.get("transport_delay"),
-            built.get("mechanical_resonance"),
-            built.get("thermal_drift"),
-        )
+                built[_FIELDS[name]] = FORMULATIONS[name][chosen[name]](strength)
+        used = tuple((name, chosen[name]) for name, _ in strengths)
+        return EffectSet(tuple(strengths), formulations=used, **built)
+
+    @property
+    def thermal_bias(self):
+        """The thermal drift if it acts through the bias magnetisation, else None."""
+        return self.thermal if hasattr(self.thermal, "bias_drift") else None
 
     def truth(self) -> dict:
-        """{name: {"strength": s, "parameters": {SI values}}} for the effects present."""
-        objects = {
-            "rate_independent_hysteresis": self.hysteresis,
-            "magnetization_saturation": self.saturation,
-            "eddy_current_diffusion": self.eddy,
-            "transport_delay": self.delay,
-            "mechanical_resonance": self.resonance,
-            "thermal_drift": self.thermal,
-        }
-        return {
-            name: {"strength": s, "parameters": asdict(objects[name]) if objects[name] else {}}
-            for name, s in self.strengths
-        }
+        """{name: {"strength", "formulation", "parameters" (SI values)}} for the effects given."""
+        chosen = dict(self.formulations)
+        out = {}
+        for name, s in self.strengths:
+            effect = getattr(self, _FIELDS[name])
+            out[name] = {"strength": s, "formulation": chosen[name],
+                         "parameters": asdict(effect) if effect is not None else {}}
+        return out

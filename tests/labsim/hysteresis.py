@@ -88,12 +88,13 @@ class PlayMemory:
         return partial + after[k]
 
 
-def play_sequence(u: np.ndarray, susceptibility: float, scale: float) -> np.ndarray:
-    """M_P at the samples u_0, u_1, ... of an input that was 0 (demagnetised) before u_0.
+def monotone_runs(u: np.ndarray):
+    """Split the samples u_0, u_1, ... of an input that was 0 before u_0 into monotone runs.
 
-    Monotone runs between turning points are evaluated in closed form; at a turning point
-    inside the record the extremum is refined by the parabola through the three samples
-    around it (error O(h^3) for a smooth input sampled at step h).
+    Yields (indices of the samples in the run, rising, extremum at its end). At a turning
+    point inside the record the extremum is refined by the parabola through the three
+    samples around it (error O(h^3) for a smooth input sampled at step h); flat steps continue
+    the previous direction.
     """
     u = np.asarray(u, dtype=float)
     v = np.concatenate([[0.0], u])
@@ -104,24 +105,33 @@ def play_sequence(u: np.ndarray, susceptibility: float, scale: float) -> np.ndar
             direction[k] = direction[k - 1]
     if direction[0] == 0:
         direction[0] = 1.0
-    memory = PlayMemory(scale)
-    out = np.empty(u.size)
     start = 0
     while start < direction.size:
         rising = direction[start] > 0
         stop = start
         while stop + 1 < direction.size and direction[stop + 1] == direction[start]:
             stop += 1
-        idx = np.arange(start, stop + 1)  # steps start..stop end at samples v[idx+1]
-        out[idx] = memory.integral(v[idx + 1], rising)
         extremum = v[stop + 1]
         if stop >= 1 and stop + 2 < v.size:  # not at the switch-on jump, not at the end
             a, b, c = v[stop], v[stop + 1], v[stop + 2]
             curvature = a - 2 * b + c
             if curvature != 0.0:
                 extremum = b - (c - a) ** 2 / (8 * curvature)
-        memory.turn(extremum, rising)
+        yield np.arange(start, stop + 1), rising, extremum  # samples u[idx] = v[idx + 1]
         start = stop + 1
+
+
+def play_sequence(u: np.ndarray, susceptibility: float, scale: float) -> np.ndarray:
+    """M_P at the samples u_0, u_1, ... of an input that was 0 (demagnetised) before u_0.
+
+    Monotone runs between turning points (``monotone_runs``) are evaluated in closed form.
+    """
+    u = np.asarray(u, dtype=float)
+    memory = PlayMemory(scale)
+    out = np.empty(u.size)
+    for idx, rising, extremum in monotone_runs(u):
+        out[idx] = memory.integral(u[idx], rising)
+        memory.turn(extremum, rising)
     return susceptibility * out
 
 

@@ -153,3 +153,75 @@ def cylinder_diffusion(diffusion_time: float, modes: int = 60) -> Modal:
         return np.where(small, 1.0 - q**2 / 8.0, value)
 
     return Modal(poles.astype(complex), residues.astype(complex), direct, exact)
+
+
+def shorted_turn(time_constant: float, coupling: float) -> Modal:
+    """Field in the rod per coil field with a conducting loop (housing, coil former) around it.
+
+    The loop, of inductance L_h and resistance R_h, links the fraction kappa of the flux
+    path; its induced current opposes the coil's MMF, so
+    H_eff / H = 1 - kappa s tau / (1 + s tau) = (1 - kappa) + kappa / (1 + s tau),
+    tau = L_h / R_h (a transformer with a short-circuited secondary; e.g. Fitzgerald,
+    Kingsley and Umans, Electric Machinery, 6th ed., sec. 2.4). kappa = 1: a first-order lag.
+    """
+    if not time_constant > 0:
+        raise LabsimError(f"housing time constant = {time_constant} s: must be > 0")
+    if not 0.0 < coupling <= 1.0:
+        raise LabsimError(f"housing coupling = {coupling}: must be in (0, 1]")
+    pole = -1.0 / time_constant
+    return Modal(np.array([pole], dtype=complex), np.array([coupling / time_constant],
+                                                           dtype=complex), 1.0 - coupling)
+
+
+def bessel(order: int, group_delay: float) -> Zpk:
+    """Bessel (Thomson) low-pass normalised to the group delay tau at DC: G(s) = theta_n(0) /
+    theta_n(s tau), theta_n the reverse Bessel polynomial with coefficients
+    (2n - k)! / (2^(n-k) k! (n-k)!) of s^k (Thomson 1949; e.g. Williams and Taylor, Electronic
+    Filter Design Handbook, 4th ed., sec. 2.7). Maximally flat group delay."""
+    if order < 1:
+        raise LabsimError(f"Bessel order = {order}: must be >= 1")
+    if not group_delay > 0:
+        raise LabsimError(f"sensor group delay = {group_delay} s: must be > 0")
+    coefficients = [
+        math.factorial(2 * order - k) / (2 ** (order - k) * math.factorial(k)
+                                         * math.factorial(order - k))
+        for k in range(order, -1, -1)  # highest power first
+    ]
+    poles = np.roots(coefficients).astype(complex) / group_delay
+    return Zpk((), tuple(poles), coefficients[-1] / group_delay**order)
+
+
+def as_modal(system) -> Modal:
+    """A Modal for a Zpk or Modal."""
+    return system if isinstance(system, Modal) else modal(system)
+
+
+def chain(*systems) -> Modal:
+    """The cascade of Zpk and Modal systems as one Modal.
+
+    Zpk factors are multiplied first. A Modal factor a (poles p, residues r, direct D_a) with
+    b: a b has residue r_k b(p_k) at p_k, rho_j a(q_j) at the poles q_j of b and direct
+    D_a D_b (distinct simple poles); exact transfers multiply.
+    """
+    rational = [s for s in systems if isinstance(s, Zpk)]
+    result = None
+    if rational:
+        product = rational[0]
+        for s in rational[1:]:
+            product = product * s
+        result = modal(product)
+    for system in systems:
+        if isinstance(system, Modal):
+            result = system if result is None else _cascade(result, system)
+    return result
+
+
+def _cascade(a: Modal, b: Modal) -> Modal:
+    exact = None
+    if a.exact is not None or b.exact is not None:
+        def exact(s):
+            return a.transfer(s) * b.transfer(s)
+    poles = np.concatenate([a.poles, b.poles])
+    residues = np.concatenate([a.residues * b.transfer(a.poles),
+                               b.residues * a.transfer(b.poles)])
+    return Modal(poles, residues, a.direct * b.direct, exact)

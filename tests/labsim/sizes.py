@@ -16,13 +16,15 @@ from .transducer import simulate
 
 
 def effect_size(effects, frequency: float = 100.0, current_amplitude: float = 1.0,
-                cycles: float = 6, points_per_cycle: int = 400) -> dict:
-    """RMS change of y [m] and of B [T] caused by ``effects`` ({name: strength})."""
+                cycles: float = 6, points_per_cycle: int = 400,
+                formulation: str = "default") -> dict:
+    """RMS change of y [m] and of B [T] caused by ``effects`` ({name: strength}) in the
+    given formulation ("default" or "alt")."""
     device = Transducer()
     period = 1.0 / frequency
     clean = simulate(device, frequency, current_amplitude, 0.0, EffectSet(), transient=False)
     other = simulate(device, frequency, current_amplitude, 0.0,
-                     EffectSet.from_strengths(effects), transient=False)
+                     EffectSet.from_strengths(effects, formulation), transient=False)
     start = max(clean.settle_time, other.settle_time)
     start = math.ceil(start / period) * period
     t = start + np.arange(int(cycles * points_per_cycle)) * period / points_per_cycle
@@ -40,18 +42,20 @@ def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean((x - x.mean()) ** 2)))
 
 
-def table(frequency: float = 100.0, current_amplitude: float = 1.0) -> str:
+def table(frequency: float = 100.0, current_amplitude: float = 1.0,
+          formulation: str = "default") -> str:
     """A text table of the effect sizes at strength 1."""
-    rows = [f"effect at strength 1 ({frequency:g} Hz, {current_amplitude:g} A): "
-            "RMS change of y [um], of B [mT]"]
+    rows = [f"effect at strength 1, {formulation} formulations ({frequency:g} Hz, "
+            f"{current_amplitude:g} A): RMS change of y [um], of B [mT]"]
     for name in EFFECTS:
-        size = effect_size({name: 1.0}, frequency, current_amplitude)
+        size = effect_size({name: 1.0}, frequency, current_amplitude, formulation=formulation)
         y_um, b_mt = size["displacement_rms"] * 1e6, size["flux_rms"] * 1e3
         rows.append(f"{name:30s} {y_um:7.3f} {b_mt:8.4f}")
     return "\n".join(rows)
 
 
 if __name__ == "__main__":
-    print(table())
-    print(table(5.0))
-    print(table(200.0, 0.6))
+    for form in ("default", "alt"):
+        print(table(formulation=form))
+        print(table(5.0, formulation=form))
+        print(table(200.0, 0.6, formulation=form))
