@@ -16,7 +16,8 @@ only its public API is used) or, with ``--generator synthetic``, from the projec
 
     python benchmarks/diagnose_detection.py [--generator labsim|synthetic] [--seeds 20]
         [--first-seed 0] [--rates 100,800,20000Hz] [--cases clean,singles,pairs]
-        [--strengths 1] [--noises 0.05] [--workers 2] [--no-sense] [--json]
+        [--strengths 1] [--noises 0.05] [--workers 2] [--no-sense]
+        [--formulation default|alt] [--json]
 
 ``--rates``: samples per period (``100``) or one fixed sample rate for every frequency
 (``20000Hz``; labsim only). Every (case, rate, strength, noise) combination runs
@@ -55,16 +56,17 @@ def _rate_kwargs(rate):
     return {"samples_per_cycle": int(rate)}
 
 
-def _runs(generator, effects, seed, rate, strength, noise, sense=True):
+def _runs(generator, effects, seed, rate, strength, noise, sense=True,
+          formulation="default"):
     """The runs of one dataset, without the truth."""
     if generator == "labsim":
         sys.path.insert(0, str(TESTS))
         from labsim_runs import runs
 
         return runs({e: strength for e in effects} or None, seed=seed, noise_um=noise,
-                    sense_coil=sense, **_rate_kwargs(rate))
-    if not sense:
-        raise ValueError("--no-sense is a labsim option")
+                    sense_coil=sense, formulation=formulation, **_rate_kwargs(rate))
+    if not sense or formulation != "default":
+        raise ValueError("--no-sense and --formulation are labsim options")
     from smeha.synthetic import generate_runs
 
     if len(effects) > 1:
@@ -80,11 +82,11 @@ def _runs(generator, effects, seed, rate, strength, noise, sense=True):
 
 
 def _one(task):
-    generator, effects, seed, rate, strength, noise, sense = task
+    generator, effects, seed, rate, strength, noise, sense, formulation = task
     from smeha import diagnose
 
     t = time.perf_counter()
-    runs = _runs(generator, effects, seed, rate, strength, noise, sense)
+    runs = _runs(generator, effects, seed, rate, strength, noise, sense, formulation)
     t_gen = time.perf_counter() - t
     t = time.perf_counter()
     try:
@@ -95,7 +97,8 @@ def _one(task):
         out = {"cause": f"error: {type(exc).__name__}: {exc}", "causes": [], "gain": 1.0,
                "weak": False, "form": ""}
     return {"effects": list(effects), "seed": seed, "rate": rate, "strength": strength,
-            "noise_um": noise, "sense_voltage": sense, "seconds": time.perf_counter() - t, "generation_s": t_gen,
+            "noise_um": noise, "sense_voltage": sense, "formulation": formulation,
+            "seconds": time.perf_counter() - t, "generation_s": t_gen,
             **out}
 
 
@@ -144,10 +147,11 @@ def summarise(results):
     return rows
 
 
-def format_table(rows, generator, wall, sense=True):
+def format_table(rows, generator, wall, sense=True, formulation="default"):
     head = (f"{'hidden effects':<56} {'rate':>8} {'str':>5} {'noise':>6} {'n':>3} "
             f"{'named':>6} {'mis':>4} {'gain med':>9} {'min':>7} {'>=2':>5}  answers")
-    lines = [f"generator: {generator}" + ("" if sense else ", runs without sense voltage"),
+    lines = [f"generator: {generator}" + ("" if sense else ", runs without sense voltage")
+             + ("" if formulation == "default" else f", {formulation} formulations"),
              head, "-" * len(head)]
     for r in rows:
         label = " + ".join(r["effects"]) or "clean (none expected)"
@@ -173,6 +177,9 @@ def main(argv=None):
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--no-sense", action="store_true",
                     help="labsim runs without the sense-coil voltage (B_m not measured)")
+    ap.add_argument("--formulation", choices=("default", "alt"), default="default",
+                    help="labsim's formulation of every effect: its first or its second "
+                         "(tests/labsim/README.md, 'Second formulations')")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     if args.generator == "labsim":
@@ -187,7 +194,7 @@ def main(argv=None):
     strengths = [float(s) for s in args.strengths.split(",")]
     noises = [float(s) for s in args.noises.split(",")]
     tasks = [(args.generator, case, seed, rate, strength if case else 1.0, noise,
-              not args.no_sense)
+              not args.no_sense, args.formulation)
              for case in cases for rate in rates for noise in noises
              for strength in (strengths if case else [1.0])
              for seed in range(args.first_seed, args.first_seed + args.seeds)]
@@ -200,11 +207,13 @@ def main(argv=None):
     if args.json:
         json.dump({"generator": args.generator, "rows": rows, "results": results,
                    "wall_seconds": wall, "pairs": [list(p) for p in PAIRS],
-                   "sense_voltage": not args.no_sense}, sys.stdout,
+                   "sense_voltage": not args.no_sense,
+                   "formulation": args.formulation}, sys.stdout,
                   indent=1)
         sys.stdout.write("\n")
         return 0
-    print(format_table(rows, args.generator, wall, sense=not args.no_sense))
+    print(format_table(rows, args.generator, wall, sense=not args.no_sense,
+                       formulation=args.formulation))
     return 0
 
 
