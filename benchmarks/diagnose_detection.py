@@ -17,7 +17,11 @@ only its public API is used) or, with ``--generator synthetic``, from the projec
     python benchmarks/diagnose_detection.py [--generator labsim|synthetic] [--seeds 20]
         [--first-seed 0] [--rates 100,800,20000Hz] [--cases clean,singles,pairs]
         [--strengths 1] [--noises 0.05] [--workers 2] [--no-sense]
-        [--formulation default|alt] [--json]
+        [--formulation default|alt] [--low-frequency-cycles 3] [--start-in-transient]
+        [--json]
+    python benchmarks/diagnose_detection.py --markdown STUDY.json[.gz]
+
+The studies quoted in docs/DIAGNOSE.md are kept in benchmarks/detection/ (gzipped JSON).
 
 ``--rates``: samples per period (``100``) or one fixed sample rate for every frequency
 (``20000Hz``; labsim only). Every (case, rate, strength, noise) combination runs
@@ -26,6 +30,7 @@ only its public API is used) or, with ``--generator synthetic``, from the projec
 from __future__ import annotations
 
 import argparse
+import gzip
 import json
 import os
 import sys
@@ -56,17 +61,17 @@ def _rate_kwargs(rate):
     return {"samples_per_cycle": int(rate)}
 
 
-def _runs(generator, effects, seed, rate, strength, noise, sense=True,
-          formulation="default"):
-    """The runs of one dataset, without the truth."""
+def _runs(generator, effects, seed, rate, strength, noise, sense=True, options=()):
+    """The runs of one dataset, without the truth; ``options``: (name, value) pairs of
+    labsim's make_dataset (formulation, low_frequency_cycles, start_in_transient)."""
     if generator == "labsim":
         sys.path.insert(0, str(TESTS))
         from labsim_runs import runs
 
         return runs({e: strength for e in effects} or None, seed=seed, noise_um=noise,
-                    sense_coil=sense, formulation=formulation, **_rate_kwargs(rate))
-    if not sense or formulation != "default":
-        raise ValueError("--no-sense and --formulation are labsim options")
+                    sense_coil=sense, **dict(options), **_rate_kwargs(rate))
+    if not sense or options:
+        raise ValueError("--no-sense, --formulation and the record options are labsim's")
     from smeha.synthetic import generate_runs
 
     if len(effects) > 1:
@@ -82,11 +87,11 @@ def _runs(generator, effects, seed, rate, strength, noise, sense=True,
 
 
 def _one(task):
-    generator, effects, seed, rate, strength, noise, sense, formulation = task
+    generator, effects, seed, rate, strength, noise, sense, options = task
     from smeha import diagnose
 
     t = time.perf_counter()
-    runs = _runs(generator, effects, seed, rate, strength, noise, sense, formulation)
+    runs = _runs(generator, effects, seed, rate, strength, noise, sense, options)
     t_gen = time.perf_counter() - t
     t = time.perf_counter()
     try:
@@ -97,7 +102,7 @@ def _one(task):
         out = {"cause": f"error: {type(exc).__name__}: {exc}", "causes": [], "gain": 1.0,
                "weak": False, "form": ""}
     return {"effects": list(effects), "seed": seed, "rate": rate, "strength": strength,
-            "noise_um": noise, "sense_voltage": sense, "formulation": formulation,
+            "noise_um": noise, "sense_voltage": sense, "labsim_options": dict(options),
             "seconds": time.perf_counter() - t, "generation_s": t_gen,
             **out}
 
@@ -147,11 +152,11 @@ def summarise(results):
     return rows
 
 
-def format_table(rows, generator, wall, sense=True, formulation="default"):
+def format_table(rows, generator, wall, sense=True, options=()):
     head = (f"{'hidden effects':<56} {'rate':>8} {'str':>5} {'noise':>6} {'n':>3} "
             f"{'named':>6} {'mis':>4} {'gain med':>9} {'min':>7} {'>=2':>5}  answers")
     lines = [f"generator: {generator}" + ("" if sense else ", runs without sense voltage")
-             + ("" if formulation == "default" else f", {formulation} formulations"),
+             + "".join(f", {k} = {v}" for k, v in options),
              head, "-" * len(head)]
     for r in rows:
         label = " + ".join(r["effects"]) or "clean (none expected)"
@@ -163,6 +168,46 @@ def format_table(rows, generator, wall, sense=True, formulation="default"):
                      f"{100 * r['gain_ge_2_rate']:>4.0f}%  {answers}")
     lines.append(f"wall time {wall:.0f} s, {sum(r['runs'] for r in rows)} diagnoses")
     return "\n".join(lines)
+
+
+def _rate_label(rate):
+    if rate.endswith("Hz"):
+        return f"{float(rate[:-2]) / 1e3:g} kHz, every f"
+    return f"{rate} a period"
+
+
+def markdown_table(study) -> str:
+    """A saved study (``--json`` output) as the Markdown table of docs/DIAGNOSE.md: one
+    row per hidden case, one column per sample clock."""
+    rows = study["rows"]
+    rates = list(dict.fromkeys(r["rate"] for r in rows))
+    cases = list(dict.fromkeys((tuple(r["effects"]), r["strength"], r["noise_um"])
+                               for r in rows))
+    out = ["| hidden | strength | noise [um] | "
+           + " | ".join(_rate_label(r) for r in rates) + " |",
+           "|" + "---|" * (3 + len(rates))]
+    for case in cases:
+        truth = set(case[0])
+        cells = []
+        for rate in rates:
+            sel = [r for r in rows if r["rate"] == rate
+                   and (tuple(r["effects"]), r["strength"], r["noise_um"]) == case]
+            if not sel:
+                cells.append("")
+                continue
+            r = sel[0]
+            cell = f"{100 * r['named_rate']:.0f} % of {r['runs']}, {r['misnamed']} misnamed"
+            if truth and r["named_rate"] > 0:
+                cell += (f"; gain {r['median_gain_named']:.3g} "
+                         f"(min {r['min_gain_named']:.3g})")
+            other = [f"{a} x{n}" for a, n in r["answers"].items()
+                     if (set(a.split("+")) != truth if truth else a != "none")]
+            if other:
+                cell += "; " + ", ".join(other)
+            cells.append(cell)
+        out.append(f"| {' + '.join(case[0]) or 'clean'} | {case[1]:g} | {case[2]:g} | "
+                   + " | ".join(cells) + " |")
+    return "\n".join(out)
 
 
 def main(argv=None):
@@ -180,8 +225,19 @@ def main(argv=None):
     ap.add_argument("--formulation", choices=("default", "alt"), default="default",
                     help="labsim's formulation of every effect: its first or its second "
                          "(tests/labsim/README.md, 'Second formulations')")
+    ap.add_argument("--low-frequency-cycles", type=int, default=None, metavar="N",
+                    help="labsim records N cycles of the runs below 10 Hz (default: 6)")
+    ap.add_argument("--start-in-transient", action="store_true",
+                    help="labsim records from the drive's switch-on, transient included")
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--markdown", metavar="STUDY.json",
+                    help="print a saved study (--json output) as a Markdown table and exit")
     args = ap.parse_args(argv)
+    if args.markdown:
+        opener = gzip.open if args.markdown.endswith(".gz") else open
+        with opener(args.markdown, "rt") as fh:
+            print(markdown_table(json.load(fh)))
+        return 0
     if args.generator == "labsim":
         sys.path.insert(0, str(TESTS))
         import labsim
@@ -193,8 +249,12 @@ def main(argv=None):
     rates = args.rates.split(",")
     strengths = [float(s) for s in args.strengths.split(",")]
     noises = [float(s) for s in args.noises.split(",")]
+    options = tuple((k, v) for k, v in (
+        ("formulation", args.formulation if args.formulation != "default" else None),
+        ("low_frequency_cycles", args.low_frequency_cycles),
+        ("start_in_transient", args.start_in_transient or None)) if v is not None)
     tasks = [(args.generator, case, seed, rate, strength if case else 1.0, noise,
-              not args.no_sense, args.formulation)
+              not args.no_sense, options)
              for case in cases for rate in rates for noise in noises
              for strength in (strengths if case else [1.0])
              for seed in range(args.first_seed, args.first_seed + args.seeds)]
@@ -208,12 +268,12 @@ def main(argv=None):
         json.dump({"generator": args.generator, "rows": rows, "results": results,
                    "wall_seconds": wall, "pairs": [list(p) for p in PAIRS],
                    "sense_voltage": not args.no_sense,
-                   "formulation": args.formulation}, sys.stdout,
+                   "labsim_options": dict(options)}, sys.stdout,
                   indent=1)
         sys.stdout.write("\n")
         return 0
     print(format_table(rows, args.generator, wall, sense=not args.no_sense,
-                       formulation=args.formulation))
+                       options=options))
     return 0
 
 
