@@ -19,7 +19,10 @@ import sys
 import time
 from pathlib import Path
 
-HEAVY = ("numpy", "scipy", "control", "fmpy", "matplotlib", "numba", "dask", "system_models")
+#: system_models itself is light (its defaults module is read for --help); its co-simulation
+#: and compiled kernel are not
+HEAVY = ("numpy", "scipy", "control", "fmpy", "matplotlib", "numba", "dask",
+         "system_models.cosim", "system_models.kernel")
 
 
 def smeha_command() -> list[str]:

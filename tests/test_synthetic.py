@@ -434,3 +434,10 @@ def test_langevin_function():
     np.testing.assert_allclose(synthetic.langevin_slope(x), fd, rtol=1e-8)
     for y in (0.01, 0.3, 0.9):
         assert synthetic.langevin(synthetic.inverse_langevin(y)) == pytest.approx(y, rel=1e-12)
+
+
+def test_true_response_refuses_an_unknown_effect():
+    # a misspelt effect must not quietly give the paper's model alone
+    with pytest.raises(ValueError, match="'eddy' is not one of"):
+        synthetic.true_response("eddy", {}, gmt.TransducerParameters(), 50.0, 1.0, cycles=1,
+                                samples_per_cycle=16)

@@ -220,7 +220,9 @@ def _fine_response(effect, truth, params, frequency, current_amplitude, cycles,
     out = {"time": run.time, "current": run.current, "displacement": run.displacement,
            "flux_density": run.paper["flux_density"],
            "flux_density_rate": run.flux_density_rate}
-    change = _CHANGES.get(effect)  # None: the paper's model alone
-    if change is not None:
-        out.update(change(run, truth, params))
+    if effect is None:  # the paper's model alone
+        return out
+    if effect not in _CHANGES:
+        raise ValueError(f"effect = {effect!r} is not one of {tuple(_CHANGES)} or None")
+    out.update(_CHANGES[effect](run, truth, params))
     return out
