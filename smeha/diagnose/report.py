@@ -205,6 +205,13 @@ def _residual_lines(d) -> list[str]:
     return out
 
 
+def _by_frequency(rows, key, fmt, amplitude) -> str:
+    """``rows``' ``key`` per frequency at the current amplitude ``amplitude`` [A]:
+    "5Hz:+0.12 20Hz:+0.30 ..."."""
+    return " ".join(f"{r['frequency_Hz']:g}Hz:{r[key]:{fmt}}" for r in rows
+                    if round(r["current_amplitude_A"], 2) == amplitude)
+
+
 def _fundamental_lines(d) -> list[str]:
     """The fundamentals' extra lag and gain against f, and the drift within runs."""
     c = d.characterisation
@@ -212,17 +219,14 @@ def _fundamental_lines(d) -> list[str]:
     brows = [r for r in rows if r["b_residual_harmonics_mT"] is not None]  # runs with B
     amps = _amplitudes(rows)
     out = []
-    lag = " ".join(f"{r['frequency_Hz']:g}Hz:{r['y_extra_lag_deg']:+.2f}" for r in rows
-                   if round(r["current_amplitude_A"], 2) == amps[-1])
+    lag = _by_frequency(rows, "y_extra_lag_deg", "+.2f", amps[-1])
     out.append(f"extra lag of y's fundamental behind the model (deg): {lag}; as a delay "
                f"{c['y_lag_as_delay_s'] * 1e3:.3g} ms leaves {c['y_lag_as_delay_rms_deg']:.2g} "
                "deg RMS")
-    bl = " ".join(f"{r['frequency_Hz']:g}Hz:{r['b_extra_lag_deg']:+.2f}" for r in brows
-                  if round(r["current_amplitude_A"], 2) == amps[-1])
+    bl = _by_frequency(brows, "b_extra_lag_deg", "+.2f", amps[-1])
     out.append("extra lag of B's fundamental behind the model (deg): "
                + (bl or "not measured (no sense voltage)"))
-    gains = " ".join(f"{r['frequency_Hz']:g}Hz:{r['y_gain_ratio']:.3f}" for r in rows
-                     if round(r["current_amplitude_A"], 2) == amps[-1])
+    gains = _by_frequency(rows, "y_gain_ratio", ".3f", amps[-1])
     out.append(f"gain of y's fundamental, measured over model: {gains}")
     zo = max(rows, key=lambda r: abs(r["offset_drift_z"]))
     zg = max(rows, key=lambda r: abs(r["gain_drift_z"]))
