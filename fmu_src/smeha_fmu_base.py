@@ -115,6 +115,29 @@ class SlaveBase:
             return self._build(built_from)
         return True
 
+    def _saved_state(self, save) -> dict:
+        """An FMI get-state: ``save()``, or ``{"invalid": why}`` with the reason logged (the
+        set-state that receives it then fails with it)."""
+        try:
+            return save()
+        except Exception as exc:
+            self._report(f"{self.GET_STATE} failed: {type(exc).__name__}: {exc}")
+            return {"invalid": str(exc)}
+
+    def _restore_state(self, state: dict, restore) -> None:
+        """An FMI set-state: refuse an invalid state, make the model the one ``state`` was
+        built from (:meth:`_model_for`), then ``restore(state)`` the slave's own parts and
+        the pending problem; what fails is logged."""
+        try:
+            if "invalid" in state:
+                raise ValueError(f"the state is invalid: {state['invalid']}")
+            if not self._model_for(state["built_from"]):
+                return
+            restore(state)
+            self._problem = state["problem"]
+        except Exception as exc:
+            self._report(f"{self.SET_STATE} failed: {type(exc).__name__}: {exc}")
+
     @classmethod
     def _decoded_state(cls, state) -> dict:
         """A serialised FMU state (JSON bytes) as a dict, or ``{"invalid": why}``."""

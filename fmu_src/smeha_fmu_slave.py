@@ -233,43 +233,37 @@ class TransducerSlave(SlaveBase):
         """Restore what :meth:`_extra_state` saved."""
 
     def _get_fmu_state(self):
-        try:
-            transducer = self._transducer
-            state = {
-                "values": _all_values(self),
-                "built_from": self._built_from,
-                "transducer": list(transducer.get_state()) if transducer is not None else None,
-                "problem": self._problem,
-                # values are already of their variables' types (not so after a JSON
-                # round trip, which _fmu_state_from_bytes marks False)
-                "typed": True,
-            }
-            state.update(self._extra_state())
-            return state
-        except Exception as exc:
-            self._report(f"{self.GET_STATE} failed: {type(exc).__name__}: {exc}")
-            return {"invalid": str(exc)}
+        return self._saved_state(self._state)
+
+    def _state(self) -> dict:
+        transducer = self._transducer
+        state = {
+            "values": _all_values(self),
+            "built_from": self._built_from,
+            "transducer": list(transducer.get_state()) if transducer is not None else None,
+            "problem": self._problem,
+            # values are already of their variables' types (not so after a JSON
+            # round trip, which _fmu_state_from_bytes marks False)
+            "typed": True,
+        }
+        state.update(self._extra_state())
+        return state
 
     def _set_fmu_state(self, state):
-        try:
-            if "invalid" in state:
-                raise ValueError(f"the state is invalid: {state['invalid']}")
-            if not self._model_for(state["built_from"]):
-                return
-            if self._transducer is not None:
-                self._transducer.set_state(state["transducer"])
-            if state.get("typed"):
-                # only what changed since (inputs, outputs): the rest already holds these values
-                for name, now, value in zip(VARIABLE_NAMES, _all_values(self), state["values"]):
-                    if now is not value and now != value:
-                        setattr(self, name, value)
-            else:
-                for name, value in state["variables"].items():
-                    setattr(self, name, coerce(name, value))
-            self._restore_extra(state)
-            self._problem = state["problem"]
-        except Exception as exc:
-            self._report(f"{self.SET_STATE} failed: {type(exc).__name__}: {exc}")
+        self._restore_state(state, self._restore)
+
+    def _restore(self, state: dict) -> None:
+        if self._transducer is not None:
+            self._transducer.set_state(state["transducer"])
+        if state.get("typed"):
+            # only what changed since (inputs, outputs): the rest already holds these values
+            for name, now, value in zip(VARIABLE_NAMES, _all_values(self), state["values"]):
+                if now is not value and now != value:
+                    setattr(self, name, value)
+        else:
+            for name, value in state["variables"].items():
+                setattr(self, name, coerce(name, value))
+        self._restore_extra(state)
 
     @staticmethod
     def _fmu_state_to_bytes(state):

@@ -139,27 +139,21 @@ class SmehaPlant(SlaveBase, Fmi2Slave):
         return fail_step_fmi2(self, message)  # fmi2Fatal: see there
 
     def _get_fmu_state(self):
-        try:
-            return {"variables": {name: getattr(self, name) for name in table.VARIABLE_NAMES},
-                    "built_from": self._built_from, "problem": self._problem,
-                    "model": None if self._model is None else self._model.get_state()}
-        except Exception as exc:
-            self._report(f"{self.GET_STATE} failed: {type(exc).__name__}: {exc}")
-            return {"invalid": str(exc)}
+        return self._saved_state(self._state)
+
+    def _state(self) -> dict:
+        return {"variables": {name: getattr(self, name) for name in table.VARIABLE_NAMES},
+                "built_from": self._built_from, "problem": self._problem,
+                "model": None if self._model is None else self._model.get_state()}
 
     def _set_fmu_state(self, state):
-        try:
-            if "invalid" in state:
-                raise ValueError(f"the state is invalid: {state['invalid']}")
-            if not self._model_for(state["built_from"]):
-                return
-            if self._model is not None:
-                self._model.set_state(state["model"])
-            for name, value in state["variables"].items():
-                setattr(self, name, table.coerce(name, value))
-            self._problem = state["problem"]
-        except Exception as exc:
-            self._report(f"{self.SET_STATE} failed: {type(exc).__name__}: {exc}")
+        self._restore_state(state, self._restore)
+
+    def _restore(self, state: dict) -> None:
+        if self._model is not None:
+            self._model.set_state(state["model"])
+        for name, value in state["variables"].items():
+            setattr(self, name, table.coerce(name, value))
 
     @staticmethod
     def _fmu_state_to_bytes(state):
