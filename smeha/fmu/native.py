@@ -94,7 +94,10 @@ def environment_record(packages) -> dict:
     # Unix binary); a build elsewhere records none and leaves the binaries as they are
     libpython = [str(find_libpython())] if sys.platform.startswith("linux") else []
     # "required" lists the packages (an empty value: none beyond the standard library)
-    return {"version": [sys.version], "base_prefix": [sys.base_prefix],
+    # "executable": the Python the FMU's loader tries after SMEHA_FMU_PYTHON (a venv's own
+    # python, so that the loader starts it with the venv's site-packages)
+    return {"version": [sys.version], "executable": [sys.executable],
+            "base_prefix": [sys.base_prefix],
             "base_exec_prefix": [sys.base_exec_prefix], "libpython": libpython,
             "stdlib": stdlib, "site": sites, "required": list(packages) or [""]}
 
