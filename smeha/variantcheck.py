@@ -1,0 +1,253 @@
+"""Whether a model variant stays physical in the system study: weak findings, circuit modes.
+
+``smeha flow --variant`` runs the transducer with the extension a diagnosis
+names. Two things make such a run say more about the variant than about the
+pump, and every output that uses the variant (the flow comparison's table,
+its JSON and the plot) says so, with the reason (:func:`check_variant`):
+
+* **a weak finding**: the diagnosis fitted the extension with an unknown on a
+  bound of its fit (docs/DIAGNOSE.md: "named, but reported as such ...
+  never as a physical result"). Read from the file (a diagnosis' ``weak``
+  and ``extended.at_bounds``, or a variant file's ``weak`` and ``at_bounds``,
+  as ``data/paper_variant.json`` carries them) and, for the mechanics, whose
+  fit unknowns follow from the SI parameters in closed form, recomputed from
+  the parameters themselves (:func:`bound_unknowns`), so a hand-written or
+  edited variant is caught too;
+* **a circuit mode the variant moves onto the pumping frequency**: the pump
+  delivers f A_d dy (eqs 39-41) while the pump piston follows the
+  magnetostrictive force, that is below the lowest mode of the transducer's
+  mechanics coupled with the oil and the cylinder's load
+  (:func:`system_models.modes.circuit_modes`). Above a mode the response
+  lags the force by more than 90 deg (a single degree of freedom's phase
+  atan(2 zeta r / (1 - r^2)) passes 90 deg at r = f/f_n = 1 whatever the
+  damping; Inman, *Engineering Vibration*, 4th ed. 2014, sec. 2.2), so the
+  piston moves against the rod between the valve switches. A variant row is
+  marked when, in a stage of the pump, the variant's lowest natural
+  frequency is at or below the pumping frequency f and the paper model's is
+  above it, or when the variant has an under-damped mode (zeta < 1/sqrt(2),
+  the damping below which a resonant peak exists, sec. 2.2) whose half-power
+  band f_n (1 -+ zeta) holds f or one of its next :data:`HARMONICS` - 1
+  harmonics and the paper's model has none there. The rule is relative:
+  the mark is for what the variant puts there; the paper model's own modes
+  are listed beside it.
+
+Examples
+--------
+>>> import gmt
+>>> delay = gmt.ModelVariant("transport_delay", {"delay_s": 4e-4})
+>>> check_variant(delay, "realistic").reasons(100.0)
+[]
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import gmt
+from gmt import extensions as ext
+
+__all__ = ["HARMONICS", "VariantCheck", "bound_unknowns", "check_variant",
+           "declared_weakness", "rod_of"]
+
+#: The pumping frequency and its harmonics up to this order are compared with the
+#: circuit's modes: the valves switch at the drive's extremes, so the chamber's
+#: force is close to a square wave, whose k-th harmonic falls as 1/k.
+HARMONICS = 3
+
+#: Damping ratio below which a mode has a resonant peak (Inman, sec. 2.2).
+PEAK_DAMPING = 1.0 / math.sqrt(2.0)
+
+
+def declared_weakness(data) -> tuple[bool, tuple]:
+    """(weak, unknowns on their bounds) as a JSON file states them.
+
+    A whole diagnosis (``smeha diagnose --json``) states ``weak`` and
+    ``extended.at_bounds``; a variant file may state ``weak`` and
+    ``at_bounds`` (``data/paper_variant.json``). Absent keys state nothing.
+    """
+    if not isinstance(data, Mapping):
+        return False, ()
+    extended = data.get("extended") if isinstance(data.get("extended"), Mapping) else {}
+    names = data.get("at_bounds") or extended.get("at_bounds") or ()
+    names = tuple(str(n) for n in names) if isinstance(names, (list, tuple)) else ()
+    return bool(data.get("weak")) or bool(names), names
+
+
+def _fit_unknowns(cls, values, params) -> tuple | None:
+    """The diagnosis' unknowns x of a mechanics form from its SI parameters (the inverse of
+    its ``from_fit``), or None for a form without a closed-form inverse."""
+    if (cls.cause, cls.form) == ("mechanical_resonance", "one_dof"):
+        return (values["mass_kg"] / params.mass, values["damping_N_s_per_m"] / params.damping,
+                values["stiffness_N_per_m"] / params.stiffness)
+    if (cls.cause, cls.form) == ("mechanical_resonance", "two_dof"):
+        m1, m2 = values["rod_mass_kg"], values["output_mass_kg"]
+        kj, cj = values["joint_stiffness_N_per_m"], values["joint_damping_N_s_per_m"]
+        return (m2 / (m1 + m2), math.log10(math.sqrt(kj / m2) / (2.0 * math.pi)),
+                cj / (2.0 * math.sqrt(kj * m2)))
+    return None
+
+
+def bound_unknowns(variant: gmt.ModelVariant,
+                   params: gmt.TransducerParameters | None = None) -> tuple:
+    """Each fit unknown of the variant's mechanics that lies on a bound of its fit.
+
+    Returns
+    -------
+    tuple of str
+        ``"name = value on its lower|upper bound [lo, hi]"`` for each such unknown
+        (:meth:`gmt.extensions.Extension.at_bounds`'s tolerance); empty for the
+        paper, for mechanics inside their bounds and for the forms whose
+        unknowns do not follow from the parameters in closed form.
+    """
+    params = params or gmt.TransducerParameters()
+    out = []
+    for cls, values in variant.steady_components():
+        x = _fit_unknowns(cls, values, params)
+        if x is None:
+            continue
+        named = dict(zip(cls.fit.names, x))
+        for name in cls.at_bounds(x):
+            k = cls.fit.names.index(name)
+            lo, hi = cls.fit.lower[k], cls.fit.upper[k]
+            side = "lower" if abs(named[name] - lo) <= abs(named[name] - hi) else "upper"
+            out.append(f"{name} = {named[name]:.4g} on its {side} bound [{lo:g}, {hi:g}]")
+    return tuple(out)
+
+
+def rod_of(variant: gmt.ModelVariant | None):
+    """The mechanics the magnetostrictive force drives (:meth:`gmt.Transducer.rod_mechanics`)
+    as :class:`system_models.rod.RodParameters`."""
+    from system_models.rod import RodParameters
+    model = gmt.Transducer(variant=variant if variant is not None else gmt.ModelVariant())
+    return RodParameters(*model.rod_mechanics())
+
+
+@dataclass(frozen=True)
+class VariantCheck:
+    """A variant's weakness and its coupled circuit modes beside the paper model's.
+
+    Attributes
+    ----------
+    variant : str
+        The variant's name.
+    circuit : str
+        The circuit's name (:data:`system_models.presets.CIRCUITS`).
+    weak_reasons : tuple of str
+        Why the variant is a weak finding; empty if it is not.
+    paper_modes, variant_modes : tuple of StageModes
+        (compressing, expanding) of :func:`system_models.modes.circuit_modes`.
+    static_deflection_m : dict
+        The pump piston's rest deflection under the chamber's force at the
+        linearisation pressure, A_d p (1/K + 1/k_j), for ``"paper"`` and
+        ``"variant"``, [m].
+    """
+
+    variant: str
+    circuit: str
+    weak_reasons: tuple
+    paper_modes: tuple
+    variant_modes: tuple
+    static_deflection_m: dict = field(default_factory=dict)
+
+    @property
+    def weak(self) -> bool:
+        return bool(self.weak_reasons)
+
+    def resonance_reasons(self, frequency: float) -> list[str]:
+        """Why a circuit mode the variant moves makes the run at ``frequency`` [Hz] unphysical."""
+        f = float(frequency)
+        out = []
+        for paper, var in zip(self.paper_modes, self.variant_modes):
+            low_v, low_p = var.natural_frequencies_Hz[0], paper.natural_frequencies_Hz[0]
+            if low_v <= f < low_p:
+                out.append(
+                    f"circuit mode below the pumping frequency: while the pump is "
+                    f"{var.stage}, the transducer's mechanics with the oil and the cylinder's "
+                    f"load have their lowest mode at {low_v:.3g} Hz (the paper's model: "
+                    f"{low_p:.3g} Hz), at or below f = {f:g} Hz; above a mode the piston lags "
+                    f"the force by more than 90 deg and moves against the rod between the "
+                    f"valve switches")
+            for fn, zeta in var.resonances:
+                hit = [k for k in range(1, HARMONICS + 1)
+                       if zeta < PEAK_DAMPING and abs(k * f - fn) <= zeta * fn
+                       and not any(z < PEAK_DAMPING and abs(k * f - fp) <= z * fp
+                                   for fp, z in paper.resonances)]
+                if hit:
+                    which = " and ".join("f" if k == 1 else f"{k} f" for k in hit)
+                    out.append(f"circuit resonance at a pumping harmonic: while the pump is "
+                               f"{var.stage}, a mode at {fn:.4g} Hz (damping ratio "
+                               f"{zeta:.2g}) has {which} = "
+                               f"{', '.join(f'{k * f:g}' for k in hit)} Hz in its half-power "
+                               f"band; the paper's model has no mode there")
+        return out
+
+    def reasons(self, frequency: float) -> list[str]:
+        """Every reason the variant's run at ``frequency`` is marked (empty: unmarked)."""
+        weak = ([f"weak finding: {'; '.join(self.weak_reasons)}, so its parameters are "
+                 "not a physical result (docs/DIAGNOSE.md)"] if self.weak else [])
+        return weak + self.resonance_reasons(frequency)
+
+    def note(self, frequency: float) -> str:
+        """:meth:`reasons` as one sentence ("" when unmarked), with the static deflection
+        when a mode is the reason."""
+        reasons = self.reasons(frequency)
+        if not reasons:
+            return ""
+        text = "; ".join(reasons)
+        if self.resonance_reasons(frequency) and self.static_deflection_m:
+            d = self.static_deflection_m
+            text += (f" (at rest the chamber's force deflects the pump piston by "
+                     f"{d['variant'] * 1e3:.3g} mm, the paper's model by "
+                     f"{d['paper'] * 1e3:.3g} mm)")
+        return text
+
+    def as_dict(self, frequencies=()) -> dict:
+        """JSON-able: weakness, the modes of both models, the reasons at each frequency."""
+        return {"variant": self.variant, "circuit": self.circuit, "weak": self.weak,
+                "weak_reasons": list(self.weak_reasons),
+                "modes": {"paper": [m.as_dict() for m in self.paper_modes],
+                          "variant": [m.as_dict() for m in self.variant_modes]},
+                "static_deflection_um": {k: v * 1e6
+                                         for k, v in self.static_deflection_m.items()},
+                "marks": {f"{float(f):g}": self.reasons(f) for f in frequencies},
+                "rule": ("marked when the variant is a weak finding, or when it puts the "
+                         "lowest coupled mode of a pump stage at or below the pumping "
+                         "frequency (the paper's model above it), or an under-damped mode "
+                         f"with the pumping frequency or one of its harmonics up to "
+                         f"{HARMONICS} f in its half-power band (the paper's model none "
+                         "there); smeha.variantcheck")}
+
+
+def check_variant(variant: gmt.ModelVariant, circuit: str = "realistic",
+                  declared: Mapping | None = None) -> VariantCheck:
+    """Check a variant for the flow study on a named circuit (module docstring).
+
+    Parameters
+    ----------
+    variant : gmt.ModelVariant
+    circuit : str
+        A name of :data:`system_models.presets.CIRCUITS`.
+    declared : mapping, optional
+        The JSON the variant was read from: its weakness as stated there
+        (:func:`declared_weakness`) is kept beside the one recomputed from
+        the parameters (:func:`bound_unknowns`).
+    """
+    from system_models import presets
+    from system_models.circuit import initial_state
+    from system_models.modes import circuit_modes
+
+    weak, names = declared_weakness(declared)
+    reasons = list(bound_unknowns(variant))
+    if weak:
+        said = f" ({', '.join(names)} on their bounds)" if names else ""
+        reasons.append(f"the diagnosis reports it weak{said}")
+    plant = presets.circuit(circuit)
+    rods = {"paper": rod_of(None), "variant": rod_of(variant)}
+    modes = {k: circuit_modes(r, plant) for k, r in rods.items()}
+    force = plant.chamber.piston_area * float(initial_state(plant)[0])
+    deflection = {k: force * (1.0 / r.stiffness + (1.0 / r.joint_stiffness
+                                                    if r.output_mass > 0.0 else 0.0))
+                  for k, r in rods.items()}
+    return VariantCheck(variant.name, circuit, tuple(reasons), modes["paper"],
+                        modes["variant"], deflection)
