@@ -48,7 +48,7 @@ import gmt
 from gmt import extensions as ext
 
 __all__ = ["HARMONICS", "VariantCheck", "bound_unknowns", "check_variant",
-           "declared_weakness", "rod_of"]
+           "declared_weakness", "mark_rows", "rod_of"]
 
 #: The pumping frequency and its harmonics up to this order are compared with the
 #: circuit's modes: the valves switch at the drive's extremes, so the chamber's
@@ -167,7 +167,7 @@ class VariantCheck:
                     f"load have their lowest mode at {low_v:.3g} Hz (the paper's model: "
                     f"{low_p:.3g} Hz), at or below f = {f:g} Hz; above a mode the piston lags "
                     f"the force by more than 90 deg and moves against the rod between the "
-                    f"valve switches")
+                    f"valve switches{self._deflection()}")
             for fn, zeta in var.resonances:
                 hit = [k for k in range(1, HARMONICS + 1)
                        if zeta < PEAK_DAMPING and abs(k * f - fn) <= zeta * fn
@@ -188,19 +188,17 @@ class VariantCheck:
                  "not a physical result (docs/DIAGNOSE.md)"] if self.weak else [])
         return weak + self.resonance_reasons(frequency)
 
-    def note(self, frequency: float) -> str:
-        """:meth:`reasons` as one sentence ("" when unmarked), with the static deflection
-        when a mode is the reason."""
-        reasons = self.reasons(frequency)
-        if not reasons:
+    def _deflection(self) -> str:
+        d = self.static_deflection_m
+        if not d:
             return ""
-        text = "; ".join(reasons)
-        if self.resonance_reasons(frequency) and self.static_deflection_m:
-            d = self.static_deflection_m
-            text += (f" (at rest the chamber's force deflects the pump piston by "
-                     f"{d['variant'] * 1e3:.3g} mm, the paper's model by "
-                     f"{d['paper'] * 1e3:.3g} mm)")
-        return text
+        return (f" (at rest the chamber's force deflects the pump piston by "
+                f"{d['variant'] * 1e3:.3g} mm, with the paper's model by "
+                f"{d['paper'] * 1e3:.3g} mm)")
+
+    def note(self, frequency: float) -> str:
+        """:meth:`reasons` as one sentence ("" when unmarked)."""
+        return "; ".join(self.reasons(frequency))
 
     def as_dict(self, frequencies=()) -> dict:
         """JSON-able: weakness, the modes of both models, the reasons at each frequency."""
@@ -251,3 +249,15 @@ def check_variant(variant: gmt.ModelVariant, circuit: str = "realistic",
                   for k, r in rods.items()}
     return VariantCheck(variant.name, circuit, tuple(reasons), modes["paper"],
                         modes["variant"], deflection)
+
+
+def mark_rows(rows, check: VariantCheck) -> list:
+    """Add ``variant_marks`` (the reasons, a list) and, when marked, ``variant_note`` (one
+    sentence) to each of the variant's rows of a flow study (in place); returns ``rows``."""
+    for row in rows:
+        if row.get("model", "paper") == "paper":
+            continue
+        row["variant_marks"] = check.reasons(row["frequency_Hz"])
+        if row["variant_marks"]:
+            row["variant_note"] = check.note(row["frequency_Hz"])
+    return rows

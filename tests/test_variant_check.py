@@ -1,0 +1,188 @@
+"""A model variant in the system study says when it is not physical (issue 18, item 4).
+
+References: the two-degree-of-freedom chain's natural frequencies in closed form
+(Thomson & Dahleh, *Theory of Vibration with Applications*, 5th ed. 1998, ch. 5;
+Inman, *Engineering Vibration*, 4th ed. 2014, sec. 4.1) and the single degree of
+freedom's natural frequency and damping ratio (Inman, sec. 1.3).
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+import gmt
+from smeha import cli
+from smeha.variantcheck import bound_unknowns, check_variant, declared_weakness
+from system_models import presets
+from system_models.accumulator import oil_volume_at
+from system_models.circuit import initial_state
+from system_models.cylinder import cavity_volumes
+from system_models.fluid import effective_bulk_modulus
+from system_models.modes import circuit_modes, modes_of
+from system_models.rod import RodParameters
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: The issue's case, written by hand in ModelVariant.as_dict()'s format: a mechanical
+#: resonance diagnosed as two_dof with the rod's mass on its bound (m2/m = 0.98 of Table 2's
+#: 0.02 kg: 0.4 g rod, 19.6 g output), a 1.8e5 N/m joint, its damping ratio 0.1.
+HAND_TWO_DOF = {"cause": "mechanical_resonance", "form": "two_dof",
+                "parameters": {"rod_mass_kg": 0.0004, "output_mass_kg": 0.0196,
+                               "joint_stiffness_N_per_m": 1.8e5,
+                               "joint_damping_N_s_per_m": 2 * 0.1 * math.sqrt(1.8e5 * 0.0196)}}
+
+
+def chain_frequencies(m1, m2, k1, k2, k3):
+    """Natural frequencies [Hz] of ground-k1-m1-k2-m2-k3-ground in closed form: the roots
+    of det([[k1 + k2 - m1 w^2, -k2], [-k2, k2 + k3 - m2 w^2]]) = 0 (Thomson & Dahleh ch. 5)."""
+    a = (k1 + k2) / m1 + (k2 + k3) / m2
+    b = (k1 * k2 + k2 * k3 + k1 * k3) / (m1 * m2)
+    root = math.sqrt(a * a - 4.0 * b)
+    return tuple(math.sqrt((a + s * root) / 2.0) / (2.0 * math.pi) for s in (-1.0, 1.0))
+
+
+def test_single_mass_mode_is_the_textbook_one():
+    # Inman sec. 1.3: w_n = sqrt(k/m), zeta = c / (2 sqrt(k m)); eq 27 with Table 2's m, c, K
+    # is over-damped (zeta = 2.35, gmt.mechanics), so a lighter damper for a pair of poles
+    m, c, k = 0.02, 58.9, 1.963e7
+    modes = modes_of([[m]], [[k]], [[c]])
+    fn = math.sqrt(k / m) / (2.0 * math.pi)
+    assert modes.natural_frequencies_Hz[0] == pytest.approx(fn, rel=1e-12)
+    (f, zeta), = modes.resonances
+    # |l| of an under-damped pair is w_n exactly; rel 1e-9: eigenvalue round-off
+    assert f == pytest.approx(fn, rel=1e-9)
+    assert zeta == pytest.approx(c / (2.0 * math.sqrt(k * m)), rel=1e-9)
+
+
+def test_two_mass_transducer_modes_match_the_closed_form():
+    # the two-mass form alone (no oil): ground-K-m1-k_j-m2, free output (k3 = 0)
+    rod = RodParameters(mass=0.0004, output_mass=0.0196, joint_stiffness=1.8e5,
+                        stiffness=1.963e7, damping=0.0)
+    modes = modes_of([[rod.mass, 0.0], [0.0, rod.output_mass]],
+                     [[rod.stiffness + rod.joint_stiffness, -rod.joint_stiffness],
+                      [-rod.joint_stiffness, rod.joint_stiffness]],
+                     [[0.0, 0.0], [0.0, 0.0]])
+    expected = chain_frequencies(rod.mass, rod.output_mass, rod.stiffness,
+                                 rod.joint_stiffness, 0.0)
+    assert modes.natural_frequencies_Hz == pytest.approx(expected, rel=1e-9)
+
+
+def test_pump_compressing_is_the_two_mass_chain_with_the_reflected_load():
+    # Compressing into the big cavity ("down", V1 and V4 open), Table 2's one mass on K
+    # pushes the oil of P + B against the cylinder's piston, whose small cavity feeds the
+    # accumulator. With z = (A_B / A_d) x this is ground-K-m-k2-M'-k3-ground, the load
+    # reflected through the area ratio (Merritt, Hydraulic Control Systems, ch. 5):
+    # M' = M (A_d/A_B)^2, k2 = beta A_d^2 / (V_P + V_B),
+    # k3 = A_S^2 (A_d/A_B)^2 / (V_S / beta + V_g / (n p)).
+    plant = presets.realistic_circuit()
+    rod = RodParameters()
+    state = initial_state(plant)
+    p, x = state[0], state[4]
+    beta = float(effective_bulk_modulus(plant.fluid, p))
+    cyl, acc, ad = plant.cylinder, plant.accumulator, plant.chamber.piston_area
+    vb, vs = cavity_volumes(cyl, x)
+    gas = acc.gas_volume - oil_volume_at(acc, p)
+    ratio = ad / cyl.big_area
+    k2 = beta * ad ** 2 / (plant.chamber.dead_volume + vb)
+    k3 = cyl.small_area ** 2 * ratio ** 2 / (vs / beta + gas / (acc.polytropic_index * p))
+    expected = chain_frequencies(rod.mass, cyl.mass * ratio ** 2, rod.stiffness, k2, k3)
+    compressing, _ = circuit_modes(rod, plant)
+    # rel 1e-9: the same linear model by two routes, round-off only
+    assert compressing.natural_frequencies_Hz == pytest.approx(expected, rel=1e-9)
+    # the lowest is K carrying the 16 kg the 1 kg cylinder weighs at the pump piston
+    assert 150.0 < expected[0] < 180.0
+
+
+def test_hand_written_two_dof_variant_is_weak_and_moves_a_mode_below_the_pumping_frequency():
+    variant = gmt.ModelVariant.from_dict(HAND_TWO_DOF)
+    assert bound_unknowns(variant) == ("m2/m = 0.98 on its upper bound [0.02, 0.98]",)
+    check = check_variant(variant, "realistic")
+    low = check.variant_modes[0].natural_frequencies_Hz[0]
+    # the joint in series with K carrying the reflected 16 kg: the chain's closed form
+    plant = presets.realistic_circuit()
+    assert low == pytest.approx(19.0, abs=0.5)
+    assert check.paper_modes[0].natural_frequencies_Hz[0] == pytest.approx(164.7, abs=0.5)
+    for f in (50.0, 100.0):
+        reasons = check.reasons(f)
+        assert len(reasons) == 2, reasons
+        assert reasons[0].startswith("weak finding: m2/m = 0.98 on its upper bound")
+        assert reasons[1].startswith("circuit mode below the pumping frequency")
+        assert f"at or below f = {f:g} Hz" in reasons[1]
+    # the chamber's force at rest (A_d p) over k_j: ~10.5 mm against the paper's 96 um
+    force = plant.chamber.piston_area * initial_state(plant)[0]
+    assert check.static_deflection_m["variant"] == pytest.approx(
+        force * (1 / 1.963e7 + 1 / 1.8e5), rel=1e-12)
+
+
+def test_variant_leaving_the_mechanics_alone_is_not_marked():
+    # a sensor delay leaves the paper's mechanics, hence its modes: no mark at any f of
+    # the paper's Table 3, nor on another circuit
+    delay = gmt.ModelVariant("transport_delay", {"delay_s": 4e-4})
+    for circuit in ("realistic", "ideal"):
+        check = check_variant(delay, circuit)
+        assert not check.weak
+        assert check.variant_modes == check.paper_modes
+        assert all(check.reasons(f) == [] for f in (50.0, 70.0, 80.0, 100.0))
+
+
+def test_a_stiff_joint_in_its_bounds_is_not_marked():
+    # a 20 kHz joint (log10 f_j = 4.3, inside [1.5, 4.5]) with m2/m = 0.5: no bound, and
+    # k_j = 8 K keeps the lowest mode near the paper's (K carrying the reflected load),
+    # above 100 Hz. (What matters is k_j against K, not the joint's own frequency: a 5 kHz
+    # joint, k_j = K/2, brings that mode down to 100 Hz.)
+    m2 = 0.01
+    kj = m2 * (2 * math.pi * 20000.0) ** 2
+    variant = gmt.ModelVariant("mechanical_resonance", {
+        "rod_mass_kg": 0.01, "output_mass_kg": m2, "joint_stiffness_N_per_m": kj,
+        "joint_damping_N_s_per_m": 2 * 0.1 * math.sqrt(kj * m2)}, "two_dof")
+    check = check_variant(variant, "realistic")
+    assert bound_unknowns(variant) == () and not check.weak
+    assert check.variant_modes[0].natural_frequencies_Hz[0] > 100.0
+    assert all(check.reasons(f) == [] for f in (50.0, 70.0, 80.0, 100.0))
+
+
+def test_weakness_stated_in_the_file_is_kept():
+    shipped = json.loads((ROOT / "data" / "paper_variant.json").read_text())
+    assert declared_weakness(shipped) == (True, ("m/m0", "c/c0"))
+    diagnosis = {"cause": "transport_delay", "weak": True,
+                 "extended": {"at_bounds": ["log10_delay_s"]}}
+    assert declared_weakness(diagnosis) == (True, ("log10_delay_s",))
+    assert declared_weakness({"cause": "transport_delay"}) == (False, ())
+    check = check_variant(gmt.ModelVariant.from_dict(shipped), "realistic", shipped)
+    # recomputed from the parameters (0.02 of Table 2's m and c) and as the file says
+    assert check.weak_reasons == ("m/m0 = 0.02 on its lower bound [0.02, 50]",
+                                  "c/c0 = 0.02 on its lower bound [0.02, 50]",
+                                  "the diagnosis reports it weak (m/m0, c/c0 on their bounds)")
+    # its mechanics keep the lowest mode above 100 Hz: the only reason is the weakness
+    assert len(check.reasons(100.0)) == 1
+
+
+@pytest.mark.integration
+def test_cli_flow_marks_the_hand_written_two_dof_variant(tmp_path, capsys):
+    path = tmp_path / "d.json"
+    path.write_text(json.dumps(HAND_TWO_DOF))
+    args = ["flow", "--frequencies", "50,100", "--backend", "direct", "--workers", "1",
+            "--cycles", "4", "--variant", str(path)]
+    assert cli.main(args + ["--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    check = out["variant"]["check"]
+    assert check["weak"] and check["marks"].keys() == {"50", "100"}
+    for pair in out["comparison"]:
+        assert [m.split(":")[0] for m in pair["variant_marks"]] == [
+            "weak finding", "circuit mode below the pumping frequency"]
+        # the physics the marks warn of: the piston moves backwards between the switches
+        assert pair["dy_variant_um"] < 0 < pair["dy_free_variant_um"]
+    for row in out["rows"]:
+        assert ("variant_marks" in row) == (row["model"] != "paper")
+    assert cli.main(args + ["--plot", str(tmp_path / "flow.png")]) == 0
+    text = capsys.readouterr().out
+    paper_table, comparison = text.split("Cylinder flow: the paper's model against")
+    assert "(!)" not in paper_table  # the paper's model on the realistic circuit: no mark
+    rows = [line for line in comparison.splitlines() if line.lstrip()[:3] in ("50 ", "100")]
+    assert len(rows) == 4 and all(line.endswith("(!)") for line in rows)
+    assert "variant: weak finding: m2/m = 0.98" in comparison
+    assert "lowest mode at 19 Hz (the paper's model: 165 Hz)" in comparison
+    assert (tmp_path / "flow.png").stat().st_size > 0
