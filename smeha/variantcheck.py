@@ -15,21 +15,24 @@ its JSON and the plot) says so, with the reason (:func:`check_variant`):
   edited variant is caught too;
 * **a circuit mode the variant moves onto the pumping frequency**: the pump
   delivers f A_d dy (eqs 39-41) while the pump piston follows the
-  magnetostrictive force, that is below the lowest mode of the transducer's
-  mechanics coupled with the oil and the cylinder's load
-  (:func:`system_models.modes.circuit_modes`). Above a mode the response
-  lags the force by more than 90 deg (a single degree of freedom's phase
-  atan(2 zeta r / (1 - r^2)) passes 90 deg at r = f/f_n = 1 whatever the
-  damping; Inman, *Engineering Vibration*, 4th ed. 2014, sec. 2.2), so the
-  piston moves against the rod between the valve switches. A variant row is
-  marked when, in a stage of the pump, the variant's lowest natural
-  frequency is at or below the pumping frequency f and the paper model's is
-  above it, or when the variant has an under-damped mode (zeta < 1/sqrt(2),
-  the damping below which a resonant peak exists, sec. 2.2) whose half-power
-  band f_n (1 -+ zeta) holds f or one of its next :data:`HARMONICS` - 1
-  harmonics and the paper's model has none there. The rule is relative:
-  the mark is for what the variant puts there; the paper model's own modes
-  are listed beside it.
+  magnetostrictive force, that is well below the lowest mode of the
+  transducer's mechanics coupled with the oil and the cylinder's load
+  (:func:`system_models.modes.circuit_modes`). How far below shows in the
+  piston's lag behind the force at f (:func:`system_models.modes.piston_receptance`,
+  the linear coupled model). A single degree of freedom lags by
+  arctan(2 zeta r / (1 - r^2)), r = f/f_n (Inman, *Engineering Vibration*,
+  4th ed. 2014, sec. 2.2): :data:`LAG_LIMIT_DEG` = 45 deg where the damping
+  force c w has grown to the net restoring force |K - m w^2|, from where the
+  mode rather than the stiffness sets the stroke, and 90 deg at the mode
+  itself, past which the piston moves against the rod between the valve
+  switches. A variant row is marked when, in a stage of the pump, the
+  piston's lag at f exceeds 45 deg with the variant and not with the paper's
+  model; or when the variant has an under-damped mode (zeta < 1/sqrt(2), the
+  damping below which a resonant peak exists, sec. 2.2) whose half-power band
+  f_n (1 -+ zeta) (exact as zeta -> 0, a fair width up to the limit) holds f or one of its next :data:`HARMONICS` - 1 harmonics
+  and the paper's model has none there. The rule is relative: the mark is
+  for what the variant puts there; the paper model's own modes and lags are
+  listed beside it.
 
 Examples
 --------
@@ -57,6 +60,9 @@ HARMONICS = 3
 
 #: Damping ratio below which a mode has a resonant peak (Inman, sec. 2.2).
 PEAK_DAMPING = 1.0 / math.sqrt(2.0)
+#: Lag of the pump piston behind the magnetostrictive force beyond which a mode sets the
+#: stroke, [deg] (module docstring: the damping force equals the net restoring force).
+LAG_LIMIT_DEG = 45.0
 
 
 def declared_weakness(data) -> tuple[bool, tuple]:
@@ -141,6 +147,10 @@ class VariantCheck:
         The pump piston's rest deflection under the chamber's force at the
         linearisation pressure, A_d p (1/K + 1/k_j), for ``"paper"`` and
         ``"variant"``, [m].
+    rods : dict
+        The :class:`system_models.rod.RodParameters` of ``"paper"`` and ``"variant"``.
+    plant : CircuitParameters
+        The circuit the modes are of.
     """
 
     variant: str
@@ -149,6 +159,20 @@ class VariantCheck:
     paper_modes: tuple
     variant_modes: tuple
     static_deflection_m: dict = field(default_factory=dict)
+    rods: dict = field(default_factory=dict)
+    plant: object = None
+
+    def piston_lags_deg(self, frequency: float) -> dict:
+        """The pump piston's lag behind the force at ``frequency`` [Hz], [deg], per stage
+        (compressing, expanding), for ``"paper"`` and ``"variant"``; and its stroke per
+        unit force times K (``"..._stroke"``, 1 for the free rod at rest)."""
+        from system_models.modes import piston_receptance
+        out = {}
+        for model, rod in self.rods.items():
+            h = piston_receptance(rod, self.plant, frequency)
+            out[model] = tuple(-math.degrees(math.atan2(z.imag, z.real)) for z in h)
+            out[f"{model}_stroke"] = tuple(abs(z) * rod.stiffness for z in h)
+        return out
 
     @property
     def weak(self) -> bool:
@@ -158,16 +182,21 @@ class VariantCheck:
         """Why a circuit mode the variant moves makes the run at ``frequency`` [Hz] unphysical."""
         f = float(frequency)
         out = []
-        for paper, var in zip(self.paper_modes, self.variant_modes):
+        lags = self.piston_lags_deg(f) if self.rods else None
+        for k, (paper, var) in enumerate(zip(self.paper_modes, self.variant_modes)):
             low_v, low_p = var.natural_frequencies_Hz[0], paper.natural_frequencies_Hz[0]
-            if low_v <= f < low_p:
+            if lags is not None and lags["variant"][k] > LAG_LIMIT_DEG >= lags["paper"][k]:
+                where = "below" if low_v <= f else "near"
                 out.append(
-                    f"circuit mode below the pumping frequency: while the pump is "
+                    f"circuit mode {where} the pumping frequency: while the pump is "
                     f"{var.stage}, the transducer's mechanics with the oil and the cylinder's "
                     f"load have their lowest mode at {low_v:.3g} Hz (the paper's model: "
-                    f"{low_p:.3g} Hz), at or below f = {f:g} Hz; above a mode the piston lags "
-                    f"the force by more than 90 deg and moves against the rod between the "
-                    f"valve switches{self._deflection()}")
+                    f"{low_p:.3g} Hz); at f = {f:g} Hz the pump piston lags the "
+                    f"magnetostrictive force by {lags['variant'][k]:.0f} deg (the paper's "
+                    f"model: {lags['paper'][k]:.0f} deg) with {lags['variant_stroke'][k]:.2g} "
+                    f"of the free rod's static stroke: past {LAG_LIMIT_DEG:g} deg the mode, "
+                    f"not the stiffness, sets the stroke, past 90 deg the piston moves "
+                    f"against the rod between the valve switches{self._deflection()}")
             for fn, zeta in var.resonances:
                 hit = [k for k in range(1, HARMONICS + 1)
                        if zeta < PEAK_DAMPING and abs(k * f - fn) <= zeta * fn
@@ -208,13 +237,15 @@ class VariantCheck:
                           "variant": [m.as_dict() for m in self.variant_modes]},
                 "static_deflection_um": {k: v * 1e6
                                          for k, v in self.static_deflection_m.items()},
+                "piston_lag_deg": ({f"{float(f):g}": self.piston_lags_deg(f)
+                                    for f in frequencies} if self.rods else {}),
                 "marks": {f"{float(f):g}": self.reasons(f) for f in frequencies},
-                "rule": ("marked when the variant is a weak finding, or when it puts the "
-                         "lowest coupled mode of a pump stage at or below the pumping "
-                         "frequency (the paper's model above it), or an under-damped mode "
-                         f"with the pumping frequency or one of its harmonics up to "
-                         f"{HARMONICS} f in its half-power band (the paper's model none "
-                         "there); smeha.variantcheck")}
+                "rule": ("marked when the variant is a weak finding, or when in a stage of "
+                         f"the pump it makes the piston lag the force by more than "
+                         f"{LAG_LIMIT_DEG:g} deg at the pumping frequency (the paper's model "
+                         "not), or puts an under-damped mode with the pumping frequency or "
+                         f"one of its harmonics up to {HARMONICS} f in its half-power band "
+                         "(the paper's model none there); smeha.variantcheck")}
 
 
 def check_variant(variant: gmt.ModelVariant, circuit: str = "realistic",
@@ -248,7 +279,7 @@ def check_variant(variant: gmt.ModelVariant, circuit: str = "realistic",
                                                     if r.output_mass > 0.0 else 0.0))
                   for k, r in rods.items()}
     return VariantCheck(variant.name, circuit, tuple(reasons), modes["paper"],
-                        modes["variant"], deflection)
+                        modes["variant"], deflection, rods, plant)
 
 
 def mark_rows(rows, check: VariantCheck) -> list:

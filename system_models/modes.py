@@ -66,7 +66,7 @@ from .cylinder import cavity_volumes
 from .fluid import effective_bulk_modulus
 from .rod import RodParameters
 
-__all__ = ["StageModes", "circuit_modes", "stage_matrices", "modes_of"]
+__all__ = ["StageModes", "circuit_modes", "stage_matrices", "modes_of", "piston_receptance"]
 
 #: The valves of Figure 2 as (first node, second node): V1 P-B, V2 B-A, V3 P-S, V4 S-A.
 VALVE_NODES = (("P", "B"), ("B", "A"), ("P", "S"), ("S", "A"))
@@ -218,3 +218,34 @@ def circuit_modes(rod: RodParameters, circuit: CircuitParameters, direction: str
     return tuple(modes_of(*stage_matrices(rod, circuit, valve_commands(direction, c), pressure,
                                           piston_position), stage)
                  for c, stage in ((True, "compressing"), (False, "expanding")))
+
+
+def piston_receptance(rod: RodParameters, circuit: CircuitParameters, frequency: float,
+                      direction: str = "down", pressure: float | None = None,
+                      piston_position: float | None = None) -> tuple[complex, complex]:
+    """The pump piston's displacement per unit magnetostrictive force on the rod, [m/N].
+
+    Y / F = e_out^T (K - w^2 M + j w D)^-1 e_rod at w = 2 pi ``frequency`` (Inman,
+    sec. 5.2, the receptance of a damped system), in each stage of the pump
+    (:func:`stage_matrices`, the force on the rod's coordinate, the piston on the
+    last transducer coordinate). Its phase is the piston's lag behind the force;
+    its modulus times K is the stroke against the free rod's static one.
+
+    Returns
+    -------
+    tuple of complex
+        (compressing, expanding).
+    """
+    if direction not in DIRECTIONS:
+        from gmt.errors import ParameterError
+        raise ParameterError(f"direction = {direction!r} is not one of {DIRECTIONS}")
+    w = 2.0 * math.pi * float(frequency)
+    out = []
+    for compressing in (True, False):
+        mass, stiff, damp = stage_matrices(rod, circuit, valve_commands(direction, compressing),
+                                           pressure, piston_position)
+        force = np.zeros(len(mass))
+        force[0] = 1.0
+        y = np.linalg.solve(stiff - w * w * mass + 1j * w * damp, force)
+        out.append(complex(y[len(mass) - 2]))
+    return tuple(out)
