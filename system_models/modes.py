@@ -212,9 +212,7 @@ def circuit_modes(rod: RodParameters, circuit: CircuitParameters, direction: str
     tuple of StageModes
         (compressing, expanding).
     """
-    if direction not in DIRECTIONS:
-        from gmt.errors import ParameterError
-        raise ParameterError(f"direction = {direction!r} is not one of {DIRECTIONS}")
+    _check_direction(direction)
     return tuple(modes_of(*stage_matrices(rod, circuit, valve_commands(direction, c), pressure,
                                           piston_position), stage)
                  for c, stage in ((True, "compressing"), (False, "expanding")))
@@ -236,9 +234,7 @@ def piston_receptance(rod: RodParameters, circuit: CircuitParameters, frequency:
     tuple of complex
         (compressing, expanding).
     """
-    if direction not in DIRECTIONS:
-        from gmt.errors import ParameterError
-        raise ParameterError(f"direction = {direction!r} is not one of {DIRECTIONS}")
+    _check_direction(direction)
     w = 2.0 * math.pi * float(frequency)
     out = []
     for compressing in (True, False):
@@ -249,3 +245,9 @@ def piston_receptance(rod: RodParameters, circuit: CircuitParameters, frequency:
         y = np.linalg.solve(stiff - w * w * mass + 1j * w * damp, force)
         out.append(complex(y[len(mass) - 2]))
     return tuple(out)
+
+
+def _check_direction(direction):
+    if direction not in DIRECTIONS:
+        from gmt.errors import ParameterError
+        raise ParameterError(f"direction = {direction!r} is not one of {DIRECTIONS}")

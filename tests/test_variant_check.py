@@ -70,15 +70,14 @@ def test_two_mass_transducer_modes_match_the_closed_form():
     assert modes.natural_frequencies_Hz == pytest.approx(expected, rel=1e-9)
 
 
-def test_pump_compressing_is_the_two_mass_chain_with_the_reflected_load():
-    # Compressing into the big cavity ("down", V1 and V4 open), Table 2's one mass on K
-    # pushes the oil of P + B against the cylinder's piston, whose small cavity feeds the
-    # accumulator. With z = (A_B / A_d) x this is ground-K-m-k2-M'-k3-ground, the load
-    # reflected through the area ratio (Merritt, Hydraulic Control Systems, ch. 5):
-    # M' = M (A_d/A_B)^2, k2 = beta A_d^2 / (V_P + V_B),
-    # k3 = A_S^2 (A_d/A_B)^2 / (V_S / beta + V_g / (n p)).
-    plant = presets.realistic_circuit()
-    rod = RodParameters()
+def reflected_chain(plant):
+    """Compressing into the big cavity ("down", V1 and V4 open), one transducer mass on K
+    pushes the oil of P + B against the cylinder's piston, whose small cavity feeds the
+    accumulator. With z = (A_B / A_d) x this is the chain ground-K-m-k2-M'-k3-ground, the
+    load reflected through the area ratio (Merritt, Hydraulic Control Systems, ch. 5):
+    M' = M r^2, b' = b r^2 (the friction), r = A_d/A_B, k2 = beta A_d^2 / (V_P + V_B),
+    k3 = A_S^2 r^2 / (V_S / beta + V_g / (n p)); written here from the circuit's parts.
+    Returns (k2, k3, M', b')."""
     state = initial_state(plant)
     p, x = state[0], state[4]
     beta = float(effective_bulk_modulus(plant.fluid, p))
@@ -88,32 +87,31 @@ def test_pump_compressing_is_the_two_mass_chain_with_the_reflected_load():
     ratio = ad / cyl.big_area
     k2 = beta * ad ** 2 / (plant.chamber.dead_volume + vb)
     k3 = cyl.small_area ** 2 * ratio ** 2 / (vs / beta + gas / (acc.polytropic_index * p))
-    expected = chain_frequencies(rod.mass, cyl.mass * ratio ** 2, rod.stiffness, k2, k3)
+    return k2, k3, cyl.mass * ratio ** 2, cyl.friction * ratio ** 2
+
+
+def test_pump_compressing_is_the_two_mass_chain_with_the_reflected_load():
+    plant = presets.realistic_circuit()
+    rod = RodParameters()  # Table 2's one mass
+    k2, k3, m2, _ = reflected_chain(plant)
+    expected = chain_frequencies(rod.mass, m2, rod.stiffness, k2, k3)
     compressing, _ = circuit_modes(rod, plant)
     # rel 1e-9: the same linear model by two routes, round-off only
     assert compressing.natural_frequencies_Hz == pytest.approx(expected, rel=1e-9)
     # the lowest is K carrying the 16 kg the 1 kg cylinder weighs at the pump piston
+    # (A_d = 1256 mm^2, paper Table 2, over A_B = pi (10 mm)^2 = 314.2 mm^2: a ratio 3.998)
+    assert m2 == pytest.approx(1.0 * (1256e-6 / (math.pi * 0.01 ** 2)) ** 2, rel=1e-12)
     assert 150.0 < expected[0] < 180.0
 
 
 def test_piston_receptance_is_the_damped_chain_in_closed_form():
-    # Paper's model, compressing (the chain of the test above) with the dampers: c on the
-    # rod to ground, the cylinder's friction b reflected as b (A_d/A_B)^2. Receptance of
-    # the first mass of a damped two-mass chain (Inman sec. 5.2; Thomson & Dahleh ch. 5):
-    # X_1/F_1 = Z_22 / (Z_11 Z_22 - k2^2), Z_11 = k1 + k2 - m1 w^2 + j w c1,
+    # The chain of reflected_chain with its dampers: c on the rod to ground, b' on M'.
+    # Receptance of the first mass of a damped two-mass chain (Inman sec. 5.2; Thomson &
+    # Dahleh ch. 5): X_1/F_1 = Z_22 / (Z_11 Z_22 - k2^2), Z_11 = k1 + k2 - m1 w^2 + j w c1,
     # Z_22 = k2 + k3 - m2 w^2 + j w c2
     plant = presets.realistic_circuit()
     rod = RodParameters()
-    state = initial_state(plant)
-    p, x = state[0], state[4]
-    beta = float(effective_bulk_modulus(plant.fluid, p))
-    cyl, acc, ad = plant.cylinder, plant.accumulator, plant.chamber.piston_area
-    vb, vs = cavity_volumes(cyl, x)
-    gas = acc.gas_volume - oil_volume_at(acc, p)
-    ratio = ad / cyl.big_area
-    k2 = beta * ad ** 2 / (plant.chamber.dead_volume + vb)
-    k3 = cyl.small_area ** 2 * ratio ** 2 / (vs / beta + gas / (acc.polytropic_index * p))
-    m2, c2 = cyl.mass * ratio ** 2, cyl.friction * ratio ** 2
+    k2, k3, m2, c2 = reflected_chain(plant)
     for f in (50.0, 100.0, 165.0):
         w = 2 * math.pi * f
         z11 = rod.stiffness + k2 - rod.mass * w * w + 1j * w * rod.damping
