@@ -32,7 +32,16 @@ its JSON and the plot) says so, with the reason (:func:`check_variant`):
   f_n (1 -+ zeta) (exact as zeta -> 0, a fair width up to the limit) holds f or one of its next :data:`HARMONICS` - 1 harmonics
   and the paper's model has none there. The rule is relative: the mark is
   for what the variant puts there; the paper model's own modes and lags are
-  listed beside it.
+  listed beside it;
+* **a rebound the variant magnifies**: at each valve switch the chamber's
+  pressure steps (with a differential cylinder its cavities' pressures
+  differ by the area ratio and the load; :func:`system_models.modes.pressure_step`),
+  and across the static compliance 1/K (+ 1/k_j) that force step moves the
+  pump piston. Once that exceeds the free stroke the oil's pressure, not the
+  rod, sets the stroke (the pump rings between two rest positions that the
+  valve timing rectifies). A row is marked when that holds with the variant
+  and not with the paper's model (after the run: it needs the row's load
+  and free stroke).
 
 Examples
 --------
@@ -211,11 +220,43 @@ class VariantCheck:
                                f"band; the paper's model has no mode there")
         return out
 
-    def reasons(self, frequency: float) -> list[str]:
-        """Every reason the variant's run at ``frequency`` is marked (empty: unmarked)."""
+    def rebound_reason(self, load_force: float, free_stroke: float,
+                       paper_free_stroke: float) -> str:
+        """Why the chamber's pressure step, not the rod, sets the variant's stroke ("" if not).
+
+        At each valve switch the chamber's pressure steps
+        (:func:`system_models.modes.pressure_step`, at rest with ``load_force``
+        [N]); across the static compliance 1/K + 1/k_j that force step moves the
+        pump piston. Marked when that exceeds the variant's free stroke
+        ``free_stroke`` [m] while with the paper's model (compliance 1/K) it
+        stays within ``paper_free_stroke`` [m].
+        """
+        from system_models.modes import pressure_step
+        step = pressure_step(self.plant, load_force)
+        force = abs(step) * self.plant.chamber.piston_area
+        moved = {k: force * _compliance(r) for k, r in self.rods.items()}
+        if not moved["variant"] > free_stroke or moved["paper"] > paper_free_stroke:
+            return ""
+        return (f"rebound: at each valve switch the chamber's pressure steps by "
+                f"{abs(step) / 1e6:.3g} MPa (the cylinder's balance p_B A_B - p_S A_S = "
+                f"F_load, {load_force:g} N); across the variant's static compliance "
+                f"1/K + 1/k_j that moves the pump piston by {moved['variant'] * 1e6:.3g} um, "
+                f"more than its free stroke of {free_stroke * 1e6:.3g} um (the paper's model: "
+                f"{moved['paper'] * 1e6:.2g} um against {paper_free_stroke * 1e6:.3g} um): the "
+                f"oil's pressure, not the rod, sets the stroke")
+
+    def reasons(self, frequency: float, rebound: tuple | None = None) -> list[str]:
+        """Every reason the variant's run at ``frequency`` is marked (empty: unmarked).
+
+        ``rebound``: (load [N], the variant's free stroke [m], the paper's [m]) of
+        the run, for :meth:`rebound_reason` (left out when None).
+        """
         weak = ([f"weak finding: {'; '.join(self.weak_reasons)}, so its parameters are "
                  "not a physical result (docs/DIAGNOSE.md)"] if self.weak else [])
-        return weak + self.resonance_reasons(frequency)
+        out = weak + self.resonance_reasons(frequency)
+        if rebound is not None and self.rods:
+            out += [r for r in (self.rebound_reason(*rebound),) if r]
+        return out
 
     def _deflection(self) -> str:
         d = self.static_deflection_m
@@ -225,9 +266,6 @@ class VariantCheck:
                 f"{d['variant'] * 1e3:.3g} mm, with the paper's model by "
                 f"{d['paper'] * 1e3:.3g} mm)")
 
-    def note(self, frequency: float) -> str:
-        """:meth:`reasons` as one sentence ("" when unmarked)."""
-        return "; ".join(self.reasons(frequency))
 
     def as_dict(self, frequencies=()) -> dict:
         """JSON-able: weakness, the modes of both models, the reasons at each frequency."""
@@ -239,24 +277,28 @@ class VariantCheck:
                                          for k, v in self.static_deflection_m.items()},
                 "piston_lag_deg": ({f"{float(f):g}": self.piston_lags_deg(f)
                                     for f in frequencies} if self.rods else {}),
+                # before the run; each row's variant_marks add the rebound (mark_rows)
                 "marks": {f"{float(f):g}": self.reasons(f) for f in frequencies},
                 "rule": ("marked when the variant is a weak finding, or when in a stage of "
                          f"the pump it makes the piston lag the force by more than "
                          f"{LAG_LIMIT_DEG:g} deg at the pumping frequency (the paper's model "
                          "not), or puts an under-damped mode with the pumping frequency or "
                          f"one of its harmonics up to {HARMONICS} f in its half-power band "
-                         "(the paper's model none there); smeha.variantcheck")}
+                         "(the paper's model none there), or (each row's variant_marks) "
+                         "when the chamber's pressure step at a valve switch moves the "
+                         "piston by more than its free stroke across the variant's static "
+                         "compliance (the paper's model not); smeha.variantcheck")}
 
 
-def check_variant(variant: gmt.ModelVariant, circuit: str = "realistic",
+def check_variant(variant: gmt.ModelVariant, circuit="realistic",
                   declared: Mapping | None = None) -> VariantCheck:
     """Check a variant for the flow study on a named circuit (module docstring).
 
     Parameters
     ----------
     variant : gmt.ModelVariant
-    circuit : str
-        A name of :data:`system_models.presets.CIRCUITS`.
+    circuit : str or CircuitParameters
+        A name of :data:`system_models.presets.CIRCUITS`, or the circuit itself.
     declared : mapping, optional
         The JSON the variant was read from: its weakness as stated there
         (:func:`declared_weakness`) is kept beside the one recomputed from
@@ -271,13 +313,12 @@ def check_variant(variant: gmt.ModelVariant, circuit: str = "realistic",
     if weak:
         said = f" ({', '.join(names)} on their bounds)" if names else ""
         reasons.append(f"the diagnosis reports it weak{said}")
-    plant = presets.circuit(circuit)
+    plant = presets.circuit(circuit) if isinstance(circuit, str) else circuit
+    circuit = circuit if isinstance(circuit, str) else "custom"
     rods = {"paper": rod_of(None), "variant": rod_of(variant)}
     modes = {k: circuit_modes(r, plant) for k, r in rods.items()}
     force = plant.chamber.piston_area * float(initial_state(plant)[0])
-    deflection = {k: force * (1.0 / r.stiffness + (1.0 / r.joint_stiffness
-                                                    if r.output_mass > 0.0 else 0.0))
-                  for k, r in rods.items()}
+    deflection = {k: force * _compliance(r) for k, r in rods.items()}
     return VariantCheck(variant.name, circuit, tuple(reasons), modes["paper"],
                         modes["variant"], deflection, rods, plant)
 
@@ -285,10 +326,22 @@ def check_variant(variant: gmt.ModelVariant, circuit: str = "realistic",
 def mark_rows(rows, check: VariantCheck) -> list:
     """Add ``variant_marks`` (the reasons, a list) and, when marked, ``variant_note`` (one
     sentence) to each of the variant's rows of a flow study (in place); returns ``rows``."""
+    def key(r):
+        return (r["frequency_Hz"], r["mode"], r["load_N"])
+
+    paper = {key(r): r["dy_free_um"] * 1e-6 for r in rows
+             if r.get("model", "paper") == "paper"}
     for row in rows:
         if row.get("model", "paper") == "paper":
             continue
-        row["variant_marks"] = check.reasons(row["frequency_Hz"])
+        free = row["dy_free_um"] * 1e-6
+        row["variant_marks"] = check.reasons(row["frequency_Hz"], (
+            row["load_N"], free, paper.get(key(row), free)))
         if row["variant_marks"]:
-            row["variant_note"] = check.note(row["frequency_Hz"])
+            row["variant_note"] = "; ".join(row["variant_marks"])
     return rows
+
+
+def _compliance(rod) -> float:
+    """Static compliance of the pump piston, 1/K (+ 1/k_j with two masses), [m/N]."""
+    return 1.0 / rod.stiffness + (1.0 / rod.joint_stiffness if rod.output_mass > 0.0 else 0.0)

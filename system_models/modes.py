@@ -66,7 +66,8 @@ from .cylinder import cavity_volumes
 from .fluid import effective_bulk_modulus
 from .rod import RodParameters
 
-__all__ = ["StageModes", "circuit_modes", "stage_matrices", "modes_of", "piston_receptance"]
+__all__ = ["StageModes", "circuit_modes", "stage_matrices", "modes_of", "piston_receptance",
+           "pressure_step"]
 
 #: The valves of Figure 2 as (first node, second node): V1 P-B, V2 B-A, V3 P-S, V4 S-A.
 VALVE_NODES = (("P", "B"), ("B", "A"), ("P", "S"), ("S", "A"))
@@ -251,3 +252,36 @@ def _check_direction(direction):
     if direction not in DIRECTIONS:
         from gmt.errors import ParameterError
         raise ParameterError(f"direction = {direction!r} is not one of {DIRECTIONS}")
+
+
+def pressure_step(circuit: CircuitParameters, load_force: float = 0.0, direction: str = "down",
+                  pressure: float | None = None) -> float:
+    """The pump chamber's pressure step at a valve switch, at rest, [Pa].
+
+    In each stage the chamber joins the accumulator, or a cylinder cavity whose
+    pressure the piston's static balance p_B A_B - p_S A_S = F_load sets with
+    the other cavity at the accumulator's pressure p_A (the load opposing
+    "down"; Merritt, *Hydraulic Control Systems*, 1967, ch. 5). The step is
+    the compressing stage's chamber pressure minus the expanding stage's: with
+    the differential cylinder and no load, p_A (A_S - A_B) / A_B, the rebound
+    the ``differential`` preset shows (:mod:`system_models.presets`).
+
+    Parameters
+    ----------
+    circuit : CircuitParameters
+    load_force : float
+        F_load on the cylinder, [N].
+    direction : {"down", "up"}
+    pressure : float, optional
+        p_A, [Pa]; default :func:`system_models.circuit.initial_state`'s.
+    """
+    _check_direction(direction)
+    p_a = float(initial_state(circuit, pressure)[0])
+    cyl = circuit.cylinder
+    chamber = {"B": (p_a * cyl.small_area + load_force) / cyl.big_area,
+               "S": (p_a * cyl.big_area - load_force) / cyl.small_area}
+    out = []
+    for compressing in (True, False):
+        node = next(g for g in _nodes(valve_commands(direction, compressing)) if "P" in g)
+        out.append(p_a if "A" in node else chamber["B" if "B" in node else "S"])
+    return out[0] - out[1]
