@@ -217,7 +217,7 @@ def test_a_soft_joint_on_a_light_cylinder_rebounds_and_is_marked():
     # band); but the chamber's 0.375 MPa step at each switch (471 N) moves the piston by
     # 471 N / 1.8e5 N/m = 2.6 mm across the joint, 74 times the 36 um free stroke, where
     # the paper's model moves 24 um. (Co-simulated at 50 Hz, uncompensated: dy = 1258 um
-    # against the free 36 um, 45 times the paper model's flow; issue 18's notes.)
+    # against the free 36 um, 21 times the paper model's flow on the same circuit.)
     base = presets.realistic_circuit()
     light = dataclasses.replace(base, cylinder=dataclasses.replace(
         base.cylinder, mass=0.01, friction=5.0))
