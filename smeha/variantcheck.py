@@ -237,10 +237,11 @@ class VariantCheck:
         moved = {k: force * _compliance(r) for k, r in self.rods.items()}
         if not moved["variant"] > free_stroke or moved["paper"] > paper_free_stroke:
             return ""
+        law = "1/K + 1/k_j" if self.rods["variant"].output_mass > 0.0 else "1/K"
         return (f"rebound: at each valve switch the chamber's pressure steps by "
                 f"{abs(step) / 1e6:.3g} MPa (the cylinder's balance p_B A_B - p_S A_S = "
                 f"F_load, {load_force:g} N); across the variant's static compliance "
-                f"1/K + 1/k_j that moves the pump piston by {moved['variant'] * 1e6:.3g} um, "
+                f"{law} that moves the pump piston by {moved['variant'] * 1e6:.3g} um, "
                 f"more than its free stroke of {free_stroke * 1e6:.3g} um (the paper's model: "
                 f"{moved['paper'] * 1e6:.2g} um against {paper_free_stroke * 1e6:.3g} um): the "
                 f"oil's pressure, not the rod, sets the stroke")
