@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 import gmt
-from smeha import cli, paper, paperdata
+from smeha import cli, paperdata
+from smeha.studies import paper
 
 pytestmark = pytest.mark.integration
 

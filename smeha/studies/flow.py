@@ -50,7 +50,7 @@ from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_ST
 from system_models.flowcheck import flow_check
 from system_models.fluid import MINIMUM_PRESSURE
 
-from . import paperdata
+from .. import paperdata
 
 MODES = ("uncompensated", "compensated")
 #: The named circuits (system_models.presets).
@@ -225,13 +225,13 @@ def variant_start_values(variant: gmt.ModelVariant | None) -> dict:
 
 def default_fmu_path() -> Path:
     """dist/SmehaGmt.fmu of the source tree (:data:`smeha.fmu_build.DIST`)."""
-    from . import fmu_build
+    from .. import fmu_build
     return fmu_build.DIST / "SmehaGmt.fmu"
 
 
 def ensure_fmu(path: Path | None = None, quiet: bool = False) -> Path:
     """Build the FMI 2.0 FMU unless it exists and is newer than its sources."""
-    from . import fmu_build
+    from .. import fmu_build
     path = Path(path) if path else default_fmu_path()
     sources = list((fmu_build.FMU_SRC).rglob("*.py")) + [Path(fmu_build.__file__)]
     newest = max(p.stat().st_mtime for p in sources)
@@ -429,7 +429,7 @@ def run_cases(cases, fmu_path=None, workers: int = 1, quiet: bool = False) -> li
     progress bar on stderr unless ``quiet``; rows in the order of ``cases``."""
     import sys
 
-    from . import pool
+    from .. import pool
     pool.prepare(workers, (fmu_path or default_fmu_path())
                  if any(c.backend == "fmu" for c in cases) else None,
                  None if quiet else (lambda m: print(m, file=sys.stderr, flush=True)))

@@ -26,7 +26,7 @@ import numpy as np
 import gmt
 from gmt.sensing import flux_density_amplitude_from_voltage
 
-from . import paperdata
+from .. import paperdata
 
 #: Samples per cycle and cycles of the compensated time-stepping run; the
 #: last cycle is the steady state (the mechanics settle in < 1 ms).
@@ -340,7 +340,7 @@ def paper_report(params: gmt.TransducerParameters | None = None,
     """The whole comparison as one JSON-ready dict.
 
     ``{"rows": ..., "compensated": ..., "diagnosis": ...}``; the diagnosis is
-    :func:`smeha.paperdiag.paper_data_diagnosis`.
+    :func:`smeha.studies.paperdiag.paper_data_diagnosis`.
     """
     from .paperdiag import paper_data_diagnosis
     params = params or gmt.TransducerParameters()
