@@ -28,7 +28,7 @@ def main(argv=None):
     ap.add_argument("--coupling", choices=("force", "displacement"), default="force")
     ap.add_argument("--backend", choices=("fmu", "direct"), default="direct")
     ap.add_argument("--cycles", type=float, default=8.0)
-    ap.add_argument("--branch-rule", choices=("control", "demand"), default="control")
+    ap.add_argument("--branch-rule", choices=("control", "demand"), default="demand")
     ap.add_argument("--modes", default="uncompensated,compensated")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)

@@ -215,9 +215,12 @@ def add_branch_rule(parser) -> None:
     """--branch-rule, the compensator's root rule (gmt.parameters.BRANCH_RULES)."""
     import gmt.parameters
 
-    parser.add_argument("--branch-rule", choices=gmt.parameters.BRANCH_RULES, default="control",
-                        help="compensator root rule: 'control' (Figure 9, default) or 'demand' "
-                             "(the direction of the demanded magnetisation)")
+    default = gmt.parameters.BRANCH_RULE
+    parser.add_argument("--branch-rule", choices=gmt.parameters.BRANCH_RULES, default=default,
+                        help="compensator root rule: 'control' (Figure 9's sign of u(n) - "
+                             "u(n-1); its result depends on the sample period) or 'demand' "
+                             "(the direction of the demanded magnetisation); default "
+                             f"{default!r}")
 
 
 def warn(command: str, message: str) -> None:
