@@ -59,6 +59,7 @@ from . import __version__
 from .cliargs import (Parser, UsageError, add_branch_rule, input_file,
                       join_negative_values, output_dir)
 from .studies.flowcommands import CIRCUITS, FREQUENCY, add_flow, add_simulate, add_sweep
+from .studies.positioncommands import add_position
 
 
 def _add_paper(subparsers):
@@ -221,7 +222,7 @@ def _run_diagnose(args) -> int:
 
 
 #: Registration functions of the subcommands, in the order ``--help`` lists them.
-SUBCOMMANDS = (_add_paper, add_simulate, add_flow, add_sweep, _add_identify,
+SUBCOMMANDS = (_add_paper, add_simulate, add_flow, add_sweep, add_position, _add_identify,
                _add_diagnose, _add_build)
 
 

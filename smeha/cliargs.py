@@ -170,11 +170,14 @@ def number_list(low=None, high=None, *, low_open=True, high_open=False, unit="")
     one = number(low, high, low_open=low_open, high_open=high_open, unit=unit)
 
     def convert(text):
-        items = [v for v in text.split(",") if v.strip()]
-        if not items:
+        items = [v.strip() for v in text.split(",")]
+        if not any(items):
             raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of "
                                              "numbers")
-        return [one(v.strip()) for v in items]
+        if not all(items):  # "50,,100", "50,": a number left out, not a shorter list
+            raise argparse.ArgumentTypeError(f"{text!r} has an empty item; give numbers "
+                                             "separated by single commas")
+        return [one(v) for v in items]
 
     convert.numeric = True
     return convert

@@ -391,3 +391,12 @@ def test_build_options_reach_the_builder(tmp_path, monkeypatch):
     # build_fmu.py is the same command line
     assert fmu_build.main(["--fmi", "both", "--out", str(tmp_path / "e")]) == 0
     assert seen[-1] == ("both", tmp_path / "e", True)
+
+
+@pytest.mark.parametrize("value", ["50,,100", "50,", ",100"])
+def test_a_list_with_an_empty_item_is_refused(value, capsys):
+    # issue 19: "--frequencies 50,,100" ran 50 and 100 Hz as if the middle one were not
+    # asked for; a number left out is a mistake to name, not a shorter list
+    assert cli.main(["flow", "--frequencies", value]) == 2
+    err = capsys.readouterr().err
+    assert "empty item" in err and "Traceback" not in err
