@@ -160,7 +160,8 @@ VARIABLES: tuple[Variable, ...] = (
          "commands the bottom of the stroke", 0.0),
     _par(_D, "branch_rule", None, "Compensated drive: root of eq 33 chosen by the sign "
          "of u(n)-u(n-1), \"control\" (Figure 9), or of the demanded magnetisation, "
-         "\"demand\"", "control", kind="String"),
+         "\"demand\" (default: its result does not depend on compensator_period)", "demand",
+         kind="String"),
     _par(_D, "compensator_period", "s", "Compensated drive: sample period T_c of the "
          "digital compensator, in [0, 1] s. It samples u at t = n*T_c from the start and "
          "holds its current until the next sample (a step that crosses a sample is split "
