@@ -16,7 +16,7 @@ import pytest
 
 import gmt
 from smeha import cli
-from smeha.variantcheck import bound_unknowns, check_variant, declared_weakness
+from smeha.studies.variantcheck import bound_unknowns, check_variant, declared_weakness
 from system_models import presets
 from system_models.accumulator import oil_volume_at
 from system_models.circuit import initial_state

@@ -57,7 +57,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import gmt
-from gmt import extensions as ext
 
 __all__ = ["HARMONICS", "VariantCheck", "bound_unknowns", "check_variant",
            "declared_weakness", "mark_rows", "rod_of"]
@@ -288,7 +287,7 @@ class VariantCheck:
                          "(the paper's model none there), or (each row's variant_marks) "
                          "when the chamber's pressure step at a valve switch moves the "
                          "piston by more than its free stroke across the variant's static "
-                         "compliance (the paper's model not); smeha.variantcheck")}
+                         "compliance (the paper's model not); smeha.studies.variantcheck")}
 
 
 def check_variant(variant: gmt.ModelVariant, circuit="realistic",
