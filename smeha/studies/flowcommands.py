@@ -287,7 +287,10 @@ def add_flow(subparsers):
                    help="also run every case with the extended transducer model: FILE is the "
                         "output of 'smeha diagnose --json' (its winning extension) or "
                         "{\"cause\": ..., \"parameters\": {...}} (e.g. data/paper_variant.json); "
-                        "prints the flow of both models side by side")
+                        "prints the flow of both models side by side, and marks (!) with "
+                        "the reason a variant that is not physical in the pump (a weak "
+                        "finding, a circuit mode it moves onto the pumping frequency, a "
+                        "rebound it magnifies)")
     # retired (FAST_RETIRED); kept out of --help, refused with the reason
     p.add_argument("--fast", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--json", action="store_true",
