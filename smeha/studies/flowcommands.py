@@ -354,7 +354,7 @@ def _run_flow(args) -> int:
     check = None
     if variant is not None:  # a weak finding or a circuit mode it moves: said in every output
         from .variantcheck import check_variant
-        check = check_variant(variant, cases[0].circuit, declared)
+        check = check_variant(variant, cases[0].circuit, declared, cases[0].frequency)
     fmu = _fmu_for(args, cases)
     try:
         rows = flow.run_cases(cases, fmu, workers=_workers(args), quiet=args.json)

@@ -129,11 +129,18 @@ def bound_unknowns(variant: gmt.ModelVariant,
     return tuple(out)
 
 
-def rod_of(variant: gmt.ModelVariant | None):
+def rod_of(variant: gmt.ModelVariant | None, frequency: float | None = None):
     """The mechanics the magnetostrictive force drives (:meth:`gmt.Transducer.rod_mechanics`)
-    as :class:`system_models.rod.RodParameters`."""
+    as :class:`system_models.rod.RodParameters`.
+
+    ``frequency`` [Hz]: the operating point the transducer is built at (the
+    mechanics do not depend on it; a study passes one of its own, so that a
+    variant valid there is not refused at another); default gmt's.
+    """
     from system_models.rod import RodParameters
-    model = gmt.Transducer(variant=variant if variant is not None else gmt.ModelVariant())
+    excitation = None if frequency is None else gmt.Excitation(frequency, 1.0)
+    model = gmt.Transducer(excitation=excitation,
+                           variant=variant if variant is not None else gmt.ModelVariant())
     return RodParameters(*model.rod_mechanics())
 
 
@@ -291,7 +298,8 @@ class VariantCheck:
 
 
 def check_variant(variant: gmt.ModelVariant, circuit="realistic",
-                  declared: Mapping | None = None) -> VariantCheck:
+                  declared: Mapping | None = None,
+                  frequency: float | None = None) -> VariantCheck:
     """Check a variant for the flow study on a named circuit (module docstring).
 
     Parameters
@@ -303,6 +311,8 @@ def check_variant(variant: gmt.ModelVariant, circuit="realistic",
         The JSON the variant was read from: its weakness as stated there
         (:func:`declared_weakness`) is kept beside the one recomputed from
         the parameters (:func:`bound_unknowns`).
+    frequency : float, optional
+        A frequency of the study [Hz], for :func:`rod_of`.
     """
     from system_models import presets
     from system_models.circuit import initial_state
@@ -315,7 +325,7 @@ def check_variant(variant: gmt.ModelVariant, circuit="realistic",
         reasons.append(f"the diagnosis reports it weak{said}")
     plant = presets.circuit(circuit) if isinstance(circuit, str) else circuit
     circuit = circuit if isinstance(circuit, str) else "custom"
-    rods = {"paper": rod_of(None), "variant": rod_of(variant)}
+    rods = {"paper": rod_of(None, frequency), "variant": rod_of(variant, frequency)}
     modes = {k: circuit_modes(r, plant) for k, r in rods.items()}
     force = plant.chamber.piston_area * float(initial_state(plant)[0])
     deflection = {k: force * _compliance(r) for k, r in rods.items()}
