@@ -4,7 +4,7 @@ For each case (frequency, mode) it writes the system (smeha.fmu.ssp) twice -- th
 the transducer's force over each step, and extrapolating it from its last two values --
 runs each in fmpy's SSP master (smeha.fmu.systemrun.run_fmpy) at every step given, each run in
 a child process, and prints the flow of eqs 39-41's check, its relative difference from
-the harness's flow for the same case (smeha.flowstudy.run_case with the transducer FMU,
+the harness's flow for the same case (smeha.studies.flow.run_case with the transducer FMU,
 its own default step) and the wall time. The plant's valve controller samples u at each
 communication step, so the step is also that controller's period.
 
@@ -60,16 +60,16 @@ def main(argv=None):
     if args.run:
         print(json.dumps(_run(*args.run)))
         return 0
-    from smeha import flowstudy
     from smeha.fmu import build as fmu_build, ssp
+    from smeha.studies import flow
 
     fmus = _fmus(args.dist or fmu_build.DIST)
     rows = []
     with tempfile.TemporaryDirectory(prefix="smeha_system_step_") as tmp:
         for f in (float(x) for x in args.frequencies.split(",")):
             for mode in args.modes.split(","):
-                case = flowstudy.Case(f, mode, cycles=args.cycles)
-                _, check, _ = flowstudy.run_case(case, fmu_path=fmus["transducer"])
+                case = flow.Case(f, mode, cycles=args.cycles)
+                _, check, _ = flow.run_case(case, fmu_path=fmus["transducer"])
                 desc = ssp.describe(case, fmus)
                 for extrapolate in (False, True):
                     plant = dict(desc.parameters["plant"], extrapolate_force=extrapolate)

@@ -3,7 +3,7 @@
 Three FMUs make the actuator (docs/FMU.md, "The EHA as an FMI system"):
 
 * ``drive`` (``SmehaDrive.fmu``): the controller's control signal u(t), the one the
-  co-simulation harness drives the transducer with (:func:`smeha.flowstudy.control_signal`);
+  co-simulation harness drives the transducer with (:func:`smeha.studies.flow.control_signal`);
 * ``transducer`` (``SmehaGmt.fmu``): amplifier or compensator, magnetics, and the
   magnetostrictive force F = A_r E^H lambda (eq 28), which does not depend on the rod's
   motion;
@@ -116,11 +116,11 @@ def _kinds(fmu_path) -> dict:
 
 def describe(case, fmus: dict, step: float = SYSTEM_STEP, name: str = SYSTEM_NAME
              ) -> SystemDescription:
-    """The system of a :class:`smeha.flowstudy.Case`: the harness's run, as three FMUs.
+    """The system of a :class:`smeha.studies.flow.Case`: the harness's run, as three FMUs.
 
     Parameters
     ----------
-    case : smeha.flowstudy.Case
+    case : smeha.studies.flow.Case
         Frequency, mode, circuit, load, cycles (the stop time), branch rule, model
         variant and compensator period are used; the harness's own step settings are not.
     fmus : dict
@@ -132,7 +132,7 @@ def describe(case, fmus: dict, step: float = SYSTEM_STEP, name: str = SYSTEM_NAM
     from system_models.cosim import FmuTransducer
 
     from . import build
-    from ..flowstudy import control_signal
+    from ..studies.flow import control_signal
 
     plant_table = build.table("smeha_plant_interface")
     transducer = case.fmu_start_values()
@@ -304,7 +304,7 @@ def build_system(out: str | os.PathLike, frequency: float = 100.0,
         A bad frequency, mode or circuit.
     """
     from . import build
-    from ..flowstudy import Case
+    from ..studies.flow import Case
 
     case = Case(frequency, mode, circuit=circuit)  # checks the values before any build
     out = Path(out)
