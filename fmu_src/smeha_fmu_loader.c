@@ -219,7 +219,8 @@ static int probe(const char *exe, const char *packages, Probe *p)
     args[n++] = (char *)exe;
     args[n++] = "-c";
     args[n++] = (char *)PROBE;
-    for (char *tok = strtok(list, " "); tok && n < 38; tok = strtok(NULL, " "))
+    char *save = NULL; /* strtok_r: the host's own strtok state is left alone */
+    for (char *tok = strtok_r(list, " ", &save); tok && n < 38; tok = strtok_r(NULL, " ", &save))
         args[n++] = tok;
     args[n] = NULL;
     if (pipe(fds) != 0)
@@ -305,7 +306,8 @@ static int import_missing(const char *packages, char *missing, size_t n)
         return 0;
     snprintf(list, sizeof list, "%s", packages);
     int gil = ensure();
-    for (char *tok = strtok(list, " "); tok; tok = strtok(NULL, " ")) {
+    char *save = NULL;
+    for (char *tok = strtok_r(list, " ", &save); tok; tok = strtok_r(NULL, " ", &save)) {
         if (!import(tok)) {
             clear();
             snprintf(missing + strlen(missing), n - strlen(missing), "%s%s",
@@ -362,7 +364,8 @@ static int on_path(char *out, size_t n)
     const char *path = getenv("PATH");
     char copy[TEXT_MAX];
     snprintf(copy, sizeof copy, "%s", path ? path : "");
-    for (char *dir = strtok(copy, ":"); dir; dir = strtok(NULL, ":")) {
+    char *save = NULL;
+    for (char *dir = strtok_r(copy, ":", &save); dir; dir = strtok_r(NULL, ":", &save)) {
         snprintf(out, n, "%s/python3", *dir ? dir : ".");
         if (is_file(out) && access(out, X_OK) == 0)
             return 1;
@@ -447,10 +450,9 @@ static int ensure_python(const char *resources)
         if (!dladdr((void *)&ensure_python, &self) || !self.dli_fname) {
             append(tried, "; cannot locate this library");
         } else {
-            snprintf(target, sizeof target, "%s", self.dli_fname);
-            char *slash = strrchr(target, '/');
-            snprintf(slash ? slash + 1 : target, sizeof target - (slash ? (size_t)(slash + 1 - target) : 0),
-                     "%s", SMEHA_TARGET);
+            const char *slash = strrchr(self.dli_fname, '/');
+            int folder = slash ? (int)(slash + 1 - self.dli_fname) : 0;
+            snprintf(target, sizeof target, "%.*s%s", folder, self.dli_fname, SMEHA_TARGET);
             pythonfmu = dlopen(target, RTLD_NOW | RTLD_LOCAL);
             if (!pythonfmu) {
                 append(tried, "; cannot load pythonfmu's binary: %s", dlerror());

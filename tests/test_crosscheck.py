@@ -88,8 +88,12 @@ def test_fmpy_simulates_the_reference(name, xc, tmp_path):
     ref = [[float(x) for x in line.split(",")]
            for line in (xc[name] / f"{name}_ref.csv").read_text().splitlines()[1:]]
     assert len(got["rows"]) == len(ref)
-    for row, expected in zip(got["rows"], ref):
-        assert row == pytest.approx(expected, rel=1e-12, abs=1e-300)
+    # relative to each signal's largest value (a value near a zero crossing carries the
+    # rounding of the whole signal)
+    scale = [max(abs(row[j]) for row in ref) for j in range(len(ref[0]))]
+    worst = max(abs(a - b) / (s or 1.0) for row, expected in zip(got["rows"], ref)
+                for a, b, s in zip(row, expected, scale))
+    assert worst <= 1e-12
 
 
 @pytest.mark.parametrize("name", ["SmehaGmt", "SmehaGmt3"])

@@ -63,9 +63,11 @@ def test_packages_and_test_configuration():
     for package in setup["packages"]:
         # a subpackage (system_models.kernel) is listed too: setuptools takes no subpackages
         folder = ROOT / setup.get("package-dir", {}).get(package, package.replace(".", "/"))
-        if package in setup.get("package-data", {}):
-            # the FMU sources (fmu_src/) travel as files of smeha.fmu.sources: no package
-            assert folder.is_dir() and any(folder.glob("*.py")), package
+        if package in setup.get("package-data", {}) and not (folder / "__init__.py").is_file():
+            # files that travel in the wheel (fmu_src/ as smeha.fmu.sources, data/ as
+            # smeha.data): no package, but the folder holds files of its patterns
+            patterns = setup["package-data"][package] + ["*.py"]
+            assert any(any(folder.glob(p)) for p in patterns), package
             continue
         assert (folder / "__init__.py").is_file(), package
     pytest_cfg = meta["tool"]["pytest"]["ini_options"]
@@ -159,7 +161,8 @@ def test_license_and_changelog():
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
     assert meta["project"]["license"] == {"text": "MIT"}
     license_text = (ROOT / "LICENSE").read_text()
-    assert license_text.startswith("MIT License\n") and "Permission is hereby granted" in license_text
+    assert license_text.startswith("MIT License\n")
+    assert "Permission is hereby granted" in license_text
     changelog = (ROOT / "CHANGELOG.md").read_text()
     assert f"## {meta['project']['version']} " in changelog
 

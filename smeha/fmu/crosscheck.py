@@ -92,11 +92,13 @@ step (`{model_name}_in.csv`), `external_force` is 0 N.
 
 `{model_name}_ref.csv` holds {", ".join(OUTPUTS)} (SI units) at every step, from smeha's
 own model (`gmt.Transducer`, the physics the FMU bundles) with the same inputs; the FMU
-reproduces it to 1e-12 relative in fmpy, fmusim and the FMU Compliance Checker.
+reproduces it to 1e-12 relative in fmpy and fmusim (in the FMU Compliance Checker,
+whose clock accumulates the step, to 1e-7).
 
 Run with fmusim:
 
-    fmusim --interface-type cs --input-file {model_name}_in.csv --stop-time {STOP_TIME:g} --output-interval {STEP_SIZE:g} --output-file out.csv {model_name}.fmu
+    fmusim --interface-type cs --input-file {model_name}_in.csv --stop-time {STOP_TIME:g} \\
+        --output-interval {STEP_SIZE:g} --output-file out.csv {model_name}.fmu
 """
 
 
