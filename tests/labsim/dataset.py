@@ -140,7 +140,7 @@ def make_dataset(
         Per-effect choice, overriding ``formulation``: a name from ``FORMULATIONS[name]`` or
         "default" / "alt".
     """
-    effect_set = EffectSet.from_strengths(effects, formulation, formulations)
+    effect_set = EffectSet.from_strengths(effects, formulation, formulations, seed)
     if samples_per_cycle is None and sample_rate is None:
         samples_per_cycle = 800
     settings = Acquisition(

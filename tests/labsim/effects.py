@@ -14,6 +14,8 @@ questions for its effect: hysteresis ``periodic``/``sequence``/``window``, satur
 """
 from __future__ import annotations
 
+import functools
+import inspect
 import math
 from dataclasses import asdict, dataclass
 
@@ -162,8 +164,18 @@ class Thermal:
 #: Formulations of each effect, the first being the default; ``formulation="alt"`` picks the
 #: second for every effect (README.md, "Second formulations").
 FORMULATIONS = {
-    "rate_independent_hysteresis": {"preisach": Hysteresis.at,
-                                    "jiles_atherton": alternatives.JilesAtherton.at},
+    "rate_independent_hysteresis": {
+        "preisach": Hysteresis.at,
+        "jiles_atherton": alternatives.JilesAtherton.at,
+        "general_preisach": functools.partial(alternatives.GeneralPreisach.of_shape,
+                                              "lognormal_normal"),
+        "preisach_bimodal": functools.partial(alternatives.GeneralPreisach.of_shape, "bimodal"),
+        "preisach_correlated": functools.partial(alternatives.GeneralPreisach.of_shape,
+                                                 "correlated"),
+        "preisach_lorentzian": functools.partial(alternatives.GeneralPreisach.of_shape,
+                                                 "lorentzian"),
+        "preisach_random": alternatives.GeneralPreisach.random,
+    },
     "magnetization_saturation": {"langevin": Saturation.at,
                                  "froehlich_kennelly": alternatives.FroehlichKennelly.at},
     "eddy_current_diffusion": {"solid_rod": EddyDiffusion.at,
@@ -220,9 +232,11 @@ class EffectSet:
     formulations: tuple[tuple[str, str], ...] = ()
 
     @staticmethod
-    def from_strengths(effects, formulation: str = "default", formulations=None) -> "EffectSet":
+    def from_strengths(effects, formulation: str = "default", formulations=None,
+                       seed: int | None = None) -> "EffectSet":
         """Validate {name: strength} (or an iterable of names, strength 1) and build with the
-        chosen formulations (``resolve_formulations``)."""
+        chosen formulations (``resolve_formulations``); formulations drawn per seed (their
+        factory takes ``seed``) get ``seed``."""
         chosen = resolve_formulations(formulation, formulations)
         if effects is None:
             effects = {}
@@ -239,7 +253,10 @@ class EffectSet:
                 raise LabsimError(f"effect {name!r}: strength = {strength}; allowed 0 to 10")
             strengths.append((name, strength))
             if strength > 0.0:
-                built[_FIELDS[name]] = FORMULATIONS[name][chosen[name]](strength)
+                factory = FORMULATIONS[name][chosen[name]]
+                seeded = "seed" in inspect.signature(factory).parameters
+                built[_FIELDS[name]] = (factory(strength, seed=seed) if seeded
+                                        else factory(strength))
         used = tuple((name, chosen[name]) for name, _ in strengths)
         return EffectSet(tuple(strengths), formulations=used, **built)
 

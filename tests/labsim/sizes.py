@@ -17,14 +17,17 @@ from .transducer import simulate
 
 def effect_size(effects, frequency: float = 100.0, current_amplitude: float = 1.0,
                 cycles: float = 6, points_per_cycle: int = 400,
-                formulation: str = "default") -> dict:
+                formulation: str = "default", formulations=None) -> dict:
     """RMS change of y [m] and of B [T] caused by ``effects`` ({name: strength}) in the
-    given formulation ("default" or "alt")."""
+    given formulation ("default" or "alt"; ``formulations``: per effect, as in
+    ``make_dataset``), and the third-harmonic fractions |X_3| / |X_1| of y and B with the
+    effects."""
     device = Transducer()
     period = 1.0 / frequency
     clean = simulate(device, frequency, current_amplitude, 0.0, EffectSet(), transient=False)
     other = simulate(device, frequency, current_amplitude, 0.0,
-                     EffectSet.from_strengths(effects, formulation), transient=False)
+                     EffectSet.from_strengths(effects, formulation, formulations),
+                     transient=False)
     start = max(clean.settle_time, other.settle_time)
     start = math.ceil(start / period) * period
     t = start + np.arange(int(cycles * points_per_cycle)) * period / points_per_cycle
@@ -35,7 +38,15 @@ def effect_size(effects, frequency: float = 100.0, current_amplitude: float = 1.
         "flux_rms": _rms(b1 - b0),
         "displacement_rms_clean": _rms(y0),
         "flux_rms_clean": _rms(b0),
+        "displacement_third": _third(y1, cycles),
+        "flux_third": _third(b1, cycles),
     }
+
+
+def _third(x: np.ndarray, cycles: float) -> float:
+    """|X_3| / |X_1| over a whole number of periods."""
+    spectrum = np.abs(np.fft.rfft(x))
+    return float(spectrum[3 * int(cycles)] / spectrum[int(cycles)])
 
 
 def _rms(x: np.ndarray) -> float:
