@@ -25,6 +25,8 @@ from . import alternatives, lti
 from .anhysteretic import langevin
 from .constants import LabsimError
 from .hysteresis import periodic_branches, play_sequence
+from .outside import FACTORIES as OUTSIDE_FACTORIES
+from .outside import OUTSIDE_EFFECTS
 
 EFFECTS = (
     "rate_independent_hysteresis",
@@ -178,8 +180,12 @@ FORMULATIONS = {
     },
     "magnetization_saturation": {"langevin": Saturation.at,
                                  "froehlich_kennelly": alternatives.FroehlichKennelly.at},
-    "eddy_current_diffusion": {"solid_rod": EddyDiffusion.at,
-                               "conducting_housing": alternatives.ConductingHousing.at},
+    "eddy_current_diffusion": {
+        "solid_rod": EddyDiffusion.at,
+        "conducting_housing": alternatives.ConductingHousing.at,
+        "slab_magnetization": alternatives.MagnetizationDiffusion.slab,
+        "solid_rod_magnetization": alternatives.MagnetizationDiffusion.cylinder,
+    },
     "transport_delay": {"pure_delay": Delay.at, "bessel_sensor": alternatives.BesselSensor.at},
     "mechanical_resonance": {"two_mass": Resonance.at,
                              "continuum_rod": alternatives.ContinuumRod.at},
@@ -230,6 +236,7 @@ class EffectSet:
     resonance: object | None = None
     thermal: object | None = None
     formulations: tuple[tuple[str, str], ...] = ()
+    outside: tuple[tuple[str, object], ...] = ()  # effects outside the six (``outside``)
 
     @staticmethod
     def from_strengths(effects, formulation: str = "default", formulations=None,
@@ -244,21 +251,30 @@ class EffectSet:
             effects = {effects: 1.0}
         if not isinstance(effects, dict):
             effects = {name: 1.0 for name in effects}
-        built, strengths = {}, []
+        built, strengths, extra = {}, [], []
         for name, strength in effects.items():
-            if name not in FORMULATIONS:
-                raise LabsimError(f"effect {name!r}: unknown; known effects: {', '.join(EFFECTS)}")
+            if name not in FORMULATIONS and name not in OUTSIDE_EFFECTS:
+                raise LabsimError(f"effect {name!r}: unknown; known effects: {', '.join(EFFECTS)}"
+                                  f" and, outside them, {', '.join(OUTSIDE_EFFECTS)}")
             strength = float(strength)
             if not (math.isfinite(strength) and 0.0 <= strength <= 10.0):
                 raise LabsimError(f"effect {name!r}: strength = {strength}; allowed 0 to 10")
             strengths.append((name, strength))
+            if name in OUTSIDE_EFFECTS:
+                if strength > 0.0:
+                    extra.append((name, OUTSIDE_FACTORIES[name](strength)))
+                continue
             if strength > 0.0:
                 factory = FORMULATIONS[name][chosen[name]]
                 seeded = "seed" in inspect.signature(factory).parameters
                 built[_FIELDS[name]] = (factory(strength, seed=seed) if seeded
                                         else factory(strength))
-        used = tuple((name, chosen[name]) for name, _ in strengths)
-        return EffectSet(tuple(strengths), formulations=used, **built)
+        used = tuple((name, chosen[name]) for name, _ in strengths if name in chosen)
+        return EffectSet(tuple(strengths), formulations=used, outside=tuple(extra), **built)
+
+    def outside_effect(self, name: str):
+        """The effect outside the six of this name, or None."""
+        return dict(self.outside).get(name)
 
     @property
     def thermal_bias(self):
@@ -270,6 +286,11 @@ class EffectSet:
         chosen = dict(self.formulations)
         out = {}
         for name, s in self.strengths:
+            if name in OUTSIDE_EFFECTS:
+                effect = self.outside_effect(name)
+                out[name] = {"strength": s, "formulation": "outside",
+                             "parameters": asdict(effect) if effect is not None else {}}
+                continue
             effect = getattr(self, _FIELDS[name])
             out[name] = {"strength": s, "formulation": chosen[name],
                          "parameters": asdict(effect) if effect is not None else {}}
