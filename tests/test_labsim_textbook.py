@@ -167,6 +167,19 @@ def test_steady_loop_equals_the_sequence_after_one_sweep(shape):
 
 
 @pytest.mark.parametrize("shape", SHAPES)
+def test_interpolated_stretches_equal_quadrature_at_every_sample(shape):
+    # long monotone stretches are interpolated piecewise (Chebyshev, split where the branch
+    # meets an older one); against the quadrature at every sample, for a growing, offset
+    # oscillation like a switch-on through eddy currents
+    t = np.linspace(0.0, 1.25, 2561)
+    u = (H_1A * np.cos(2 * np.pi * t + 0.7) * (1 - np.exp(-t / 0.05))
+         + 3000 * np.exp(-t / 0.1))
+    dens = density(shape)
+    fast = pr.sequence(dens, 1.0, u)
+    assert np.max(np.abs(fast - pr.sequence(dens, 1.0, u, direct=True))) < 1e-7
+
+
+@pytest.mark.parametrize("shape", SHAPES)
 def test_offset_populations_make_asymmetric_loops(shape):
     # a symmetric density mu(c, v) = mu(c, -v) gives odd loops (no even harmonics); centres
     # offset from 0 give asymmetric loops with even harmonics

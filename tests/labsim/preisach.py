@@ -24,7 +24,8 @@ any input history, wiping-out included). The integral over c is done by Gauss-Le
 quadrature in ln c on panels split at every kink of z_c (the memory's breakpoints and the
 moving crossing of the current branch), so each piece is smooth and the quadrature converges
 exponentially. The steady loop for u = A cos(phase) is evaluated on Chebyshev points of each
-branch (a smooth function of u) and interpolated.
+branch (a smooth function of u) and interpolated; so are long monotone stretches of an input
+history, piece by piece between the values where the branch meets an older one.
 """
 from __future__ import annotations
 
@@ -175,16 +176,49 @@ def branch_integral(density: Density, memory: PlayMemory, u, rising: bool) -> np
     return out
 
 
-def sequence(density: Density, saturation: float, u: np.ndarray) -> np.ndarray:
+def sequence(density: Density, saturation: float, u: np.ndarray,
+             direct: bool = False) -> np.ndarray:
     """M_P at the samples u_0, u_1, ... of an input that was 0 (demagnetised) before u_0,
-    [A/m]; turning points between samples are refined as in ``hysteresis.monotone_runs``."""
+    [A/m]; turning points between samples are refined as in ``hysteresis.monotone_runs``.
+
+    Along a monotone stretch the output is a smooth function of u between the values where
+    the branch's crossing r* passes a breakpoint of the memory (where it meets an older
+    branch: wiping-out), so each such piece with many samples is interpolated from
+    ``BRANCH_POINTS`` Chebyshev points (``direct``: every sample by quadrature).
+    """
     u = np.asarray(u, dtype=float)
     memory = PlayMemory()
     out = np.empty(u.size)
+    before = 0.0
     for idx, rising, extremum in monotone_runs(u):
-        out[idx] = branch_integral(density, memory, u[idx], rising)
+        values = u[idx]
+        if direct or idx.size <= 2 * BRANCH_POINTS:
+            out[idx] = branch_integral(density, memory, values, rising)
+        else:
+            out[idx] = _interpolated_branch(density, memory, before, extremum, values, rising)
         memory.turn(extremum, rising)
+        before = extremum
     return 2.0 * saturation * out
+
+
+def _interpolated_branch(density, memory, start, end, values, rising):
+    """The branch integral at the values (between start and end) from Chebyshev
+    interpolants on the smooth pieces."""
+    meets = memory.z + memory.r if rising else memory.z - memory.r
+    lo, hi = min(start, end), max(start, end)
+    cuts = np.unique(np.concatenate([[lo, hi], meets[(meets > lo) & (meets < hi)]]))
+    out = np.empty(values.size)
+    piece = np.clip(np.searchsorted(cuts, values, side="right") - 1, 0, cuts.size - 2)
+    for k in np.unique(piece):
+        inside = piece == k
+        if np.count_nonzero(inside) <= BRANCH_POINTS or cuts[k + 1] - cuts[k] <= 0.0:
+            out[inside] = branch_integral(density, memory, values[inside], rising)
+            continue
+        fit = np.polynomial.Chebyshev.interpolate(
+            lambda x: branch_integral(density, memory, x, rising), BRANCH_POINTS,
+            [cuts[k], cuts[k + 1]])
+        out[inside] = fit(values[inside])
+    return out
 
 
 @dataclass(frozen=True)

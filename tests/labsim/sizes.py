@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from .constants import Transducer
-from .effects import EFFECTS, EffectSet
+from .effects import EFFECTS, FORMULATIONS, EffectSet
 from .transducer import simulate
 
 
@@ -65,8 +65,31 @@ def table(frequency: float = 100.0, current_amplitude: float = 1.0,
     return "\n".join(rows)
 
 
+def textbook_table() -> str:
+    """Sizes of the formulations after the second ones (README.md, "Textbook formulations"):
+    RMS change of y [um] and B [mT] at 100 Hz 1 A, 5 Hz 1 A and 200 Hz 0.6 A, and the
+    third-harmonic fractions of B and y with the effect at 100 Hz, 1 A and 0.6 A."""
+    rows = ["formulation: dy, dB at 100 Hz 1 A | 5 Hz 1 A | 200 Hz 0.6 A; "
+            "B3/B1, y3/y1 at 100 Hz 1 A | 0.6 A"]
+    for name, forms in FORMULATIONS.items():
+        for form in list(forms)[2:]:
+            choice = {name: form}
+            cells = []
+            for f, amp in ((100.0, 1.0), (5.0, 1.0), (200.0, 0.6)):
+                size = effect_size({name: 1.0}, f, amp, formulations=choice)
+                cells.append(f"{size['displacement_rms'] * 1e6:.2f} um, "
+                             f"{size['flux_rms'] * 1e3:.2f} mT")
+            thirds = []
+            for amp in (1.0, 0.6):
+                size = effect_size({name: 1.0}, 100.0, amp, formulations=choice)
+                thirds.append(f"{size['flux_third']:.3f}, {size['displacement_third']:.3f}")
+            rows.append(f"{form:24s} " + " | ".join(cells) + " ; " + " | ".join(thirds))
+    return "\n".join(rows)
+
+
 if __name__ == "__main__":
     for form in ("default", "alt"):
         print(table(formulation=form))
         print(table(5.0, formulation=form))
         print(table(200.0, 0.6, formulation=form))
+    print(textbook_table())
