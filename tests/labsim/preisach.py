@@ -141,6 +141,12 @@ class Density:
         lo, hi = self.coercive_range
         return np.exp(np.linspace(math.log(lo), math.log(hi), PANELS + 1))
 
+    @functools.cached_property
+    def demagnetised_integral(self) -> float:
+        """int Phi(c, 0) dc, the relays' integral in the demagnetised state, [-]."""
+        c, w = _quadrature(self.panel_edges[:-1], self.panel_edges[1:])
+        return float(np.sum(w * self.cdf(c, 0.0)))
+
 
 def _quadrature(lo: np.ndarray, hi: np.ndarray):
     """Gauss-Legendre nodes and weights in ln c on [lo, hi] (arrays of intervals, lo > 0):
@@ -153,26 +159,42 @@ def _quadrature(lo: np.ndarray, hi: np.ndarray):
 
 def branch_integral(density: Density, memory: PlayMemory, u, rising: bool) -> np.ndarray:
     """int_0^inf [Phi(c, z_c) - Phi(c, 0)] dc with the plays moved from ``memory`` by the
-    input going monotonically (up if ``rising``) to each value of u, [-]."""
+    input going monotonically (up if ``rising``) to each value of u, [-].
+
+    Below the branch's crossing r* the plays follow the input (z_c = u -+ c), above it they
+    keep the memory; panels wholly above r* are summed once per call, the panel holding r*
+    is split there.
+    """
     u = np.atleast_1d(np.asarray(u, dtype=float))
     lo_c, hi_c = density.coercive_range
     inner = memory.r[(memory.r > lo_c) & (memory.r < hi_c)]
     edges = np.unique(np.concatenate([density.panel_edges, inner]))
-    a, b = edges[:-1], edges[1:]
+    panels = edges.size - 1
+    c, w = _quadrature(edges[:-1], edges[1:])
+    kept = np.sum(w * density.cdf(c, np.interp(c, memory.r, memory.z)), axis=1)
+    above = np.concatenate([np.cumsum(kept[::-1])[::-1], [0.0]])  # panels j and higher
     slope = -1.0 if rising else 1.0
     out = np.empty(u.size)
     for start in range(0, u.size, 256):
         uu = u[start:start + 256]
         r_star = np.clip(np.asarray(memory._crossing(uu, rising), dtype=float), 0.0, None)
-        cut = np.clip(r_star[:, None], a[None, :], b[None, :])
-        c_head, w_head = _quadrature(np.broadcast_to(a, cut.shape), cut)
-        c_tail, w_tail = _quadrature(cut, np.broadcast_to(b, cut.shape))
-        z_head = uu[:, None, None] + slope * c_head
-        z_tail = np.interp(c_tail, memory.r, memory.z)
-        head = density.cdf(c_head, z_head) - density.cdf(c_head, 0.0)
-        tail = density.cdf(c_tail, z_tail) - density.cdf(c_tail, 0.0)
-        out[start:start + 256] = (np.sum(w_head * head, axis=(1, 2))
-                                  + np.sum(w_tail * tail, axis=(1, 2)))
+        k = np.searchsorted(edges, r_star, side="right") - 1  # -1: below all, panels: above
+        total = above[np.clip(k + 1, 0, panels)]
+        rows, cols = np.nonzero(np.arange(panels)[None, :] < k[:, None])
+        if rows.size:
+            moved = np.sum(w[cols] * density.cdf(c[cols], uu[rows, None] + slope * c[cols]),
+                           axis=1)
+            total = total + np.bincount(rows, moved, minlength=uu.size)
+        split = np.flatnonzero((k >= 0) & (k < panels))
+        if split.size:
+            ks, rs = k[split], r_star[split]
+            c_in, w_in = _quadrature(edges[ks], rs)
+            c_out, w_out = _quadrature(rs, edges[ks + 1])
+            total[split] += np.sum(w_in * density.cdf(c_in, uu[split, None] + slope * c_in),
+                                   axis=1)
+            total[split] += np.sum(w_out * density.cdf(c_out, np.interp(c_out, memory.r,
+                                                                         memory.z)), axis=1)
+        out[start:start + 256] = total - density.demagnetised_integral
     return out
 
 
