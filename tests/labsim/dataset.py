@@ -144,8 +144,9 @@ def make_dataset(
         Formulation of every effect: the first one, or the second one from other literature
         (``labsim.FORMULATIONS``; README.md).
     formulations : dict {name: formulation}, optional
-        Per-effect choice, overriding ``formulation``: a name from ``FORMULATIONS[name]`` or
-        "default" / "alt".
+        Per-effect choice, overriding ``formulation``: a name from ``FORMULATIONS[name]``
+        (e.g. "general_preisach", "preisach_random", "slab_magnetization") or "default" /
+        "alt".
     """
     effect_set = EffectSet.from_strengths(effects, formulation, formulations, seed)
     if samples_per_cycle is None and sample_rate is None:

@@ -6,7 +6,9 @@ displacement by roughly 0.5-3 um RMS at 100 Hz, 1 A (measured figures in README.
 formulations are this generator's own; see README.md for their literature sources.
 
 Every effect has two formulations (``FORMULATIONS``): the first ones below, and second ones
-from other literature in module ``alternatives``. Each class answers the simulator's
+from other literature in module ``alternatives``; hysteresis and eddy currents have further
+textbook ones (general Preisach densities, diffusion acting on the magnetisation), chosen by
+name only. Each class answers the simulator's
 questions for its effect: hysteresis ``periodic``/``sequence``/``window``, saturation
 ``saturate``, eddy currents ``transfer``, sensor ``delay``/``sensor``, mechanics
 ``mechanics``; the thermal drifts act through the force (``Thermal``) or the bias
@@ -164,7 +166,8 @@ class Thermal:
 
 
 #: Formulations of each effect, the first being the default; ``formulation="alt"`` picks the
-#: second for every effect (README.md, "Second formulations").
+#: second for every effect (README.md, "Second formulations"); the others are chosen by name
+#: (README.md, "Textbook formulations").
 FORMULATIONS = {
     "rate_independent_hysteresis": {
         "preisach": Hysteresis.at,
