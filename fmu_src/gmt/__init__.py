@@ -22,6 +22,8 @@ module                 equations
                        parameters) and the one registry
 ``variants``           the model variant: paper, or paper plus one or
                        more extensions, time-stepped
+``timedomain``         the loss separation as a field separation in
+                       the time domain (any drive), and its inverse
 =====================  ==============================================
 
 SI units throughout. This package imports no FMI, file or plotting code.
@@ -50,7 +52,7 @@ _EXPORTS = {
 }
 _SUBMODULES = ("calibration", "constants", "errors", "extensions", "field", "forward",
                "inverse", "losses", "magnetostriction", "mechanics", "parameters",
-               "permeability", "sensing", "transducer", "variants")
+               "permeability", "sensing", "timedomain", "transducer", "variants")
 
 __all__ = [*_EXPORTS, "__version__"]
 
