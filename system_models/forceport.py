@@ -18,7 +18,9 @@ DAC holds its current between samples, so its force is piecewise constant
 and held over each step (communication points fall on its samples); the
 uncompensated amplifier follows u continuously, so its force is smooth and
 taken linear between its values at the step's ends (the transducer is
-stepped one step ahead of the plant to have the end value).
+stepped one step ahead of the plant to have the end value). With the
+time-domain magnetics (:mod:`gmt.timedomain`) the force follows the flux
+density, which cannot jump, so it is taken linear in both modes.
 """
 from __future__ import annotations
 
@@ -44,7 +46,8 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
     n = kernel.state_size(packed)
     out = 10 if rod.size == 2 else 12  # index of the chamber side's y in the state
     z = plant_start(plant, backend.rod_state()[0])
-    linear = not drive.compensated  # a continuous drive: the force linear over a step
+    # a continuous drive, or the time-domain magnetics: the force linear over a step
+    linear = not drive.compensated or drive.continuous_force
     volume = compressed = 0.0
     substeps = kernel.new_control()  # the plant's substep length, carried across windows
     valves = 0 if settings.direction == "down" else 2  # V1 or V3: open while compressing

@@ -47,6 +47,7 @@ _EXPORTS = {
     "InverseCompensator": "inverse", "current_roots": "inverse",
     "DriveParameters": "parameters", "Excitation": "parameters",
     "TransducerParameters": "parameters",
+    "TimeDomainParameters": "timedomain.parameters",
     "Transducer": "transducer", "TransducerOutput": "transducer", "RodMechanics": "transducer",
     "VARIANTS": "variants", "ModelVariant": "variants",
 }

@@ -227,7 +227,7 @@ class SteinmetzHysteresis:
         g, gs = self.branch.value_and_slope(s * (b - rb[k - 1]))
         return rh[k - 1] + s * g, gs
 
-    def branch(self, direction: float) -> tuple[float, float, float]:
+    def branch_towards(self, direction: float) -> tuple[float, float, float]:
         """The branch a move in ``direction`` (+1 or -1) starts on: (B_k, H_k, limit).
 
         Up to ``limit`` [T] (where it would wipe a reversal out) the move follows
@@ -248,15 +248,18 @@ class SteinmetzHysteresis:
             return self.branch.slope(2.0 * abs(self.b))
         return self.branch.slope(abs(self.b - self._rb[-1]))
 
-    def move(self, b: float) -> float:
-        """Move to ``b`` [T] (monotonically from the present point); return H_irr [A/m]."""
+    def move(self, b: float, h: float | None = None) -> float:
+        """Move to ``b`` [T] (monotonically from the present point); return H_irr [A/m].
+
+        ``h``: H_irr at ``b`` when the caller has just evaluated it (skips the evaluation).
+        """
         if b == self.b:
             return self.h
         rb, rh, k, s = self._walk(b)
-        if k == 0:
+        if h is None and k == 0:
             g = self.branch.value(2.0 * abs(b))
             h = 0.5 * g if b >= 0.0 else -0.5 * g
-        else:
+        elif h is None:
             h = rh[k - 1] + s * self.branch.value(s * (b - rb[k - 1]))
         self._rb, self._rh = rb[:k], rh[:k]
         self.b, self.h, self.direction = float(b), float(h), s

@@ -106,7 +106,7 @@ class TimeDomainInverse:
         if current_limited:
             current = math.copysign(limit, current)
             b = mag.solve(current * fpa, step)
-        mag.hysteresis.move(b)
+        mag.move(b)
         return InverseStep(current, b, strain_limited, current_limited)
 
     def step_motion(self, displacement: float, velocity: float, acceleration: float,

@@ -102,6 +102,7 @@ class TimeDomainMagnetics:
         """Demagnetised, at rest: B = 0 (the bias point), no reversals."""
         self.hysteresis.reset()
         self._slope = self.branch.reversal_slope
+        self._last = (math.nan, math.nan)  # the last B solved for and its H_irr
 
     @property
     def flux_density(self) -> float:
@@ -124,6 +125,7 @@ class TimeDomainMagnetics:
         """Restore a state from :meth:`get_state`."""
         self._slope = float(state[0])
         self.hysteresis.set_state(state[1:])
+        self._last = (math.nan, math.nan)
 
     # -- the field separation -----------------------------------------------
     def field(self, flux_density: float, step: float) -> float:
@@ -133,7 +135,8 @@ class TimeDomainMagnetics:
         inverse of :meth:`solve`. The memory is not changed.
         """
         b0 = self.hysteresis.b
-        h_irr, _ = self.hysteresis.evaluate(flux_density)
+        h_irr = (self._last[1] if flux_density == self._last[0]
+                 else self.hysteresis.evaluate(flux_density)[0])
         rate = (flux_density - b0) / step
         root = math.sqrt(abs(rate))
         return (self.nu * flux_density + h_irr + self.k_e * rate
@@ -152,6 +155,7 @@ class TimeDomainMagnetics:
         b0 = op.b
         r0 = self.nu * b0 + op.h - field
         if r0 == 0.0:
+            self._last = (b0, op.h)
             return b0
         s = -1.0 if r0 > 0.0 else 1.0
         excess = self.k_ex / math.sqrt(step)
@@ -164,9 +168,15 @@ class TimeDomainMagnetics:
         # first guess: the same quadratic with the operator's slope at the last solution
         steep = linear + self._slope
         u = (-excess + math.sqrt(excess * excess + 4.0 * steep * need)) / (2.0 * steep)
+        start, h_start, limit = op.branch_towards(s)
+        g_branch = self.branch.value_and_slope
         for _ in range(_MAX_ITERATIONS):
             b = b0 + s * u * u
-            h_irr, slope = op.evaluate(b)
+            if s * (b - limit) > 0.0 or start != start:  # wipes a reversal out, or virgin
+                h_irr, slope = op.evaluate(b)
+            else:  # on the branch the move starts on (the usual case)
+                g, slope = g_branch(s * (b - start))
+                h_irr = h_start + s * g
             self._slope = slope
             f = s * (self.nu * b + h_irr - field) + eddy * u * u + excess * u
             if f > 0.0:
@@ -175,21 +185,29 @@ class TimeDomainMagnetics:
                 lo = u
             df = 2.0 * u * (linear + slope) + excess
             new = u - f / df if df > 0.0 else 0.5 * (lo + hi)
+            if lo <= new <= hi and abs(new * new - u * u) <= B_TOLERANCE:
+                self._last = (b, h_irr)  # converged: this B (within the tolerance of new)
+                return b
             if not lo < new < hi:
                 new = 0.5 * (lo + hi)
-            if abs(new * new - u * u) <= B_TOLERANCE or hi - lo <= 1e-15:
-                u = new
+            if hi - lo <= 1e-15:
                 break
             u = new
         else:  # pragma: no cover - the bracket halves at worst, 60 halvings suffice
             raise ParameterError(f"no flux density found for field = {field:g} A/m")
-        return b0 + s * u * u
+        self._last = (b, h_irr)
+        return b
 
     def step(self, field: float, step: float) -> float:
         """Advance B over a step with ``field`` held; commit the memory; return B [T]."""
         b = self.solve(field, step)
-        self.hysteresis.move(b)
+        self.move(b)
         return b
+
+    def move(self, flux_density: float) -> None:
+        """Commit the memory to B = ``flux_density`` [T] (reached monotonically from now)."""
+        last_b, last_h = self._last
+        self.hysteresis.move(flux_density, last_h if flux_density == last_b else None)
 
     def flux_density_for(self, magnetization: float) -> float:
         """B at which M = B/mu_0 - H_hys(B) equals ``magnetization`` [A/m], from here, [T].
@@ -203,24 +221,36 @@ class TimeDomainMagnetics:
         miss = magnetization - (b0 / MU_0 - self.nu * b0 - op.h)
         if miss == 0.0:
             return b0
+        s = 1.0 if miss > 0.0 else -1.0
         steep, flat = 1.0 / MU_0 - self.nu, self.smallest_magnetization_slope
         near, far = b0 + miss / steep, b0 + miss / flat
         lo, hi = (near, far) if miss > 0.0 else (far, near)
-        b = near
+        # first guess: the slope of M(B) at the last solution
+        b = b0 + miss / max(steep - self._slope, flat)
+        start, h_start, limit = op.branch_towards(s)
+        g_branch = self.branch.value_and_slope
         for _ in range(_MAX_ITERATIONS):
-            h_irr, slope = op.evaluate(b)
+            if not lo <= b <= hi:
+                b = 0.5 * (lo + hi)
+            if s * (b - limit) > 0.0 or start != start:  # wipes a reversal out, or virgin
+                h_irr, slope = op.evaluate(b)
+            else:
+                g, slope = g_branch(s * (b - start))
+                h_irr = h_start + s * g
+            self._slope = slope
             g = b / MU_0 - self.nu * b - h_irr - magnetization
             if g > 0.0:
                 hi = b
             else:
                 lo = b
-            dg = 1.0 / MU_0 - self.nu - slope
-            new = b - g / dg
+            new = b - g / (steep - slope)
+            if lo <= new <= hi and abs(new - b) <= B_TOLERANCE:
+                self._last = (b, h_irr)
+                return b
             if not lo < new < hi:
                 new = 0.5 * (lo + hi)
-            if abs(new - b) <= B_TOLERANCE:
-                return new
             b = new
+        self._last = (math.nan, math.nan)
         return b
 
 
