@@ -24,7 +24,8 @@ from ..parameters import TransducerParameters
 from .magnetics import TimeDomainStepper
 from .parameters import TimeDomainParameters
 
-__all__ = ["SinusoidalResponse", "sinusoidal_response", "fit_reversible_permeability"]
+__all__ = ["SinusoidalResponse", "sinusoidal_response", "fit_reversible_permeability",
+           "Comparison", "compare_with_paper"]
 
 
 @dataclass(frozen=True)
@@ -153,3 +154,58 @@ def fit_reversible_permeability(params: TransducerParameters | None = None,
                            options={"xatol": 1e-5})
     mu = float(math.exp(best.x))
     return mu, model(mu)
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """The two models at one sinusoidal operating point, side by side (SI)."""
+
+    frequency: float  #: f, [Hz]
+    current_amplitude: float  #: I_m, [A]
+    measured_flux_density: float | None  #: Table 1's B_m there, [T] (None: not measured)
+    paper: dict  #: the paper's model: B_m (its input), mu', mu'', lag, loss per cycle, y
+    time_domain: dict  #: the time-domain model's, the same keys
+
+    def differences(self) -> dict:
+        """time_domain / paper - 1 of each quantity (the lag's in degrees: the difference)."""
+        out = {}
+        for key, value in self.paper.items():
+            other = self.time_domain[key]
+            out[key] = (math.degrees(other - value) if key == "lag"
+                        else (other / value - 1.0 if value else math.nan))
+        return out
+
+
+def compare_with_paper(params: TransducerParameters | None = None,
+                       td: TimeDomainParameters | None = None, frequency: float = 50.0,
+                       current_amplitude: float = 1.0, samples: int = 2000,
+                       calibration=None) -> Comparison:
+    """Both models under i = I_m cos(w t): B_m, mu', mu'', lag, loss per cycle, strokes.
+
+    The paper's model takes B_m from the calibration (Table 1 at its own points,
+    :mod:`gmt.calibration`) and mu'' from eq 16, mu' from eq 20, the loss per
+    cycle from eq 12 (P_loss / (f V)); the time-domain model predicts all of
+    them from the current (:func:`sinusoidal_response`). ``dy`` and
+    ``peak_to_peak`` are the free rod's strokes (eq 40; the paper's from eq 30's
+    closed form).
+    """
+    from ..calibration import DEFAULT_CALIBRATION, TABLE_1
+    from ..forward import loop_metrics, operating_point
+    from ..parameters import Excitation
+
+    params = params or TransducerParameters()
+    point = operating_point(params, Excitation(frequency, current_amplitude),
+                            calibration or DEFAULT_CALIBRATION)
+    metrics = loop_metrics(params, point)
+    paper = {"flux_density_amplitude": point.flux_density_amplitude,
+             "mu_real": point.mu_real, "mu_imag": point.mu_imag, "lag": point.lag,
+             "loss_per_cycle": point.losses.total / (frequency * params.rod_volume),
+             "peak_to_peak": metrics["peak_to_peak"], "dy": metrics["dy"]}
+    r = sinusoidal_response(params, td, frequency, current_amplitude, samples)
+    time_domain = {"flux_density_amplitude": r.flux_density_amplitude, "mu_real": r.mu_real,
+                   "mu_imag": r.mu_imag, "lag": r.lag, "loss_per_cycle": r.loss_per_cycle,
+                   "peak_to_peak": r.peak_to_peak, "dy": r.dy}
+    measured = next((b for f, i, _, b in TABLE_1
+                     if f == frequency and i == current_amplitude), None)
+    return Comparison(float(frequency), float(current_amplitude), measured, paper,
+                      time_domain)
