@@ -17,7 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from smeha import flowstudy
+from smeha.studies import flow
 from system_models.defaults import DEFAULT_STEP
 
 
@@ -28,21 +28,21 @@ def main(argv=None):
     ap.add_argument("--coupling", choices=("force", "displacement"), default="force")
     ap.add_argument("--backend", choices=("fmu", "direct"), default="direct")
     ap.add_argument("--cycles", type=float, default=8.0)
-    ap.add_argument("--branch-rule", choices=("control", "demand"), default="control")
+    ap.add_argument("--branch-rule", choices=("control", "demand"), default="demand")
     ap.add_argument("--modes", default="uncompensated,compensated")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     steps = [float(s) for s in args.steps.split(",")]
-    fmu = flowstudy.ensure_fmu(quiet=True) if args.backend == "fmu" else None
+    fmu = flow.ensure_fmu(quiet=True) if args.backend == "fmu" else None
     out = []
     for circuit in ("ideal", "realistic"):
         for mode in args.modes.split(","):
             rows = []
             for h in steps:
-                case = flowstudy.Case(args.frequency, mode, circuit=circuit, step=h,
+                case = flow.Case(args.frequency, mode, circuit=circuit, step=h,
                                       cycles=args.cycles, backend=args.backend,
                                       branch_rule=args.branch_rule, coupling=args.coupling)
-                _, _, row = flowstudy.run_case(case, fmu)
+                _, _, row = flow.run_case(case, fmu)
                 rows.append(row)
             result = {"frequency_Hz": args.frequency, "mode": mode,
                       "branch_rule": args.branch_rule, "circuit": circuit,

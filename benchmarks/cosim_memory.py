@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 import gmt
-from smeha import flowstudy
+from smeha.studies import flow as flowstudy
 from system_models import presets
 from system_models.defaults import DEFAULT_STEP
 from system_models.cosim import CosimSettings, DirectTransducer, FmuTransducer, cosimulate

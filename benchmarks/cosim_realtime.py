@@ -1,7 +1,7 @@
 """Real-time factor of the EHA co-simulation at ``smeha simulate``'s defaults, and what it costs.
 
 1. Real time: the default case of ``smeha simulate`` (100 Hz, compensated, realistic
-   circuit, :class:`smeha.flowstudy.Case`'s defaults: the force port, its default step)
+   circuit, :class:`smeha.studies.flow.Case`'s defaults: the force port, its default step)
    over ``--duration`` simulated seconds, timed by the run's own ``wall_s``, through the
    FMU with fmpy and with gmt in one process, ``--repeats`` times each, interleaved
    (median): the real-time factor (simulated s per wall s) and the FMI overhead (FMU /
@@ -29,14 +29,14 @@ import time
 import numpy as np
 
 import gmt
-from smeha import flowstudy
+from smeha.studies import flow
 from system_models import cosim, kernel, presets
 from system_models.defaults import DEFAULT_STEP, HYDRAULIC_STEP
 
 
 def default_case(duration, **changes):
     """smeha simulate --frequency 100 --mode compensated --duration D (its defaults)."""
-    case = flowstudy.Case(100.0, "compensated", cycles=duration * 100.0)
+    case = flow.Case(100.0, "compensated", cycles=duration * 100.0)
     return dataclasses.replace(case, **changes)
 
 
@@ -45,7 +45,7 @@ def timed(case, fmu):
     the run (on a machine shared with other jobs the wall time includes waiting for a core;
     the CPU time is what the run costs on one)."""
     cpu = time.process_time()
-    _, _, row = flowstudy.run_case(case, fmu)
+    _, _, row = flow.run_case(case, fmu)
     return row["wall_s"], row["flow_sim_m3_s"], time.process_time() - cpu
 
 
@@ -70,7 +70,7 @@ def split(case, fmu):
 
     backend.drive_step, kernel.plant_run = timed_drive, timed_plant
     try:
-        record, _, row = flowstudy.run_case(case, fmu)
+        record, _, row = flow.run_case(case, fmu)
     finally:
         backend.drive_step, kernel.plant_run = drive_step, plant_run
     n = len(record) - 1
@@ -85,7 +85,7 @@ def split(case, fmu):
 def window_run(duration, window):
     """Wall time of the default case, gmt in-process, with ``window`` steps a plant call."""
     case = default_case(duration, backend="direct")
-    control, _ = flowstudy.control_signal(case.mode, case.frequency)
+    control, _ = flow.control_signal(case.mode, case.frequency)
     backend = cosim.DirectTransducer(gmt.TransducerParameters(),
                                      gmt.Excitation(case.frequency, 1.0), case.drive())
     settings = cosim.CosimSettings(duration=duration, load_force=case.load_force,
@@ -98,9 +98,9 @@ def window_run(duration, window):
 def convergence(cycles):
     """Flows at h, h/2, h/4 (both modes) and at h with the plant's substep varied."""
     out = []
-    for mode in flowstudy.MODES:
-        base = flowstudy.Case(100.0, mode, cycles=cycles, backend="direct")
-        ref = flowstudy.run_case(dataclasses.replace(base, step=DEFAULT_STEP / 4,
+    for mode in flow.MODES:
+        base = flow.Case(100.0, mode, cycles=cycles, backend="direct")
+        ref = flow.run_case(dataclasses.replace(base, step=DEFAULT_STEP / 4,
                                                      hydraulic_step=5e-6))[2]["flow_sim_m3_s"]
         rows = []
         for label, changes in (("h", {}), ("h/2", {"step": DEFAULT_STEP / 2}),
@@ -108,7 +108,7 @@ def convergence(cycles):
                                ("substep 100 us", {"hydraulic_step": 1e-4}),
                                ("substep 25 us", {"hydraulic_step": 2.5e-5}),
                                ("substep 10 us", {"hydraulic_step": 1e-5})):
-            q = flowstudy.run_case(dataclasses.replace(base, **changes))[2]["flow_sim_m3_s"]
+            q = flow.run_case(dataclasses.replace(base, **changes))[2]["flow_sim_m3_s"]
             rows.append({"run": label, "flow_m3_s": q, "error_vs_reference": q / ref - 1})
         h = {r["run"]: r["flow_m3_s"] for r in rows}
         out.append({"mode": mode, "reference_m3_s": ref, "rows": rows,
@@ -125,7 +125,7 @@ def main(argv=None):
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     say = (lambda *a: None) if args.json else (lambda *a: print(*a, flush=True))
-    fmu = flowstudy.ensure_fmu(quiet=True)
+    fmu = flow.ensure_fmu(quiet=True)
     timed(default_case(0.05), fmu)  # compiled code loaded, FMU extracted
     walls, cpus = {"fmu": [], "direct": []}, {"fmu": [], "direct": []}
     flows = {}

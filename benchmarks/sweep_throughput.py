@@ -29,7 +29,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from smeha import flowstudy, pool
+from smeha import pool
+from smeha.studies import flow
 from system_models.defaults import DEFAULT_STEP
 
 
@@ -45,7 +46,7 @@ def timed_sweep(n, cycles, step, fmu, workers=None, method=None, scheduler=None)
     with tempfile.TemporaryDirectory() as tmp:
         spec = Path(tmp) / "spec.toml"
         spec.write_text(f"[grid]\nfrequency = {[50.0 + 5.0 * k for k in range((n + 1) // 2)]}\n"
-                        f"mode = {list(flowstudy.MODES)}\n"
+                        f"mode = {list(flow.MODES)}\n"
                         f"[settings]\ncycles = {cycles}\nstep = {step}\n".replace("'", '"'))
         argv = ["sweep", str(spec), "--fmu", str(fmu), "--json"]
         argv += ["--scheduler", scheduler] if scheduler else ["--workers", str(workers)]
@@ -77,7 +78,7 @@ def main(argv=None):
     ap.add_argument("--no-dask", action="store_true")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    fmu = flowstudy.ensure_fmu(quiet=True)
+    fmu = flow.ensure_fmu(quiet=True)
     configs = {"1 worker": (1, pool.START_METHOD), f"2 workers, {pool.START_METHOD}":
                (2, pool.START_METHOD), "2 workers, spawn": (2, "spawn")}
     sizes = [int(n) for n in args.points.split(",")]

@@ -1,10 +1,10 @@
 """The EHA system's cylinder flow against the harness, by communication step and force hold.
 
-For each case (frequency, mode) it writes the system (smeha.ssp) twice -- the plant holding
+For each case (frequency, mode) it writes the system (smeha.fmu.ssp) twice -- the plant holding
 the transducer's force over each step, and extrapolating it from its last two values --
-runs each in fmpy's SSP master (smeha.systemrun.run_fmpy) at every step given, each run in
+runs each in fmpy's SSP master (smeha.fmu.systemrun.run_fmpy) at every step given, each run in
 a child process, and prints the flow of eqs 39-41's check, its relative difference from
-the harness's flow for the same case (smeha.flowstudy.run_case with the transducer FMU,
+the harness's flow for the same case (smeha.studies.flow.run_case with the transducer FMU,
 its own default step) and the wall time. The plant's valve controller samples u at each
 communication step, so the step is also that controller's period.
 
@@ -30,7 +30,7 @@ PISTON_AREA = 1256e-6
 
 def _run(ssp_path, step, frequency) -> dict:
     """Child: one fmpy SSP run; print its flow and wall time as JSON."""
-    from smeha import systemrun
+    from smeha.fmu import systemrun
 
     record, wall = systemrun.run_fmpy(ssp_path, step=float(step))
     flow = systemrun.flow(record, float(frequency), PISTON_AREA).flow_sim
@@ -38,7 +38,7 @@ def _run(ssp_path, step, frequency) -> dict:
 
 
 def _fmus(dist: Path) -> dict:
-    from smeha import fmu_build, ssp
+    from smeha.fmu import build as fmu_build, ssp
 
     fmus = {}
     for comp, key in ssp.COMPONENTS.items():
@@ -60,15 +60,16 @@ def main(argv=None):
     if args.run:
         print(json.dumps(_run(*args.run)))
         return 0
-    from smeha import flowstudy, fmu_build, ssp
+    from smeha.fmu import build as fmu_build, ssp
+    from smeha.studies import flow
 
     fmus = _fmus(args.dist or fmu_build.DIST)
     rows = []
     with tempfile.TemporaryDirectory(prefix="smeha_system_step_") as tmp:
         for f in (float(x) for x in args.frequencies.split(",")):
             for mode in args.modes.split(","):
-                case = flowstudy.Case(f, mode, cycles=args.cycles)
-                _, check, _ = flowstudy.run_case(case, fmu_path=fmus["transducer"])
+                case = flow.Case(f, mode, cycles=args.cycles)
+                _, check, _ = flow.run_case(case, fmu_path=fmus["transducer"])
                 desc = ssp.describe(case, fmus)
                 for extrapolate in (False, True):
                     plant = dict(desc.parameters["plant"], extrapolate_force=extrapolate)

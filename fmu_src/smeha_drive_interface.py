@@ -4,7 +4,7 @@
 control signal u(t) = offset + amplitude cos(2 pi f t) [V] that drives the transducer (its
 input ``u``: the amplifier's, or the compensator's, Figure 9) and that the plant's valve
 controller follows (Figure 2's stages switch as u rises and falls). It is the signal the
-project's co-simulation harness gives the transducer (``smeha.flowstudy.control_signal``:
+project's co-simulation harness gives the transducer (``smeha.studies.flow.control_signal``:
 uncompensated, offset 0 and amplitude I_m / K_a; compensated, offset = amplitude = a, the
 paper's control amplitude next to its Figure 10). Stepped over [t, t + h], it outputs u at
 t + h, the value a host hands the other units for the next step.

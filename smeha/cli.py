@@ -4,11 +4,11 @@ Subcommands
 -----------
 ``smeha paper [--json] [--plots DIR] [--branch-rule control|demand]``
     Reproduce the paper's model results and compare with its data
-    (:mod:`smeha.paper`); optionally write the figures (:mod:`smeha.plots`).
+    (:mod:`smeha.studies.paper`); optionally write the figures (:mod:`smeha.studies.paperplots`).
 ``smeha simulate --frequency HZ --mode {uncompensated,compensated} [...]``
     One co-simulation of the EHA (transducer FMU + hydraulics) with the flow
-    check of eqs 40/41 (:mod:`smeha.flowstudy`). ``simulate``, ``flow`` and
-    ``sweep`` live in :mod:`smeha.flowcommands`.
+    check of eqs 40/41 (:mod:`smeha.studies.flow`). ``simulate``, ``flow`` and
+    ``sweep`` live in :mod:`smeha.studies.flowcommands`.
 ``smeha flow [--frequencies 50,70,80,100] [--ideal] [--variant FILE] [--json] [--plot FILE]``
     The flow study: both modes at each frequency, against eqs 40/41 and the
     paper's Table 3; ``--loads`` adds the load lines; ``--variant`` runs every
@@ -16,7 +16,7 @@ Subcommands
     and prints both flows side by side.
 ``smeha sweep SPEC.toml [--scheduler ADDRESS] [--workers N] [--out FILE] [--json] [--plot FILE]``
     A grid of flow-study cases from a TOML spec on local processes or a
-    Dask cluster, resumable, into one CSV table (:mod:`smeha.sweep`).
+    Dask cluster, resumable, into one CSV table (:mod:`smeha.studies.sweep`).
 ``smeha identify DATA.csv [--json]``
     B_m, mu'' per measured run and the loss coefficients of eq 16
     (:mod:`smeha.identify`; file format in :mod:`smeha.measured`).
@@ -24,14 +24,14 @@ Subcommands
     What the paper's model gets wrong on measured runs, the cause, the
     extended model and its held-out gain (:mod:`smeha.diagnose`).
 ``smeha build [--fmi 2|3|both] [--out DIR] [--no-validate] [--system ...]``
-    Build the FMU(s) (:mod:`smeha.fmu_build`) into the source tree's ``dist/``,
+    Build the FMU(s) (:mod:`smeha.fmu.build`) into the source tree's ``dist/``,
     where ``simulate``, ``flow`` and ``sweep`` look for the FMU; ``--system`` also
     builds the hydraulic plant's and the drive's FMUs and writes the EHA system of
     one case, ``SmehaEha.ssp``, ``SmehaEha/OspSystemStructure.xml`` and the container FMU
-    ``SmehaEha.fmu`` (:mod:`smeha.ssp`).
+    ``SmehaEha.fmu`` (:mod:`smeha.fmu.ssp`).
 
 Adding a subcommand: write ``_add_<name>(subparsers)`` (here, or
-``add_<name>`` in a module of its own, as :mod:`smeha.flowcommands`) that
+``add_<name>`` in a module of its own, as :mod:`smeha.studies.flowcommands`) that
 registers its parser with ``set_defaults(run=<its run function>)``, and append
 it to :data:`SUBCOMMANDS`. Build its options from the types of
 :mod:`smeha.cliargs` (files, folders, numbers), so bad input is refused while
@@ -58,7 +58,8 @@ import gmt  # cheap: its names load on first use (gmt/__init__.py)
 from . import __version__
 from .cliargs import (Parser, UsageError, add_branch_rule, input_file,
                       join_negative_values, output_dir)
-from .flowcommands import CIRCUITS, FREQUENCY, add_flow, add_simulate, add_sweep
+from .studies.flowcommands import CIRCUITS, FREQUENCY, add_flow, add_simulate, add_sweep
+from .studies.positioncommands import add_position
 
 
 def _add_paper(subparsers):
@@ -75,16 +76,16 @@ def _add_paper(subparsers):
 
 
 def _run_paper(args) -> int:
-    from . import paper
+    from .studies import paper
 
     params = gmt.TransducerParameters()
     runs = paper.compensated_runs(params, args.branch_rule)
     report = paper.paper_report(params, args.branch_rule, runs)
     written = []
     if args.plots:
-        from . import plots
+        from .studies import paperplots
 
-        written = plots.write_all(args.plots, params, report, runs)
+        written = paperplots.write_all(args.plots, params, report, runs)
     if args.json:
         json.dump(report, sys.stdout, indent=2, allow_nan=False)
         sys.stdout.write("\n")
@@ -98,7 +99,7 @@ def _run_paper(args) -> int:
 def _add_build(subparsers):
     p = subparsers.add_parser(
         "build", help="build the transducer FMU(s) into dist/ of the source tree",
-        description="Build and validate the transducer FMU(s) (smeha.fmu_build; "
+        description="Build and validate the transducer FMU(s) (smeha.fmu.build; "
                     "'python build_fmu.py' is the same command). By default they go into "
                     "dist/ of the smeha source tree, where simulate, flow and sweep look for "
                     "dist/SmehaGmt.fmu (and build it when it is missing or older than its "
@@ -127,13 +128,13 @@ def _add_build(subparsers):
 
 
 def _run_build(args) -> int:
-    from . import fmu_build
+    from .fmu import build as fmu_build
 
     out = args.out or fmu_build.DIST
     status = fmu_build.build_all(args.fmi, out, validate=not args.no_validate)
     if not args.system:
         return status
-    from . import ssp
+    from .fmu import ssp
     transducer = out / f"{fmu_build.iface.MODEL_NAME_FMI2}.fmu"
     built = {"transducer": transducer} if status == 0 and args.fmi != "3" else {}
     try:
@@ -221,7 +222,7 @@ def _run_diagnose(args) -> int:
 
 
 #: Registration functions of the subcommands, in the order ``--help`` lists them.
-SUBCOMMANDS = (_add_paper, add_simulate, add_flow, add_sweep, _add_identify,
+SUBCOMMANDS = (_add_paper, add_simulate, add_flow, add_sweep, add_position, _add_identify,
                _add_diagnose, _add_build)
 
 

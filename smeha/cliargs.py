@@ -170,11 +170,14 @@ def number_list(low=None, high=None, *, low_open=True, high_open=False, unit="")
     one = number(low, high, low_open=low_open, high_open=high_open, unit=unit)
 
     def convert(text):
-        items = [v for v in text.split(",") if v.strip()]
-        if not items:
+        items = [v.strip() for v in text.split(",")]
+        if not any(items):
             raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of "
                                              "numbers")
-        return [one(v.strip()) for v in items]
+        if not all(items):  # "50,,100", "50,": a number left out, not a shorter list
+            raise argparse.ArgumentTypeError(f"{text!r} has an empty item; give numbers "
+                                             "separated by single commas")
+        return [one(v) for v in items]
 
     convert.numeric = True
     return convert
@@ -215,9 +218,12 @@ def add_branch_rule(parser) -> None:
     """--branch-rule, the compensator's root rule (gmt.parameters.BRANCH_RULES)."""
     import gmt.parameters
 
-    parser.add_argument("--branch-rule", choices=gmt.parameters.BRANCH_RULES, default="control",
-                        help="compensator root rule: 'control' (Figure 9, default) or 'demand' "
-                             "(the direction of the demanded magnetisation)")
+    default = gmt.parameters.BRANCH_RULE
+    parser.add_argument("--branch-rule", choices=gmt.parameters.BRANCH_RULES, default=default,
+                        help="compensator root rule: 'control' (Figure 9's sign of u(n) - "
+                             "u(n-1); its result depends on the sample period) or 'demand' "
+                             "(the direction of the demanded magnetisation); default "
+                             f"{default!r}")
 
 
 def warn(command: str, message: str) -> None:

@@ -98,9 +98,13 @@ class SampledValveController:
         Sample period T of the controller, [s], > 0.
     dead_times : sequence of 4 floats
         d_k of V1..V4, [s] (0 for valves with no dead time).
+    in_force : sequence of 4 floats, optional
+        The commands in force at t = 0 from before (1.0 open, 0.0 closed), to continue
+        a run: a valve the first sample commands otherwise acts its dead time later.
+        None: the first sample's commands are in force from t = 0.
     """
 
-    def __init__(self, direction, control, period, dead_times):
+    def __init__(self, direction, control, period, dead_times, in_force=None):
         from gmt.errors import check_range
         check_range("period", period, 0.0, 1.0, unit="s")
         if len(dead_times) != 4 or min(dead_times) < 0.0:
@@ -117,6 +121,10 @@ class SampledValveController:
         # per valve: the times its command changes and the command from then on
         self._action_times = [[0.0] for _ in range(4)]
         self._action_commands = [[1.0 if c else 0.0] for c in cmds]
+        for k, before in enumerate(in_force or ()):
+            if (before > 0.5) != cmds[k] and self.dead_times[k] > 0.0:
+                self._action_times[k].append(self.dead_times[k])
+                self._action_commands[k] = [float(before > 0.5), 1.0 if cmds[k] else 0.0]
         self._issued = list(cmds)
         self._next = 1  # index of the next sample to take (sample 0 set the start)
 

@@ -2,7 +2,7 @@
 costs nothing, so the command line shows them in its help without loading the solver).
 
 Every default of the package (:class:`system_models.cosim.CosimSettings`,
-:class:`smeha.flowstudy.Case`, ``smeha simulate/flow/sweep``) reads these.
+:class:`smeha.studies.flow.Case`, ``smeha simulate/flow/sweep``) reads these.
 """
 
 #: Communication step, [s]: the largest that keeps the flow of ``smeha simulate``'s

@@ -62,7 +62,7 @@ class FluidParameters:
 #: mineral oil comes out of solution well above that (Merritt, Hydraulic Control
 #: Systems, 1967, ch. 2). Cavitation is not modelled: a run with entrained air
 #: stops there (:class:`system_models.implicit.CavitationError`), and a flow
-#: study row whose oil went below it is flagged (:func:`smeha.flowstudy.flag_row`).
+#: study row whose oil went below it is flagged (:func:`smeha.studies.flow.flag_row`).
 MINIMUM_PRESSURE = 1.0e3
 
 

@@ -37,15 +37,20 @@ from .rod import RodParameters
 
 
 def run_force_port(backend, control, circuit, settings, drive, controller, grid, writer,
-                   progress, n_steps):
+                   progress, n_steps, initial=None):
     """The force port's run (module docstring): the transducer one step ahead, the plant
-    a window at a time, rows into ``writer`` at ``grid``'s points."""
+    a window at a time, rows into ``writer`` at ``grid``'s points.
+
+    ``initial``: the plant's state to start from (a previous run's return value, to
+    continue it: the closed-loop position study runs one pump period at a time); None
+    starts at rest. Returns the plant's state at the run's end."""
     rod = RodParameters.of(backend.mechanics())
     plant = PlantParameters(circuit, rod)
     packed = plant.packed
     n = kernel.state_size(packed)
     out = 10 if rod.size == 2 else 12  # index of the chamber side's y in the state
-    z = plant_start(plant, backend.rod_state()[0])
+    z = (plant_start(plant, backend.rod_state()[0]) if initial is None
+         else np.array(initial, dtype=float))
     # a continuous drive, or the time-domain magnetics: the force linear over a step
     linear = not drive.compensated or drive.continuous_force
     volume = compressed = 0.0
@@ -110,3 +115,4 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
                  valves_compressing=previous if previous is not None else 0.0,
                  volume_into_big=volume, compression_volume=compressed, iterations=0.0)
     writer.add(final, 1)
+    return z

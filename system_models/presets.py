@@ -53,7 +53,7 @@ stiffer, it holds tension. While the big cavity is shut the 1 kg piston rings
 on that stiff oil and, in the uncompensated runs (and compensated at 70-80 Hz),
 pulls the cavity's pressure below zero absolute (to -0.2 to -3.3 MPa at 50-100
 Hz), where a real oil would cavitate; the flow study flags those rows
-(``cavitation``, :func:`smeha.flowstudy.flag_row`) rather than model it. The
+(``cavitation``, :func:`smeha.studies.flow.flag_row`) rather than model it. The
 ``realistic`` circuit (0.5 % air) and ``ideal`` stay above 1 MPa over the flow
 table.
 """

@@ -5,17 +5,17 @@
 Commands
 --------
 ``write OUT DIST FOLDER CIRCUIT CYCLES F:MODE...``
-    the .ssp, OspSystemStructure.xml and container FMU of each case (smeha.ssp), from the
+    the .ssp, OspSystemStructure.xml and container FMU of each case (smeha.fmu.ssp), from the
     FMUs in DIST
 ``harness OUT FMU CIRCUIT CYCLES F:MODE...``
-    the project's co-simulation harness (smeha.flowstudy.run_case, the transducer FMU)
+    the project's co-simulation harness (smeha.studies.flow.run_case, the transducer FMU)
     for each case: its flow check, and the free transducer's flow of eqs 40/41
 ``fmpy OUT SSP F``        the .ssp in fmpy's simulate_ssp; its flow check
 ``libcosim OUT OSP F``    OspSystemStructure.xml in libcosim; its flow check, and the
                           mechanics each unit runs with
 ``container OUT FMU F``   the container FMU in fmpy's simulate_fmu; its flow check
 ``free OUT F MODE CYCLES``  dy of the free transducer between the valve switches (eqs
-                          40/41; smeha.flowstudy.free_dy: no hydraulics)
+                          40/41; smeha.studies.flow.free_dy: no hydraulics)
 ``plant_bad OUT FMU NAME=VALUE...``
                           fmpy.simulate_fmu of the plant FMU with each bad parameter: the
                           exception it raised and what the FMU wrote to stderr
@@ -52,8 +52,8 @@ def _check(chk, wall, steps) -> dict:
 def write(out_path, dist, folder, circuit, cycles, *cases):
     from pathlib import Path
 
-    from smeha import ssp
-    from smeha.flowstudy import Case
+    from smeha.fmu import ssp
+    from smeha.studies.flow import Case
 
     fmus = {comp: Path(dist) / f"{name}.fmu" for comp, name in
             (("drive", "SmehaDrive"), ("transducer", "SmehaGmt"), ("plant", "SmehaPlant"))}
@@ -73,7 +73,7 @@ def harness(out_path, fmu, circuit, cycles, *cases):
     import time
     from pathlib import Path
 
-    from smeha.flowstudy import Case, run_case
+    from smeha.studies.flow import Case, run_case
 
     rows = {}
     for f, mode in _cases(cases):
@@ -88,7 +88,7 @@ def harness(out_path, fmu, circuit, cycles, *cases):
 def fmpy(out_path, ssp_path, frequency):
     import fmpy as fmpy_package
 
-    from smeha import systemrun
+    from smeha.fmu import systemrun
 
     record, wall = systemrun.run_fmpy(ssp_path)
     chk = systemrun.flow(record, float(frequency), PISTON_AREA)
@@ -97,7 +97,7 @@ def fmpy(out_path, ssp_path, frequency):
 
 
 def container(out_path, fmu_path, frequency):
-    from smeha import systemrun
+    from smeha.fmu import systemrun
 
     record, wall = systemrun.run_container(fmu_path)
     chk = systemrun.flow(record, float(frequency), PISTON_AREA)
@@ -105,7 +105,7 @@ def container(out_path, fmu_path, frequency):
 
 
 def libcosim(out_path, osp_path, frequency):
-    from smeha import systemrun
+    from smeha.fmu import systemrun
 
     record, wall, end_ns, units = systemrun.run_libcosim(osp_path, report=(
         ("transducer", systemrun.MECHANICS + ("displacement",)),
@@ -115,7 +115,7 @@ def libcosim(out_path, osp_path, frequency):
 
 
 def free(out_path, frequency, mode, cycles):
-    from smeha.flowstudy import free_dy
+    from smeha.studies.flow import free_dy
 
     _write(out_path, {"dy_free": free_dy(float(frequency), mode, cycles=float(cycles))})
 
@@ -179,7 +179,7 @@ COMMANDS = {"write": write, "harness": harness, "fmpy": fmpy, "libcosim": libcos
 
 if __name__ == "__main__":
     COMMANDS[sys.argv[1]](*sys.argv[2:])
-    # leave without tearing down libcosim's execution (smeha.systemrun keeps it alive)
+    # leave without tearing down libcosim's execution (smeha.fmu.systemrun keeps it alive)
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(0)

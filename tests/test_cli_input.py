@@ -14,12 +14,14 @@ replace the work itself (the co-simulation, the FMU build) with a tripwire.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 from pathlib import Path
 
 import pytest
 
-from smeha import cli, cliargs, flowcommands
+from smeha import cli, cliargs
+from smeha.studies import flowcommands
 
 
 #: A file that exists in every checkout (its content does not matter where it is used).
@@ -256,12 +258,12 @@ def test_unknown_option_is_one_line(calls, capsys):
 @pytest.fixture
 def tripwire(monkeypatch):
     """The co-simulation and the FMU build replaced by WorkStarted."""
-    from smeha import flowstudy
+    from smeha.studies import flow
 
     def trip(*args, **kwargs):
         raise WorkStarted
-    for module, name in ((flowstudy, "run_case"), (flowstudy, "run_cases"),
-                         (flowstudy, "ensure_fmu")):
+    for module, name in ((flow, "run_case"), (flow, "run_cases"),
+                         (flow, "ensure_fmu")):
         monkeypatch.setattr(module, name, trip)
 
 
@@ -307,14 +309,14 @@ def test_bad_variant_content_before_the_work(tmp_path, tripwire, capsys):
 
 def test_flow_variant_with_a_none_diagnosis_says_so(tmp_path, monkeypatch, capsys):
     # smeha diagnose --json on data the paper's model explains: cause "none"
-    from smeha import flowstudy
+    from smeha.studies import flow
 
     path = tmp_path / "none.json"
     path.write_text(json.dumps({"cause": "none", "gain": 1.0, "candidates": []}))
     seen = []
-    monkeypatch.setattr(flowstudy, "run_cases", lambda cases, *a, **k: seen.extend(cases) or [])
-    monkeypatch.setattr(flowstudy, "ensure_fmu", lambda **k: None)
-    monkeypatch.setattr(flowstudy, "format_table", lambda rows: "")
+    monkeypatch.setattr(flow, "run_cases", lambda cases, *a, **k: seen.extend(cases) or [])
+    monkeypatch.setattr(flow, "ensure_fmu", lambda **k: None)
+    monkeypatch.setattr(flow, "format_table", lambda rows: "")
     assert cli.main(["flow", "--variant", str(path), "--frequencies", "100"]) == 0
     out, err = capsys.readouterr()
     assert "names no extension" in err and "cause 'none'" in err
@@ -327,7 +329,7 @@ def test_flow_variant_with_a_none_diagnosis_says_so(tmp_path, monkeypatch, capsy
 
 def test_sweep_table_is_named_after_the_spec(tmp_path, monkeypatch, capsys):
     # two specs in one folder write two tables, not one appended table
-    from smeha import sweep
+    from smeha.studies import sweep
 
     outs = []
 
@@ -369,16 +371,17 @@ def test_every_command_has_help_for_every_option(command, capsys):
 
 
 def test_build_states_where_the_fmu_goes(capsys):
-    from smeha import flowstudy, fmu_build
+    from smeha.fmu import build as fmu_build
+    from smeha.studies import flow
 
     cli.main(["build", "--help"])
     out = " ".join(capsys.readouterr().out.split())
     assert "dist/ of the smeha source tree" in out and "simulate, flow and sweep" in out
-    assert flowstudy.default_fmu_path().parent == fmu_build.DIST
+    assert flow.default_fmu_path().parent == fmu_build.DIST
 
 
 def test_build_options_reach_the_builder(tmp_path, monkeypatch):
-    from smeha import fmu_build
+    from smeha.fmu import build as fmu_build
 
     seen = []
     monkeypatch.setattr(fmu_build, "build_all",
@@ -387,5 +390,18 @@ def test_build_options_reach_the_builder(tmp_path, monkeypatch):
     assert cli.main(["build"]) == 0
     assert seen == [("3", tmp_path / "d", False), ("2", fmu_build.DIST, True)]
     # build_fmu.py is the same command line
-    assert fmu_build.main(["--fmi", "both", "--out", str(tmp_path / "e")]) == 0
+    script = importlib.util.spec_from_file_location(
+        "build_fmu", Path(__file__).resolve().parents[1] / "build_fmu.py")
+    build_fmu = importlib.util.module_from_spec(script)
+    script.loader.exec_module(build_fmu)
+    assert build_fmu.main(["--fmi", "both", "--out", str(tmp_path / "e")]) == 0
     assert seen[-1] == ("both", tmp_path / "e", True)
+
+
+@pytest.mark.parametrize("value", ["50,,100", "50,", ",100"])
+def test_a_list_with_an_empty_item_is_refused(value, capsys):
+    # issue 19: "--frequencies 50,,100" ran 50 and 100 Hz as if the middle one were not
+    # asked for; a number left out is a mistake to name, not a shorter list
+    assert cli.main(["flow", "--frequencies", value]) == 2
+    err = capsys.readouterr().err
+    assert "empty item" in err and "Traceback" not in err

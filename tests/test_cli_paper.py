@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 import gmt
-from smeha import cli, paper, paperdata
+from smeha import cli, paperdata
+from smeha.studies import paper
 
 pytestmark = pytest.mark.integration
 
@@ -96,7 +97,7 @@ def test_json_structure(report):
     assert [r["frequency_Hz"] for r in report["compensated"]] == [50, 70, 80, 100]  # Table 3
     for row in report["compensated"]:
         assert COMPENSATED_KEYS <= set(row)
-        assert row["branch_rule"] == "control"
+        assert row["branch_rule"] == gmt.parameters.BRANCH_RULE  # the default rule
 
 
 def test_roles(report):

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from smeha import flowplots
+from smeha.studies import flowplots
 from system_models.cosim import RESULT_FIELDS
 
 MODES = ("uncompensated", "compensated")

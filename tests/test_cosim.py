@@ -25,7 +25,7 @@ import pytest
 
 import gmt
 from smeha import cli
-from smeha.flowstudy import MODES, Case, ensure_fmu, run_case
+from smeha.studies.flow import MODES, Case, ensure_fmu, run_case
 from system_models import kernel, presets
 from system_models.circuit import CircuitParameters, initial_state
 from system_models.controller import pump_phase, valve_commands
@@ -136,7 +136,7 @@ def test_flow_ideal_json_is_f_ad_dy_free_in_every_row(capsys):
 def test_free_dy_reference_is_the_closed_form():
     """The uncompensated dy_free the ideal test compares with is eq 30's periodic solution
     (gmt.periodic_response, harmonic balance), not a time-stepped one."""
-    from smeha.flowstudy import free_dy
+    from smeha.studies.flow import free_dy
     p = gmt.TransducerParameters()
     point = gmt.operating_point(p, gmt.Excitation(100.0, 1.0))
     t = np.array([0.0, 0.005])
@@ -434,7 +434,7 @@ def test_reversed_flow_is_flagged_with_its_reason():
     """The uncompensated pump at 150 Hz (issue 12): the rod lags the valve timing by more
     than a quarter period, dy < 0 and the flow runs backwards; the row says so and why,
     the table marks it."""
-    from smeha.flowstudy import format_table
+    from smeha.studies.flow import format_table
     ok, reversed_ = (run_case(Case(f, "uncompensated", cycles=6, backend="direct"))[2]
                      for f in (100.0, 150.0))
     assert not ok["flow_reversed"] and "note" not in ok
@@ -451,7 +451,7 @@ def test_oil_held_in_tension_is_flagged_as_cavitation():
     cavity is shut (100 Hz uncompensated: -2.2 MPa measured); the row says so, with the
     volume and the pressure read here from the record. The realistic circuit (0.5 % air)
     stays above 1 MPa over the flow table: no flag."""
-    from smeha.flowstudy import format_table
+    from smeha.studies.flow import format_table
     record, _, row = run_case(Case(100.0, "uncompensated", circuit="differential", cycles=6,
                                    backend="direct"))
     lowest = min(record[k].min() for k in ("p_pump", "p_big", "p_small"))

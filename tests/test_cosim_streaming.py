@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 import gmt
-from smeha import cli, flowstudy
+from smeha import cli
+from smeha.studies import flow
 from system_models import presets
 from system_models.cosim import CosimSettings, DirectTransducer, cosimulate
 from system_models.flowcheck import RunningFlow, flow_check, switching_instants
@@ -23,7 +24,7 @@ PISTON_AREA = 1256e-6
 
 def _run(keep, observer=None, step=1e-4, window=64, mode="uncompensated"):
     f = 100.0
-    control, _ = flowstudy.control_signal(mode, f)
+    control, _ = flow.control_signal(mode, f)
     backend = DirectTransducer(gmt.TransducerParameters(), gmt.Excitation(f, 1.0),
                                gmt.DriveParameters(compensated=mode == "compensated"))
     settings = CosimSettings(duration=5 / f, step=step, load_force=presets.REALISTIC_LOAD,
@@ -47,7 +48,7 @@ def test_streamed_run_gives_the_recorded_flow_and_final_state():
 def test_the_plant_window_changes_nothing_but_the_newton_matrix():
     """One compiled call per step or per 64 steps: the same steps, the Newton matrix kept
     longer; the flows agree to the Newton tolerance (1e-10 relative; measured ~1e-12)."""
-    for mode in flowstudy.MODES:
+    for mode in flow.MODES:
         one, many = _run(True, window=1, mode=mode), _run(True, window=64, mode=mode)
         assert len(one) == len(many)
         q = [flow_check(r, 100.0, PISTON_AREA).flow_sim for r in (one, many)]
@@ -58,7 +59,7 @@ def test_the_plant_window_changes_nothing_but_the_newton_matrix():
 def test_communication_points_fall_on_valve_actions_and_compensator_samples():
     """Valves act 0.2 ms after u's extremes (5, 10 ... ms); the compensator samples every
     100 us: both are record times whatever the step (here 130 us, dividing neither)."""
-    for mode in flowstudy.MODES:
+    for mode in flow.MODES:
         t = _run(True, step=130e-6, mode=mode)["time"]
         for instant in (5.2e-3, 10.2e-3, 15.2e-3):
             assert np.min(np.abs(t - instant)) < 1e-9
@@ -98,7 +99,7 @@ def test_valve_controller_period_sets_the_switching_instants():
     at the sample whose look-ahead u(t_j + T) - u(t_j) changes sign: the extreme of u
     (5, 10 ... ms) lies then within half a period of it (the secant's midpoint passes it)."""
     f = 100.0
-    control, _ = flowstudy.control_signal("uncompensated", f)
+    control, _ = flow.control_signal("uncompensated", f)
     backend = DirectTransducer(gmt.TransducerParameters(), gmt.Excitation(f, 1.0))
     circuit = presets.ideal_circuit()
     rec = cosimulate(backend, control, circuit,

@@ -11,7 +11,7 @@ import pytest
 import gmt
 from smeha import cli
 from smeha.diagnose import variant_from_diagnosis
-from smeha.flowstudy import Case, compare_variant, ensure_fmu, run_case
+from smeha.studies.flow import Case, compare_variant, ensure_fmu, run_case
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_VARIANT = ROOT / "data" / "paper_variant.json"
@@ -19,9 +19,9 @@ PAPER_VARIANT = ROOT / "data" / "paper_variant.json"
 
 @pytest.mark.integration
 def test_shipped_paper_variant_is_what_the_paper_diagnosis_picks():
-    # data/paper_variant.json is regenerated from smeha.paperdiag, not typed in: the file
+    # data/paper_variant.json is regenerated from smeha.studies.paperdiag, not typed in: the file
     # must still be that diagnosis' pick (the least-squares fit may move in the last digits)
-    from smeha.paperdiag import paper_data_diagnosis
+    from smeha.studies.paperdiag import paper_data_diagnosis
 
     shipped = json.loads(PAPER_VARIANT.read_text())
     assert "paper_data_diagnosis" in shipped["provenance"]

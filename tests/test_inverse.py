@@ -217,7 +217,8 @@ def _dy_compensated(run):
 
 
 def test_compensated_dy_exceeds_uncompensated(record_property):
-    # Figure 9's own rule (branch_rule="control", the default). Paper, Table 3 /
+    # Figure 9's own rule (branch_rule="control"; the default is "demand",
+    # gmt.parameters.BRANCH_RULE). Paper, Table 3 /
     # Figure 12: compensated dy (eq 41) exceeds uncompensated dy (eq 40) at every
     # frequency, and the gain grows with frequency (measured: 46/40.2 = 1.14 at
     # 50 Hz to 35.2/26.6 = 1.32 at 100 Hz).

@@ -260,7 +260,7 @@ def test_sampled_controller_rejects_bad_input():
 def test_circuit_names_agree():
     """The command line's --circuit choices (typed there so --help loads no solver) are the
     presets' circuits."""
-    from smeha import flowcommands
+    from smeha.studies import flowcommands
     assert flowcommands.CIRCUITS == tuple(presets.CIRCUITS)
 
 

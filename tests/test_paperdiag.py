@@ -1,7 +1,7 @@
 """The paper's own data: what its model gets wrong, and the held-out check of Figure 7."""
 import pytest
 
-from smeha.paperdiag import HELDOUT, TRAIN, paper_data_diagnosis
+from smeha.studies.paperdiag import HELDOUT, TRAIN, paper_data_diagnosis
 
 # paper, Table 3 (uncompensated, I_m = 1 A): y at i = +1 A and i = -1 A above the loop
 # minimum [um]; the text's peak-to-peak at 50 and 100 Hz

@@ -12,7 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from smeha import cli, sweep
+from smeha import cli
+from smeha.studies import sweep
 
 TINY = """
 [grid]
@@ -72,21 +73,21 @@ def test_bad_spec_is_a_usage_error_naming_the_key(tmp_path, capsys, text, names)
 
 
 def test_grid_is_the_cartesian_product():
-    points = sweep.parse_spec({"grid": {"frequency": [50, 100], "mode": list(sweep.flowstudy.MODES),
+    points = sweep.parse_spec({"grid": {"frequency": [50, 100], "mode": list(sweep.flow.MODES),
                                         "load": [0, 150]},
                                "settings": {"cycles": 6}})
     assert len(points) == 8
     assert {(p.frequency, p.mode, p.load) for p in points} == {
-        (f, m, ld) for f in (50.0, 100.0) for m in sweep.flowstudy.MODES for ld in (0.0, 150.0)}
+        (f, m, ld) for f in (50.0, 100.0) for m in sweep.flow.MODES for ld in (0.0, 150.0)}
     assert all(p.cycles == 6 and p.backend == "fmu" and p.circuit == "realistic"
                for p in points)
 
 
 def test_points_are_cases_with_their_defaults():
-    """A point is a flowstudy.Case: the settings a spec leaves out are Case's defaults, and
+    """A point is a flow.Case: the settings a spec leaves out are Case's defaults, and
     every setting is part of the point's key, so a table swept with other settings does not
     count as done."""
-    from smeha.flowstudy import Case
+    from smeha.studies.flow import Case
     plain, timed = (sweep.parse_spec({"grid": {"frequency": [100], "mode": ["compensated"]},
                                       "settings": extra})[0]
                     for extra in ({}, {"controller_period": 2e-5, "hydraulic_step": 2e-5,
@@ -189,7 +190,7 @@ def test_failed_point_is_recorded_and_rerun(tmp_path, capsys):
 @pytest.mark.integration
 def test_dask_cluster_runs_the_fmu_shipped_to_workers(tmp_path, capsys):
     distributed = pytest.importorskip("dask.distributed")
-    from smeha.flowstudy import ensure_fmu
+    from smeha.studies.flow import ensure_fmu
 
     fmu = ensure_fmu(quiet=True)
     shipped = Path(tempfile.gettempdir()) / "smeha-fmu"

@@ -2,12 +2,12 @@
 
 ``smeha build --system`` builds the plant FMU (``system_models``' plant: the pump chamber
 with the rod's eq 27, the valves and their controller, the cylinder, the accumulator) and
-the drive FMU (the control signal); :mod:`smeha.ssp` connects them to the transducer FMU
+the drive FMU (the control signal); :mod:`smeha.fmu.ssp` connects them to the transducer FMU
 in an SSP 1.0 package and an OSP system structure, and packs the three as one FMU (fmpy's
 container FMU). Each is run in its master -- fmpy's ``simulate_ssp``, libcosim (a C++
 master), fmpy's ``simulate_fmu`` for the container -- and checked against:
 
-* **the project's co-simulation harness** (``smeha.flowstudy.run_case``: the transducer
+* **the project's co-simulation harness** (``smeha.studies.flow.run_case``: the transducer
   FMU stepped ahead, the plant integrated over windows, a valve controller that knows u
   ahead), its cylinder flow by the flow check of eqs 39-41, at 50 and 100 Hz in both
   modes, within the issue's 1 %. The harness runs the same plant *physics* in-process;
@@ -21,7 +21,7 @@ master), fmpy's ``simulate_fmu`` for the container -- and checked against:
 * **an independent reference**: in the ideal limit of eqs 40/41 (``--circuit ideal``:
   the chamber pressure does not load the rod) the pumped flow is f A_d dy with dy the
   *free* transducer's stroke between the valve switches (paper, eqs 39-41), computed
-  from the transducer alone with no hydraulics (``smeha.flowstudy.free_dy``: eq 30's
+  from the transducer alone with no hydraulics (``smeha.studies.flow.free_dy``: eq 30's
   periodic solution uncompensated, the transducer stepped alone compensated). Within 1 %
   (issue 12's tolerance for that limit).
 

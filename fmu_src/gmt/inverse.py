@@ -45,9 +45,30 @@ phi_0 already falls, so the current runs backwards along its arc and the
 forward model, which only sees the current, lands on the other arc: the
 compensated displacement dips at each extreme of u. ``branch_rule="demand"``
 picks the root by the sign of phi_0(n) - phi_0(n-1) instead, which agrees
-with Figure 9 away from the extremes and tracks y_d through them. The paper's
-rule stays the default (``"control"``); both are measured in the tests and
-by ``smeha paper``.
+with Figure 9 away from the extremes and tracks y_d through them. Both are
+measured in the tests and by ``smeha paper``; ``"demand"`` is the default
+(:data:`gmt.parameters.BRANCH_RULE`), for the reason below.
+
+Sampling: why Figure 9's rule does not converge in T_c
+------------------------------------------------------
+With Figure 9's rule the compensator stays on the rising root from phi_0's
+peak until the first sample after u's peak, then jumps to the falling root
+(at 50 Hz and the paper's a = 2.2 V, from 0.92 to 0.70 A: near the top of
+the stroke the two roots lie far apart). The forward model puts the current
+that runs backwards on the other arc of eq 31, so M drops and the rod dips
+by ~7 um within ~0.3 ms, a transient of the mechanics (eq 27). Where that dip
+falls against u's peak, the instant the valves switch (eq 41), is set by
+where the samples fall in the 0.15 ms between the two peaks: at T_c = 100 us
+the switch comes one sample after u's peak and the window sees the stroke
+before the dip (dy' 44.0 um, the free transducer at 50 Hz), at T_c <= 10 us
+it sees the dip (37.1 um; 36.8 um at 2 us). So this rule converges only for
+T_c well below 0.15 ms, and the co-simulation's host must then step at T_c
+too: the compensator differentiates u (eq 34), and a u held over a longer
+communication step is a staircase (dy' 25 um at T_c = 10 us under a 100 us
+step). The demand rule switches where the roots meet (phi_0's peak): the
+current changes no arc the forward model sees, there is no dip, and dy' is
+44.0 um from T_c = 2 us to 100 us (30.0 um at 100 Hz), within 0.2 %
+(``benchmarks/compensator_convergence.py``).
 """
 from __future__ import annotations
 

@@ -11,6 +11,9 @@ the diagnosis' unknowns, periodic form, time-stepped form):
 cause (form)                   module       formulation
 =============================  ===========  =============================================
 rate_independent_hysteresis    hysteresis   Prandtl-Ishlinskii operator of H
+rate_independent_hysteresis    preisach     classical Preisach model, a general
+(preisach)                                  nonnegative density of relays over
+                                            (coercive, interaction) field
 magnetization_saturation       saturation   tanh law of M_b + M about the bias
 eddy_current_diffusion (lag)   eddy         H_in = (1 + j w tau)^-alpha H
 eddy_current_diffusion (slab,  diffusion    exact 1-D diffusion into a lamination or a
@@ -42,12 +45,13 @@ from .diffusion import (DIFFUSION_GEOMETRIES, CylinderDiffusionForm, EddyCurrent
 from .drift import DriftForm, LinearDrift
 from .eddy import EddyCurrentLag, EddyLagForm, SectionBank, eddy_calibrated_permeability
 from .hysteresis import PLAY_GRID, HysteresisForm, PrandtlIshlinskii, play_thresholds
+from .preisach import PreisachForm
 from .resonance import MechanicsForm, ReidentifiedMechanics, TwoMassForm, TwoMassMechanics
 from .saturation import SaturationForm, SoftSaturation
 
 #: Every extension, in the order the diagnosis lists its candidates; the first form of
 #: a cause is its default.
-EXTENSIONS = (HysteresisForm, SaturationForm, EddyLagForm, SlabDiffusionForm,
+EXTENSIONS = (HysteresisForm, PreisachForm, SaturationForm, EddyLagForm, SlabDiffusionForm,
               CylinderDiffusionForm, DelayForm, MechanicsForm, TwoMassForm, DriftForm)
 
 #: (cause, form) -> extension class; the one registry (module docstring).
@@ -159,7 +163,7 @@ __all__ = [
     "DelayForm", "TransportDelay", "DIFFUSION_GEOMETRIES", "CylinderDiffusionForm",
     "EddyCurrentDiffusion", "ModalBank", "SlabDiffusionForm", "DriftForm", "LinearDrift",
     "EddyCurrentLag", "EddyLagForm", "SectionBank", "eddy_calibrated_permeability",
-    "PLAY_GRID", "play_thresholds", "HysteresisForm", "PrandtlIshlinskii", "MechanicsForm",
+    "PLAY_GRID", "play_thresholds", "HysteresisForm", "PreisachForm", "PrandtlIshlinskii", "MechanicsForm",
     "ReidentifiedMechanics", "TwoMassForm", "TwoMassMechanics", "SaturationForm",
     "SoftSaturation", "EXTENSIONS", "REGISTRY", "CAUSES", "FORMS", "PAPER", "forms_of",
     "lookup", "variant_name", "VARIANTS", "ordered", "combination_name", "parse_name",

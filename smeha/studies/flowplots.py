@@ -78,7 +78,7 @@ def run_figure(record, row, skip_cycles: int | None = None):
     ax.plot(t, record["p_accumulator"] / 1e6, color="tab:purple", lw=1.0, ls="--",
             label="accumulator A")
     ax.plot(t, record["p_pump"] / 1e6, color="black", lw=0.9, label="pump chamber P")
-    if row.get("cavitation"):  # below what oil holds (smeha.flowstudy.flag_row)
+    if row.get("cavitation"):  # below what oil holds (smeha.studies.flow.flag_row)
         ax.axhline(0.0, color="tab:red", lw=1.0, ls=":",
                    label="0 absolute: oil cavitates below ~1 kPa (not modelled)")
         low, high = ax.get_ylim()
@@ -155,7 +155,7 @@ def flow_figure(rows):
         styles.append(Line2D([], [], color="k", marker="D", ls="-.", mfc="white",
                              label=f"{simulated}, extended model\n{variant_name}"))
     flagged = [r for r in rows if r.get("flow_reversed") and r["load_N"] == base]
-    if flagged:  # a reversed flow (smeha.flowstudy.flag_row): marked, with its reason
+    if flagged:  # a reversed flow (smeha.studies.flow.flag_row): marked, with its reason
         ax.axhline(0.0, color="k", lw=0.6)
         for r in flagged:
             q = r["flow_sim_m3_s"] * 1e6
@@ -168,7 +168,7 @@ def flow_figure(rows):
         styles.append(Line2D([], [], color="k", marker="X", ls="none", mfc="none", ms=9,
                              label="flow reversed (the table's note says why)"))
     tension = [r for r in rows if r.get("cavitation") and r["load_N"] == base]
-    for r in tension:  # oil held below what it can (smeha.flowstudy.flag_row)
+    for r in tension:  # oil held below what it can (smeha.studies.flow.flag_row)
         ax.plot(r["frequency_Hz"], r["flow_sim_m3_s"] * 1e6, "o", color="k", ms=15,
                 mfc="none", mew=1.5)
     if tension:

@@ -3,7 +3,7 @@
 One co-simulation, the flow study (both modes at each frequency, load lines, a model
 variant next to the paper's model) and a grid of co-simulations, with
 the rules their options share: the co-simulation options, the step's accuracy
-warning, the cases built from the options (:class:`smeha.flowstudy.Case`), the FMU
+warning, the cases built from the options (:class:`smeha.studies.flow.Case`), the FMU
 used. Registered by :mod:`smeha.cli`; option types from :mod:`smeha.cliargs`.
 Nothing heavy is imported before a command runs.
 """
@@ -20,7 +20,7 @@ from gmt.parameters import COMPENSATOR_PERIOD
 from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_STEP,
                                     HYDRAULIC_STEP, VALVE_CONTROLLER_PERIOD)
 
-from .cliargs import (UsageError, add_branch_rule, count, input_file, number, number_list,
+from ..cliargs import (UsageError, add_branch_rule, count, input_file, number, number_list,
                       output_file, scheduler_address, warn)
 
 #: Frequencies the study accepts, (0, 1000] Hz (gmt.Excitation's range).
@@ -132,7 +132,7 @@ def add_simulate(subparsers):
 
 
 def _case_from(args, frequency, mode, load=None, variant=None):
-    from .flowstudy import Case
+    from .flow import Case
     cycles = getattr(args, "cycles", None)
     if getattr(args, "duration", None):
         cycles = args.duration * frequency
@@ -151,7 +151,7 @@ def _check_circuit(args) -> None:
 
 
 def _fmu_for(args, cases):
-    from . import flowstudy
+    from . import flow
     if all(c.backend != "fmu" for c in cases):
         if args.fmu:
             raise UsageError(f"--fmu {args.fmu} has no use: every case runs gmt in-process "
@@ -159,7 +159,7 @@ def _fmu_for(args, cases):
         return None
     if args.fmu:
         return args.fmu
-    return flowstudy.ensure_fmu(quiet=getattr(args, "json", False))
+    return flow.ensure_fmu(quiet=getattr(args, "json", False))
 
 
 def _progress_bar(total_steps, label, quiet):
@@ -218,7 +218,7 @@ def _write_record_csv(record, path) -> None:
 
 
 def _run_simulate(args) -> int:
-    from . import flowstudy
+    from . import flow
     _check_simulate(args)
     case = _case_from(args, args.frequency, args.mode, args.load)
     fmu = _fmu_for(args, [case])
@@ -228,7 +228,7 @@ def _run_simulate(args) -> int:
     n = int(round(case.cycles / case.frequency / case.step))
     bar, update = _progress_bar(n, f"{case.mode} {case.frequency:g} Hz", args.json)
     try:
-        record, check, row = flowstudy.run_case(case, fmu, progress=update)
+        record, check, row = flow.run_case(case, fmu, progress=update)
     except _run_failures() as exc:
         bar.close()
         return _failed("simulate", exc)
@@ -252,7 +252,7 @@ def _run_simulate(args) -> int:
               f"from its measured dy {row['dy_paper_um']:g} um (eqs 40/41)")
     print(f"  volume balance       {row['volume_imbalance_m3']:.2e} m^3 of "
           f"{row['volume_pumped_m3']:.2e} m^3 pumped; wall {row['wall_s']:.1f} s")
-    if row.get("note"):  # a reversed flow, cavitation (smeha.flowstudy.flag_row)
+    if row.get("note"):  # a reversed flow, cavitation (smeha.studies.flow.flag_row)
         print(f"  (!) {row['note']}")
     for path in (args.csv, args.plot):
         if path:
@@ -306,7 +306,7 @@ def _read_variant(path):
     except (OSError, UnicodeDecodeError) as exc:
         raise UsageError(f"--variant {path}: cannot read it ({getattr(exc, 'strerror', exc)})"
                          ) from None
-    from .diagnose import read_variant_json
+    from ..diagnose import read_variant_json
 
     try:
         return read_variant_json(text)
@@ -328,7 +328,7 @@ def _workers(args) -> int:
 
 
 def _run_flow(args) -> int:
-    from . import flowstudy
+    from . import flow
     if args.fast:
         raise UsageError(FAST_RETIRED)
     variant = _read_variant(args.variant) if args.variant else None
@@ -344,17 +344,17 @@ def _run_flow(args) -> int:
                 args.coupling or DEFAULT_COUPLING)
     models = [None] if variant is None else [None, variant]
     cases = [_case_from(args, f, m, args.load, v) for v in models for f in args.frequencies
-             for m in flowstudy.MODES]
+             for m in flow.MODES]
     cases += [_case_from(args, f, m, load, v) for v in models for f in args.frequencies
-              for m in flowstudy.MODES for load in (args.loads or [])]
+              for m in flow.MODES for load in (args.loads or [])]
     fmu = _fmu_for(args, cases)
     try:
-        rows = flowstudy.run_cases(cases, fmu, workers=_workers(args), quiet=args.json)
+        rows = flow.run_cases(cases, fmu, workers=_workers(args), quiet=args.json)
     except _run_failures() as exc:
         return _failed("flow", exc)
     paper_rows = [r for r in rows if r["model"] == "paper"]
     table = [r for r in paper_rows if r["load_N"] == cases[0].load_force]
-    pairs = flowstudy.compare_variant(rows) if variant is not None else None
+    pairs = flow.compare_variant(rows) if variant is not None else None
     if args.plot:
         from .flowplots import plot_flow
         plot_flow(rows, args.plot)
@@ -368,13 +368,13 @@ def _run_flow(args) -> int:
             out["comparison"] = []
         print(json.dumps(out))
         return 0
-    print(flowstudy.format_table(table))
+    print(flow.format_table(table))
     if args.loads:
         print()
-        print(flowstudy.format_load_lines(paper_rows))
+        print(flow.format_load_lines(paper_rows))
     if variant is not None:
         print()
-        print(flowstudy.format_comparison(pairs, variant, str(args.variant)))
+        print(flow.format_comparison(pairs, variant, str(args.variant)))
     if no_extension:
         print(f"\n{note}")
     if args.plot:

@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 import gmt
-from gmt.parameters import COMPENSATOR_PERIOD
+from gmt.parameters import BRANCH_RULE, COMPENSATOR_PERIOD
 from system_models import presets
 from system_models.controller import dead_times
 from system_models.cosim import (COUPLINGS, CosimSettings, DirectTransducer, FmuTransducer,
@@ -50,7 +50,7 @@ from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_ST
 from system_models.flowcheck import flow_check
 from system_models.fluid import MINIMUM_PRESSURE
 
-from . import paperdata
+from .. import paperdata
 
 MODES = ("uncompensated", "compensated")
 #: The named circuits (system_models.presets).
@@ -139,7 +139,7 @@ class Case:
     step: float = DEFAULT_STEP  # communication step [s]
     cycles: float = DEFAULT_CYCLES  # simulated time in pumping cycles
     backend: str = "fmu"  # "fmu" or "direct"
-    branch_rule: str = "control"
+    branch_rule: str = BRANCH_RULE
     variant: gmt.ModelVariant | None = None  # None: the paper's model
     coupling: str = DEFAULT_COUPLING  # system_models.cosim.COUPLINGS
     #: the valve controller's sample period [s] (CosimSettings.controller_period)
@@ -224,14 +224,14 @@ def variant_start_values(variant: gmt.ModelVariant | None) -> dict:
 
 
 def default_fmu_path() -> Path:
-    """dist/SmehaGmt.fmu of the source tree (:data:`smeha.fmu_build.DIST`)."""
-    from . import fmu_build
+    """dist/SmehaGmt.fmu of the source tree (:data:`smeha.fmu.build.DIST`)."""
+    from ..fmu import build as fmu_build
     return fmu_build.DIST / "SmehaGmt.fmu"
 
 
 def ensure_fmu(path: Path | None = None, quiet: bool = False) -> Path:
     """Build the FMI 2.0 FMU unless it exists and is newer than its sources."""
-    from . import fmu_build
+    from ..fmu import build as fmu_build
     path = Path(path) if path else default_fmu_path()
     sources = list((fmu_build.FMU_SRC).rglob("*.py")) + [Path(fmu_build.__file__)]
     newest = max(p.stat().st_mtime for p in sources)
@@ -247,7 +247,7 @@ FREE_SAMPLES_PER_CYCLE = 1000
 
 
 @lru_cache(maxsize=64)
-def free_dy(frequency: float, mode: str, branch_rule: str = "control",
+def free_dy(frequency: float, mode: str, branch_rule: str = BRANCH_RULE,
             variant: gmt.ModelVariant | None = None,
             compensator_period: float = COMPENSATOR_PERIOD,
             cycles: float = DEFAULT_CYCLES) -> float:
@@ -259,7 +259,10 @@ def free_dy(frequency: float, mode: str, branch_rule: str = "control",
     Uncompensated, the paper's model: y(i = I_m) - y(i = -I_m) of eq 30's
     periodic solution (closed form, eq 40). Otherwise (the compensated drive
     with its sample period, eq 41, or a model variant) the transducer is
-    time-stepped alone (:data:`FREE_SAMPLES_PER_CYCLE` samples a cycle) for
+    time-stepped alone (:data:`FREE_SAMPLES_PER_CYCLE` samples a cycle, or the step
+    that divides the compensator's period T_c below that: a step longer than T_c, or
+    one T_c does not divide, would hand the compensator a u held from an earlier
+    instant, a staircase it differentiates, eq 34) for
     ``cycles`` cycles and dy is the mean stroke from each minimum of u to the
     next maximum over the compression windows the flow check of such a run
     averages (:mod:`system_models.flowcheck`): a compensator sampling at a
@@ -276,18 +279,22 @@ def free_dy(frequency: float, mode: str, branch_rule: str = "control",
     unit = gmt.Transducer(params, gmt.Excitation(frequency, CURRENT_AMPLITUDE), drive,
                           variant=variant)
     control, _ = control_signal(mode, frequency)
-    n_cycle = FREE_SAMPLES_PER_CYCLE
-    h = 1.0 / (frequency * n_cycle)
+    h = 1.0 / (frequency * FREE_SAMPLES_PER_CYCLE)
+    period = unit.sample_period
+    if period > 0.0:  # a step that divides T_c: every sample sees u at its own instant
+        h = period / math.ceil(period / h - 1e-9)
     whole = max(int(cycles), SKIP_CYCLES + 2)
-    n = n_cycle * whole
+    n = int(math.ceil(whole / (frequency * h)))
     y = np.empty(n + 1)
     y[0] = unit.forward.displacement
     for k in range(n):
         y[k + 1] = unit.step(control(k * h), h).displacement
     # u is at its maximum at each cycle's start and at its minimum half way: compression
-    # window k runs from (k + 1/2) T to (k + 1) T
-    lows = n_cycle * np.arange(SKIP_CYCLES, whole - 1) + n_cycle // 2
-    return float(np.mean(y[lows + n_cycle - n_cycle // 2] - y[lows]))
+    # window k runs from (k + 1/2) T to (k + 1) T (the samples nearest those instants)
+    k = np.arange(SKIP_CYCLES, whole - 1)
+    lows = np.rint((k + 0.5) / (frequency * h)).astype(int)
+    highs = np.rint((k + 1.0) / (frequency * h)).astype(int)
+    return float(np.mean(y[highs] - y[lows]))
 
 
 def rod_lag_degrees(time, control, rod, frequency: float) -> float:
@@ -429,7 +436,7 @@ def run_cases(cases, fmu_path=None, workers: int = 1, quiet: bool = False) -> li
     progress bar on stderr unless ``quiet``; rows in the order of ``cases``."""
     import sys
 
-    from . import pool
+    from .. import pool
     pool.prepare(workers, (fmu_path or default_fmu_path())
                  if any(c.backend == "fmu" for c in cases) else None,
                  None if quiet else (lambda m: print(m, file=sys.stderr, flush=True)))

@@ -13,8 +13,8 @@ A sweep spec is a TOML file (docs/SWEEP.md)::
     backend = "fmu"                               # "fmu" or "direct"
 
 Every point of the cartesian product of the grid is one
-:class:`smeha.flowstudy.Case` (the grid keys and settings are its fields, with
-its defaults), run by :func:`smeha.flowstudy.run_case`. The
+:class:`smeha.studies.flow.Case` (the grid keys and settings are its fields, with
+its defaults), run by :func:`smeha.studies.flow.run_case`. The
 results form one table, one row per point (:data:`COLUMNS`), written as CSV.
 A point that fails is recorded with ``status = "failed"`` and its error; the
 others go on. A rerun onto the same table runs only the points that are
@@ -41,18 +41,18 @@ from pathlib import Path
 
 import gmt
 
-from . import flowstudy
+from . import flow
 
 #: Grid keys: Case fields that take a list of values.
 GRID_KEYS = ("frequency", "mode", "load", "circuit")
 #: Settings keys shared by every point: the other Case fields, with Case's defaults.
-SETTINGS_DEFAULTS = {f.name: f.default for f in dataclass_fields(flowstudy.Case)
+SETTINGS_DEFAULTS = {f.name: f.default for f in dataclass_fields(flow.Case)
                      if f.name not in GRID_KEYS + ("variant",)}
 #: Settings a table written before they existed has no column for (read as empty: such
 #: rows keep their own keys and never match a point of this version).
 OPTIONAL_SETTINGS = ("controller_period", "hydraulic_step", "coupling", "compensator_period")
 
-#: Result fields copied from flowstudy.run_case's row dict, SI with unit suffixes.
+#: Result fields copied from flow.run_case's row dict, SI with unit suffixes.
 RESULT_FIELDS = ("load_N", "flow_sim_m3_s", "flow_eq_m3_s", "flow_ratio", "dy_um",
                  "flow_sim_L_min", "flow_paper_m3_s", "dy_paper_um", "dy_free_um",
                  "flow_free_m3_s", "delivered_fraction", "control_amplitude_V",
@@ -85,9 +85,9 @@ def _key(values: dict) -> tuple:
 
 @dataclass(frozen=True)
 class Point:
-    """One grid point: its :class:`smeha.flowstudy.Case` (``load`` None if not in the grid)."""
+    """One grid point: its :class:`smeha.studies.flow.Case` (``load`` None if not in the grid)."""
 
-    case: flowstudy.Case
+    case: flow.Case
 
     @property
     def key(self) -> tuple:
@@ -154,7 +154,7 @@ def parse_spec(spec: dict) -> list[Point]:
     ------
     SpecError
         Unknown sections or keys, wrong types, empty lists, or values a
-        :class:`~smeha.flowstudy.Case` rejects; the message names the key.
+        :class:`~smeha.studies.flow.Case` rejects; the message names the key.
     """
     unknown = set(spec) - {"grid", "settings"}
     if unknown:
@@ -165,19 +165,19 @@ def parse_spec(spec: dict) -> list[Point]:
         raise SpecError("the spec has no [grid] table")
     if "ideal" in grid:
         raise SpecError("grid.ideal: the circuits are named now: grid.circuit = "
-                        f"[...], each one of {flowstudy.CIRCUITS}")
+                        f"[...], each one of {flow.CIRCUITS}")
     _reject_unknown("grid", grid, GRID_KEYS)
     for key in ("frequency", "mode"):
         if key not in grid:
             raise SpecError(f"grid.{key} is missing")
     freqs = _check_list("grid", "frequency", grid["frequency"], "a positive number [Hz]",
                         lambda v: _is_number(v) and v > 0)
-    modes = _check_list("grid", "mode", grid["mode"], f"one of {flowstudy.MODES}",
-                        lambda v: v in flowstudy.MODES)
+    modes = _check_list("grid", "mode", grid["mode"], f"one of {flow.MODES}",
+                        lambda v: v in flow.MODES)
     loads = (_check_list("grid", "load", grid["load"], "a finite number [N]", _is_number)
              if "load" in grid else [None])
     circuits = (_check_list("grid", "circuit", grid["circuit"],
-                            f"one of {flowstudy.CIRCUITS}", lambda v: v in flowstudy.CIRCUITS)
+                            f"one of {flow.CIRCUITS}", lambda v: v in flow.CIRCUITS)
                 if "circuit" in grid else ["realistic"])
 
     settings = spec.get("settings", {})
@@ -193,10 +193,10 @@ def parse_spec(spec: dict) -> list[Point]:
             raise SpecError(f"settings.{key} = {value!r}: must be a number")
         values[key] = value if isinstance(value, str) else float(value)
         try:  # Case's own check of this setting (its range, its allowed names)
-            flowstudy.Case(frequency=float(freqs[0]), mode=modes[0], **{key: values[key]})
+            flow.Case(frequency=float(freqs[0]), mode=modes[0], **{key: values[key]})
         except gmt.ParameterError as exc:
             raise SpecError(f"settings.{key} = {value!r}: {exc}") from None
-    return [Point(flowstudy.Case(frequency=float(f), mode=m,
+    return [Point(flow.Case(frequency=float(f), mode=m,
                                  load=None if ld is None else float(ld), circuit=c, **values))
             for f, m, ld, c in itertools.product(freqs, modes, loads, circuits)]
 
@@ -305,7 +305,7 @@ def _result_row(point: Point, row: dict | None, error: str | None) -> dict:
 def run_point(point: Point, fmu_path=None) -> dict:
     """Run one point; a failure becomes a row with status "failed" and the error message."""
     try:
-        _, _, row = flowstudy.run_case(point.case, fmu_path)
+        _, _, row = flow.run_case(point.case, fmu_path)
     except Exception as exc:  # noqa: BLE001 -- any failure of one point is recorded, not raised
         return _result_row(point, None, f"{type(exc).__name__}: {exc}")
     return _result_row(point, row, None)
@@ -361,8 +361,8 @@ def _collect(future, point, on_result=None) -> dict:
 
 
 def _run_local(points, fmu_path, workers: int, quiet: bool, on_result=None) -> list[dict]:
-    from . import pool
-    fmu = fmu_path or flowstudy.default_fmu_path()
+    from .. import pool
+    fmu = fmu_path or flow.default_fmu_path()
     pool.prepare(workers, fmu if any(p.backend == "fmu" for p in points) else None,
                  None if quiet else (lambda m: print(m, file=sys.stderr, flush=True)))
 
@@ -466,7 +466,7 @@ def plot_sweep(rows, path) -> Path:
     ok = [r for r in rows if r["status"] == "ok"]
     fig, ax = plt.subplots(figsize=(6.5, 4.8))
     groups = sorted({(r["mode"], r["load_N"], r["circuit"]) for r in ok})
-    # colour = mode, as in every flow figure (smeha.flowplots); marker and line = load, circuit
+    # colour = mode, as in every flow figure (smeha.studies.flowplots); marker and line = load, circuit
     cases = sorted({(load, circuit) for _, load, circuit in groups})
     for mode, load, circuit in groups:
         rs = sorted((r for r in ok if (r["mode"], r["load_N"], r["circuit"]) == (mode, load,

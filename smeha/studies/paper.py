@@ -24,9 +24,10 @@ from dataclasses import dataclass
 import numpy as np
 
 import gmt
+from gmt.parameters import BRANCH_RULE
 from gmt.sensing import flux_density_amplitude_from_voltage
 
-from . import paperdata
+from .. import paperdata
 
 #: Samples per cycle and cycles of the compensated time-stepping run; the
 #: last cycle is the steady state (the mechanics settle in < 1 ms).
@@ -216,7 +217,7 @@ class CompensatedRun:
 
 
 def compensated_run(params: gmt.TransducerParameters, frequency: float,
-                    control_amplitude: float, branch_rule: str = "control",
+                    control_amplitude: float, branch_rule: str = BRANCH_RULE,
                     samples_per_cycle: int = SAMPLES_PER_CYCLE,
                     cycles: int = CYCLES) -> CompensatedRun:
     """Drive :class:`gmt.Transducer` through the compensator with u = a + a cos(2 pi f t).
@@ -256,7 +257,7 @@ def compensated_run(params: gmt.TransducerParameters, frequency: float,
 
 
 def compensated_runs(params: gmt.TransducerParameters | None = None,
-                     branch_rule: str = "control", **kwargs) -> list[CompensatedRun]:
+                     branch_rule: str = BRANCH_RULE, **kwargs) -> list[CompensatedRun]:
     """:func:`compensated_run` at every Table 3 frequency with the paper's amplitudes."""
     params = params or gmt.TransducerParameters()
     t3 = paperdata.table3()
@@ -265,7 +266,7 @@ def compensated_runs(params: gmt.TransducerParameters | None = None,
 
 
 def compensated_rows(params: gmt.TransducerParameters | None = None,
-                     branch_rule: str = "control",
+                     branch_rule: str = BRANCH_RULE,
                      runs: list[CompensatedRun] | None = None) -> list[dict]:
     """Compensated against uncompensated, per Table 3 frequency.
 
@@ -335,12 +336,12 @@ COMPENSATED_KEYS = ("frequency_Hz", "control_amplitude_V", "branch_rule", "dy_co
 
 
 def paper_report(params: gmt.TransducerParameters | None = None,
-                 branch_rule: str = "control",
+                 branch_rule: str = BRANCH_RULE,
                  runs: list[CompensatedRun] | None = None) -> dict:
     """The whole comparison as one JSON-ready dict.
 
     ``{"rows": ..., "compensated": ..., "diagnosis": ...}``; the diagnosis is
-    :func:`smeha.paperdiag.paper_data_diagnosis`.
+    :func:`smeha.studies.paperdiag.paper_data_diagnosis`.
     """
     from .paperdiag import paper_data_diagnosis
     params = params or gmt.TransducerParameters()

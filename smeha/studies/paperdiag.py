@@ -31,7 +31,7 @@ from scipy.optimize import least_squares
 import gmt
 from gmt.extensions.steady import steady_state
 
-from . import diagnose, paperdata
+from .. import diagnose, paperdata
 
 #: Standard uncertainty of a displacement read off the paper's figures, [um].
 READING_UNCERTAINTY_UM = 0.5

@@ -40,7 +40,7 @@ def loops_figure(params: gmt.TransducerParameters, rows: list[dict], path) -> Pa
     ----------
     params : TransducerParameters
     rows : list of dict
-        :func:`smeha.paper.paper_rows` (cases and measured values).
+        :func:`smeha.studies.paper.paper_rows` (cases and measured values).
     path : path-like
         PNG to write.
     """
@@ -87,7 +87,7 @@ def losses_figure(params: gmt.TransducerParameters, rows: list[dict], path,
     ----------
     params : TransducerParameters
     rows : list of dict
-        :func:`smeha.paper.paper_rows`; the Table 1 cases at 1 A are marked.
+        :func:`smeha.studies.paper.paper_rows`; the Table 1 cases at 1 A are marked.
     path : path-like
         PNG to write.
     frequencies : array
@@ -132,7 +132,7 @@ def linearity_figure(params: gmt.TransducerParameters, runs, path) -> Path:
     Parameters
     ----------
     params : TransducerParameters
-    runs : list of smeha.paper.CompensatedRun
+    runs : list of smeha.studies.paper.CompensatedRun
         One per Table 3 frequency (four).
     path : path-like
         PNG to write.
@@ -180,8 +180,8 @@ def write_all(directory, params: gmt.TransducerParameters, report: dict, runs) -
     directory : path-like
     params : TransducerParameters
     report : dict
-        :func:`smeha.paper.paper_report`.
-    runs : list of smeha.paper.CompensatedRun
+        :func:`smeha.studies.paper.paper_report`.
+    runs : list of smeha.studies.paper.CompensatedRun
 
     Returns
     -------
