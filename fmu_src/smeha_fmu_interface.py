@@ -72,7 +72,8 @@ DESCRIPTION = ("Giant magnetostrictive transducer (GMT) of a smart-material "
 #: Accepted values of the String parameter ``model_variant`` (gmt.VARIANTS): the
 #: paper's model, or the paper's plus the extension for one cause ``smeha diagnose`` names,
 #: ``cause:form`` for a form other than the cause's first (gmt.ModelVariant.name).
-MODEL_VARIANTS = ("paper", "rate_independent_hysteresis", "magnetization_saturation",
+MODEL_VARIANTS = ("paper", "rate_independent_hysteresis", "rate_independent_hysteresis:preisach",
+                  "magnetization_saturation",
                   "eddy_current_diffusion", "eddy_current_diffusion:slab",
                   "eddy_current_diffusion:cylinder", "transport_delay", "mechanical_resonance",
                   "mechanical_resonance:two_dof", "thermal_drift")
@@ -173,7 +174,7 @@ VARIABLES: tuple[Variable, ...] = (
     # -- model selection ----------------------------------------------------------
     _par(_M, "model_variant", None, "Transducer model: \"paper\" (eqs 1-37 of the source "
          "paper), or the paper's plus the extension for the cause smeha diagnose names: "
-         "\"rate_independent_hysteresis\", \"magnetization_saturation\", "
+         "\"rate_independent_hysteresis\", \"rate_independent_hysteresis:preisach\", \"magnetization_saturation\", "
          "\"eddy_current_diffusion\" (lag), \"eddy_current_diffusion:slab\", "
          "\"eddy_current_diffusion:cylinder\", \"transport_delay\" (sensed_displacement "
          "only), \"mechanical_resonance\" (one DOF), \"mechanical_resonance:two_dof\", "

@@ -118,13 +118,25 @@ class Sinusoid:
         return self.offset + self.amplitude * math.cos(self.angular_frequency * t)
 
 
-def control_signal(mode: str, frequency: float, amplitude: float | None = None):
-    """u(t) [V] for a mode (a :class:`Sinusoid`); returns (u, a or None)."""
+def control_signal(mode: str, frequency: float, amplitude: float | None = None,
+                   waveform: str = "sine"):
+    """u(t) [V] for a mode; returns (u, a or None).
+
+    ``amplitude`` a [V]: uncompensated u = a s(f t) (default I_m / K_a), compensated
+    u = a + a s(f t) (default :func:`control_amplitude`); s the ``waveform``'s shape
+    (:mod:`smeha.studies.waveforms`; a :class:`Sinusoid` for the paper's ``"sine"``).
+    """
+    from .waveforms import Waveform
     if mode == "uncompensated":
-        return Sinusoid(0.0, CURRENT_AMPLITUDE, frequency), None
+        a = CURRENT_AMPLITUDE if amplitude is None else amplitude
+        if waveform == "sine":
+            return Sinusoid(0.0, a, frequency), amplitude
+        return Waveform(0.0, a, frequency, waveform), amplitude
     if mode == "compensated":
         a = control_amplitude(frequency) if amplitude is None else amplitude
-        return Sinusoid(a, a, frequency), a
+        if waveform == "sine":
+            return Sinusoid(a, a, frequency), a
+        return Waveform(a, a, frequency, waveform), a
     raise gmt.ParameterError(f"mode = {mode!r} is not one of {MODES}")
 
 
@@ -148,6 +160,14 @@ class Case:
     hydraulic_step: float | None = HYDRAULIC_STEP
     #: the digital compensator's sample period [s] (gmt.DriveParameters.compensator_period)
     compensator_period: float = COMPENSATOR_PERIOD
+    #: the transducer's magnetics (gmt.transducer.MAGNETICS): the paper's or the time domain's
+    magnetics: str = "paper"
+    #: the model the compensator inverts; None: that of ``magnetics``
+    inverse: str | None = None
+    #: the control signal's shape (smeha.studies.waveforms.WAVEFORMS)
+    waveform: str = "sine"
+    #: the control signal's amplitude a [V] (control_signal); None: the study's default
+    amplitude: float | None = None
 
     def __post_init__(self):
         from system_models.flowcheck import MINIMUM_CYCLES
@@ -179,6 +199,17 @@ class Case:
                         high_open=False)
         if self.load is not None:
             check_range("load", self.load, -1e7, 1e7, unit="N")
+        from gmt.transducer import MAGNETICS
+
+        from .waveforms import WAVEFORMS
+        if self.magnetics not in MAGNETICS:
+            raise gmt.ParameterError(f"magnetics = {self.magnetics!r} is not one of {MAGNETICS}")
+        if self.inverse is not None and self.inverse not in MAGNETICS:
+            raise gmt.ParameterError(f"inverse = {self.inverse!r} is not one of {MAGNETICS}")
+        if self.waveform not in WAVEFORMS:
+            raise gmt.ParameterError(f"waveform = {self.waveform!r} is not one of {WAVEFORMS}")
+        if self.amplitude is not None:
+            check_range("amplitude", self.amplitude, 0.0, 1000.0, unit="V")
         self.drive()  # the drive's checks (compensator_period, branch_rule) before any run
 
     @classmethod
@@ -209,10 +240,15 @@ class Case:
         """The transducer FMU's parameter values of this case (those that differ from its
         start values may be among them)."""
         drive = self.drive()
-        return {"frequency": self.frequency, "current_amplitude": CURRENT_AMPLITUDE,
-                "compensated": drive.compensated, "branch_rule": drive.branch_rule,
-                "compensator_period": drive.compensator_period,
-                **variant_start_values(self.variant)}
+        values = {"frequency": self.frequency, "current_amplitude": CURRENT_AMPLITUDE,
+                  "compensated": drive.compensated, "branch_rule": drive.branch_rule,
+                  "compensator_period": drive.compensator_period,
+                  **variant_start_values(self.variant)}
+        if self.magnetics != "paper":
+            values["magnetics"] = self.magnetics
+        if self.inverse is not None:
+            values["inverse_model"] = self.inverse
+        return values
 
 
 def variant_start_values(variant: gmt.ModelVariant | None) -> dict:
@@ -250,7 +286,9 @@ FREE_SAMPLES_PER_CYCLE = 1000
 def free_dy(frequency: float, mode: str, branch_rule: str = BRANCH_RULE,
             variant: gmt.ModelVariant | None = None,
             compensator_period: float = COMPENSATOR_PERIOD,
-            cycles: float = DEFAULT_CYCLES) -> float:
+            cycles: float = DEFAULT_CYCLES, magnetics: str = "paper",
+            inverse: str | None = None, waveform: str = "sine",
+            amplitude: float | None = None) -> float:
     """dy of the transducer alone (no oil, no force) between the same instants, [m].
 
     Cached: a load line or a sweep asks for it once per case at the same
@@ -268,32 +306,39 @@ def free_dy(frequency: float, mode: str, branch_rule: str = BRANCH_RULE,
     averages (:mod:`system_models.flowcheck`): a compensator sampling at a
     rate the pump frequency does not divide (10 kHz against 70 Hz) samples
     each cycle at other phases, and a drifting variant has no steady state.
+    The time-domain magnetics, another waveform or amplitude are time-stepped too;
+    a waveform's window is the valve controller's
+    (:func:`smeha.studies.waveforms.compression_window`).
     """
     from system_models.flowcheck import SKIP_CYCLES
+
+    from .waveforms import compression_window
     params = gmt.TransducerParameters()
-    if mode == "uncompensated" and (variant is None or variant.is_paper):
+    if (mode == "uncompensated" and (variant is None or variant.is_paper)
+            and magnetics == "paper" and waveform == "sine" and amplitude is None):
         point = gmt.operating_point(params, gmt.Excitation(frequency, CURRENT_AMPLITUDE))
         return gmt.loop_metrics(params, point)["dy"]
     drive = gmt.DriveParameters(compensated=mode == "compensated", branch_rule=branch_rule,
                                 compensator_period=compensator_period)
     unit = gmt.Transducer(params, gmt.Excitation(frequency, CURRENT_AMPLITUDE), drive,
-                          variant=variant)
-    control, _ = control_signal(mode, frequency)
+                          variant=variant, magnetics=magnetics, inverse=inverse)
+    control, _ = control_signal(mode, frequency, amplitude, waveform)
     h = 1.0 / (frequency * FREE_SAMPLES_PER_CYCLE)
     period = unit.sample_period
     if period > 0.0:  # a step that divides T_c: every sample sees u at its own instant
         h = period / math.ceil(period / h - 1e-9)
+    start, end = compression_window(waveform)
     whole = max(int(cycles), SKIP_CYCLES + 2)
-    n = int(math.ceil(whole / (frequency * h)))
+    n = int(math.ceil((whole + end - 1.0) / (frequency * h)))
     y = np.empty(n + 1)
     y[0] = unit.forward.displacement
     for k in range(n):
         y[k + 1] = unit.step(control(k * h), h).displacement
-    # u is at its maximum at each cycle's start and at its minimum half way: compression
-    # window k runs from (k + 1/2) T to (k + 1) T (the samples nearest those instants)
+    # compression window k runs from (k + start) T to (k + end) T (the samples nearest those
+    # instants); for the paper's cosine from its minimum, (k + 1/2) T, to its maximum
     k = np.arange(SKIP_CYCLES, whole - 1)
-    lows = np.rint((k + 0.5) / (frequency * h)).astype(int)
-    highs = np.rint((k + 1.0) / (frequency * h)).astype(int)
+    lows = np.rint((k + start) / (frequency * h)).astype(int)
+    highs = np.rint((k + end) / (frequency * h)).astype(int)
     return float(np.mean(y[highs] - y[lows]))
 
 
@@ -375,7 +420,7 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
     """Run one case; return (record, FlowCheck, row dict)."""
     params = gmt.TransducerParameters()
     drive = case.drive()
-    control, a = control_signal(case.mode, case.frequency)
+    control, a = control_signal(case.mode, case.frequency, case.amplitude, case.waveform)
     circuit = presets.circuit(case.circuit)
     settings = CosimSettings(duration=case.cycles / case.frequency, step=case.step,
                              coupling=case.coupling, load_force=case.load_force,
@@ -385,7 +430,8 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
         backend = FmuTransducer(fmu_path or default_fmu_path(), case.fmu_start_values())
     else:
         backend = DirectTransducer(params, gmt.Excitation(case.frequency, CURRENT_AMPLITUDE),
-                                   drive, case.variant)
+                                   drive, case.variant, magnetics=case.magnetics,
+                                   inverse=case.inverse)
     wall = time.perf_counter()
     try:
         record = cosimulate(backend, control, circuit, settings, progress=progress)
@@ -395,11 +441,14 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
     check = flow_check(record, case.frequency, circuit.chamber.piston_area)
     imbalance, pumped = volume_balance(record, circuit)
     half = len(record) // 2
-    paper = paper_dy(case.frequency, case.mode)
+    # Table 3 was measured with the paper's sinusoidal drives only
+    paper = (paper_dy(case.frequency, case.mode)
+             if case.waveform == "sine" and case.amplitude is None else None)
     area = circuit.chamber.piston_area
     p_min, p_min_volume = lowest_pressure(record)
     dy_free = free_dy(case.frequency, case.mode, case.branch_rule, case.variant,
-                      case.compensator_period, case.cycles)
+                      case.compensator_period, case.cycles, case.magnetics, case.inverse,
+                      case.waveform, case.amplitude)
     row = {
         "frequency_Hz": case.frequency, "mode": case.mode, "model": case.model,
         "circuit": case.circuit, "load_N": case.load_force,
@@ -419,6 +468,7 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
         "volume_imbalance_m3": imbalance, "volume_pumped_m3": pumped,
         "cycles_averaged": check.cycles, "step_s": case.step, "coupling": case.coupling,
         "backend": case.backend, "wall_s": wall,
+        "magnetics": case.magnetics, "waveform": case.waveform,
     }
     window = slice(half, None)
     lag = rod_lag_degrees(record["time"][window], record["control"][window],
@@ -460,6 +510,10 @@ def format_table(rows) -> str:
              "a measured flow; dy free: the transducer alone, no oil; q/q free: delivered flow "
              "over f A_d dy free, the flow eqs 40/41 give for the free transducer, as the paper "
              "computes them)", head]
+    drives = sorted({(r.get("magnetics", "paper"), r.get("waveform", "sine")) for r in rows})
+    if drives != [("paper", "sine")]:
+        lines.insert(1, "transducer: " + "; ".join(f"{m} magnetics, {w} drive"
+                                                   for m, w in drives))
     for r in rows:
         paper = "-" if r["flow_paper_m3_s"] is None else f"{r['flow_paper_m3_s']:.3e}"
         dyp = "-" if r["dy_paper_um"] is None else f"{r['dy_paper_um']:.1f}"

@@ -33,6 +33,10 @@ CONVERGED_STEPS_PER_CYCLE = {"force": 100, "displacement": 250}
 #: The named circuits (system_models.presets.CIRCUITS, typed here so that --help loads no
 #: solver; tests/test_kernel.py checks the two agree).
 CIRCUITS = ("realistic", "ideal", "differential")
+#: --magnetics (gmt.transducer.MAGNETICS) and --waveform (smeha.studies.waveforms.WAVEFORMS),
+#: typed here for --help; tests/test_timedomain_study.py checks they agree.
+MAGNETICS = ("paper", "time_domain")
+WAVEFORMS = ("sine", "square", "trapezoid")
 
 
 def _check_step(command, step, frequency, coupling) -> None:
@@ -80,6 +84,16 @@ def _add_cosim_options(p):
                    help="transducer FMU (default dist/SmehaGmt.fmu of the source tree, built "
                         "if missing or out of date; see 'smeha build')")
     add_branch_rule(p)
+    p.add_argument("--magnetics", choices=MAGNETICS,
+                   help="the transducer's magnetics: paper (default: the complex permeability "
+                        "of eqs 3-20, defined for one sinusoid) or time_domain (the paper's loss "
+                        "separation as a field separation, valid for any drive; compensated, "
+                        "its own explicit inverse; docs/TIMEDOMAIN.md)")
+    p.add_argument("--waveform", choices=WAVEFORMS,
+                   help="shape of the control signal: sine (default, the paper's), square or "
+                        "trapezoid (ramps of 0.15 of the period); uncompensated the coil "
+                        "current's, compensated the demanded stroke's; the valves switch where "
+                        "u starts to rise and to fall")
     p.add_argument("--compensator-period", type=number(0.0, 1.0, low_open=False, unit="s"),
                    metavar="S",
                    help=f"sample period of the digital compensator [s] (default "
@@ -140,7 +154,8 @@ def _case_from(args, frequency, mode, load=None, variant=None):
                 "step": args.step, "circuit": "ideal" if args.ideal else args.circuit,
                 "compensator_period": args.compensator_period,
                 "controller_period": args.controller_period,
-                "hydraulic_step": args.hydraulic_step}
+                "hydraulic_step": args.hydraulic_step, "magnetics": args.magnetics,
+                "waveform": args.waveform}
     return Case(frequency=frequency, mode=mode, load=load, branch_rule=args.branch_rule,
                 variant=variant, **{k: v for k, v in optional.items() if v is not None})
 
@@ -148,6 +163,10 @@ def _case_from(args, frequency, mode, load=None, variant=None):
 def _check_circuit(args) -> None:
     if args.ideal and args.circuit not in (None, "ideal"):
         raise UsageError(f"--ideal is --circuit ideal; it contradicts --circuit {args.circuit}")
+    if args.waveform not in (None, "sine") and args.magnetics in (None, "paper"):
+        warn(args.command, f"--waveform {args.waveform} drives the paper's model, which is "
+                           "defined for a sinusoid (its outside_design_point rises): "
+                           "--magnetics time_domain holds for any drive")
 
 
 def _fmu_for(args, cases):
@@ -242,7 +261,8 @@ def _run_simulate(args) -> int:
         print(json.dumps(row))
         return 0
     print(f"{row['mode']} at {row['frequency_Hz']:g} Hz, {row['circuit']} circuit, load "
-          f"{row['load_N']:g} N, step {row['step_s']:g} s, backend {row['backend']}")
+          f"{row['load_N']:g} N, step {row['step_s']:g} s, backend {row['backend']}, "
+          f"{row['magnetics']} magnetics, {row['waveform']} drive")
     eq = "eq 41" if case.mode == "compensated" else "eq 40"
     print(f"  mean cylinder flow   {row['flow_sim_m3_s']:.4e} m^3/s ({row['flow_sim_L_min']:.4f} L/min)")
     print(f"  {eq} flow f A_d dy   {row['flow_eq_m3_s']:.4e} m^3/s (ratio {row['flow_ratio']:.4f})")

@@ -1,0 +1,98 @@
+"""The studies' side of issue 21: drive waveforms, --magnetics and --waveform, the flow cases.
+
+References: the trapezoid's RMS by numerical quadrature (not the module's closed form);
+the valve controller's own phase rule (system_models.controller.pump_phase, Figure 2's
+stages) for the compression windows.
+"""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import gmt
+from smeha.studies import flow, flowcommands, waveforms
+from system_models.controller import pump_phase
+
+
+@pytest.mark.parametrize("name", waveforms.WAVEFORMS)
+def test_waveform_rms_by_quadrature(name):
+    phase = (np.arange(200000) + 0.5) / 200000  # midpoint rule, exact for the piecewise shapes
+    s = waveforms.shape(name, phase)
+    assert np.sqrt(np.mean(s * s)) == pytest.approx(waveforms.rms_factor(name), rel=1e-6)
+    assert s.max() == pytest.approx(1.0) and s.min() == pytest.approx(-1.0)
+
+
+@pytest.mark.parametrize("name", waveforms.WAVEFORMS)
+def test_compression_window_is_where_the_valve_controller_compresses(name):
+    # Figure 2's controller compresses while u rises and keeps its phase while u stands still
+    # (system_models.controller.pump_phase): its window must be compression_window's
+    n = 4000
+    phase = np.arange(2 * n) / n
+    u = waveforms.shape(name, phase)
+    compressing, state = [], False
+    for k in range(1, u.size):
+        state = pump_phase(u[k], u[k - 1], state)
+        compressing.append(state)
+    compressing = np.array(compressing[n:])  # the second period (phase 1 + k/n, k >= 1)
+    start, end = waveforms.compression_window(name)
+    expected = (((phase[n + 1:] - start) % 1.0) < end - start)
+    # the sampled rule switches one sample after the instant (it sees u move)
+    assert np.mean(compressing != expected) <= 2.0 / n
+
+
+def test_cli_choices_agree_with_the_models():
+    assert flowcommands.MAGNETICS == gmt.transducer.MAGNETICS
+    assert flowcommands.WAVEFORMS == waveforms.WAVEFORMS
+
+
+def test_the_paper_drive_stays_the_default():
+    # nothing of today's results changes unless asked: the default case builds the same
+    # control signal (a Sinusoid) and the same FMU start values as before issue 21
+    case = flow.Case(frequency=100.0, mode="compensated")
+    assert (case.magnetics, case.waveform, case.inverse, case.amplitude) == ("paper", "sine",
+                                                                             None, None)
+    assert isinstance(flow.control_signal("compensated", 100.0)[0], flow.Sinusoid)
+    assert set(case.fmu_start_values()) == {"frequency", "current_amplitude", "compensated",
+                                            "branch_rule", "compensator_period"}
+    td = flow.Case(frequency=100.0, mode="compensated", magnetics="time_domain",
+                   inverse="paper")
+    assert td.fmu_start_values()["magnetics"] == "time_domain"
+    assert td.fmu_start_values()["inverse_model"] == "paper"
+
+
+@pytest.mark.parametrize("kwargs, name", [({"magnetics": "spice"}, "magnetics"),
+                                          ({"waveform": "sawtooth"}, "waveform"),
+                                          ({"inverse": "jiles"}, "inverse"),
+                                          ({"amplitude": -1.0}, "amplitude")])
+def test_bad_case_settings_are_refused(kwargs, name):
+    with pytest.raises(gmt.ParameterError, match=name):
+        flow.Case(frequency=50.0, mode="uncompensated", **kwargs)
+
+
+def test_square_control_signal_keeps_the_cosines_timing():
+    u, a = flow.control_signal("compensated", 100.0, 1.5, "square")
+    assert a == 1.5
+    assert u(0.0) == pytest.approx(3.0) and u(0.005) == pytest.approx(0.0)
+    assert np.allclose(u(np.array([0.0, 0.005])), [3.0, 0.0])
+
+
+@pytest.mark.integration
+def test_simulate_with_time_domain_magnetics_and_a_square_drive():
+    # the command end to end (gmt in-process): the square current at 100 Hz pumps, the JSON
+    # says which magnetics and drive ran, and a bad --waveform is a usage error (status 2)
+    cmd = [sys.executable, "-m", "smeha.cli", "simulate", "--frequency", "100", "--mode",
+           "uncompensated", "--magnetics", "time_domain", "--waveform", "square", "--backend",
+           "direct", "--json"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    row = json.loads(proc.stdout)
+    assert (row["magnetics"], row["waveform"]) == ("time_domain", "square")
+    assert row["flow_sim_m3_s"] > 0 and math.isfinite(row["dy_um"])
+    bad = subprocess.run(cmd[:-1] + ["--waveform", "sawtooth"], capture_output=True,
+                         text=True, timeout=600)
+    assert bad.returncode == 2 and "--waveform" in bad.stderr
