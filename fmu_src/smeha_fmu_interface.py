@@ -196,7 +196,7 @@ VARIABLES: tuple[Variable, ...] = (
          kind="String"),
     # -- TimeDomainParameters: what magnetics "time_domain" adds to Table 2 ---------
     _par(_TD, "reversible_permeability", "1", "Time-domain magnetics: relative permeability "
-         "of the reversible curve about the bias (fitted to Table 1 at 5 Hz)", 12.09),
+         "of the reversible curve about the bias (fitted to Table 1 at 5 Hz)", 12.08),
     _par(_TD, "steinmetz_upper", "T", "Time-domain magnetics: largest flux-density half-swing "
          "for which the hysteresis loss per cycle is K_h B_m^n (eq 7)", 0.2),
     _par(_TD, "steinmetz_lower", "T", "Time-domain magnetics: half-swing below which the "

@@ -60,6 +60,7 @@ from .cliargs import (Parser, UsageError, add_branch_rule, input_file,
                       join_negative_values, output_dir)
 from .studies.flowcommands import CIRCUITS, FREQUENCY, add_flow, add_simulate, add_sweep
 from .studies.positioncommands import add_position
+from .studies.timedomaincommands import add_timedomain
 
 
 def _add_paper(subparsers):
@@ -222,8 +223,8 @@ def _run_diagnose(args) -> int:
 
 
 #: Registration functions of the subcommands, in the order ``--help`` lists them.
-SUBCOMMANDS = (_add_paper, add_simulate, add_flow, add_sweep, add_position, _add_identify,
-               _add_diagnose, _add_build)
+SUBCOMMANDS = (_add_paper, add_simulate, add_flow, add_sweep, add_position, add_timedomain,
+               _add_identify, _add_diagnose, _add_build)
 
 
 def build_parser() -> Parser:

@@ -290,6 +290,11 @@ def test_loss_per_cycle_is_eq_13_of_b_fundamental(f, current):
     corrected = math.pi * mu_0 * r.field_amplitude ** 2 * (r.mu_imag - r.mu_real * math.pi
                                                              / samples)
     assert r.loss_per_cycle == pytest.approx(corrected, rel=0.05 * first_order)
-    # and it is the sum of its three parts (the separation)
+    # and it is the sum of its three parts (the separation), each computed from the run's B
+    # by its continuous formula (k_e int (dB/dt)^2 dt, k_ex int |dB/dt|^1.5 dt, the loop of
+    # H_hys at the steps' ends): the step's exponentially fitted eddy term and the
+    # right-point H_hys differ from those integrals at first order in the step, measured
+    # 0.26 % (50 Hz) to 0.55 % (5 Hz, where a step is a larger part of the eddy time
+    # constant's cycle share) at 2000 steps a period; 1 % allowed
     assert r.loss_per_cycle == pytest.approx(r.hysteresis_loss + r.eddy_loss + r.excess_loss,
-                                             rel=1e-9)
+                                             rel=1e-2)

@@ -17,7 +17,7 @@ __all__ = ["TimeDomainParameters", "REVERSIBLE_PERMEABILITY"]
 #: time-domain model to the paper's Table 1 at 5 Hz (0.5 A: 0.0300 T, 0.7 A: 0.0530 T)
 #: under a sinusoidal current, with the other defaults below
 #: (``gmt.timedomain.fit.fit_reversible_permeability``; docs/TIMEDOMAIN.md).
-REVERSIBLE_PERMEABILITY = 12.09
+REVERSIBLE_PERMEABILITY = 12.08
 
 
 @dataclass(frozen=True)

@@ -103,6 +103,8 @@ def sinusoidal_response(params: TransducerParameters | None = None,
     bl, hl, il, yl = b[last], hyst[last], current[last], y[last]
     field = params.field_per_ampere * il
     db = np.diff(bl)
+    # the dynamic parts by their continuous formulas on the run's B (the step's own eddy
+    # term is exponentially fitted: magnetics.TimeDomainMagnetics.eddy_stiffness)
     rate = db / h
     eddy = mag.k_e * rate
     excess = mag.k_ex * np.sign(rate) * np.sqrt(np.abs(rate))
