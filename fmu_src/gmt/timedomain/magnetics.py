@@ -143,7 +143,7 @@ class TimeDomainMagnetics:
         return (self.nu * flux_density + h_irr + eddy * (flux_density - b0)
                 + (self.k_ex * root if rate >= 0.0 else -self.k_ex * root))
 
-    def eddy_stiffness(self, direction: float, step: float) -> float:
+    def eddy_stiffness(self, direction: float, step: float, start: float | None = None) -> float:
         """The eddy term's dH per dB over a step, k_e/h fitted to the exponential, [A/(m T)].
 
         Over a step with H held, the eddy term alone relaxes B towards the static
@@ -155,17 +155,19 @@ class TimeDomainMagnetics:
         held current lands where fine steps would: the forward model barely depends
         on the step, and an inverse that plans a sample in one step stays in tune
         with a forward model stepped more finely. Forward (:meth:`solve`) and inverse
-        (:meth:`field`) use the same value.
+        (:meth:`field`) use the same value. ``start``: the branch's reversal point
+        (:meth:`SteinmetzHysteresis.branch_towards`), when the caller has it.
         """
         op = self.hysteresis
-        start, _, _ = op.branch_towards(direction)
+        if start is None:
+            start = op.branch_towards(direction)[0]
         swing = 2.0 * abs(op.b) if start != start else abs(op.b - start)
         if not self.k_e > 0.0:
             return 0.0
-        x = step * (self.nu + self.branch.slope(swing)) / self.k_e
+        slope = self.nu + self.branch.slope(swing)
+        x = step * slope / self.k_e
         if x < 1e-8:
             return self.k_e / step
-        slope = self.nu + self.branch.slope(swing)
         return slope * math.exp(-x) if x > 50.0 else slope / math.expm1(x)
 
     def solve(self, field: float, step: float) -> float:
@@ -185,7 +187,8 @@ class TimeDomainMagnetics:
             return b0
         s = -1.0 if r0 > 0.0 else 1.0
         excess = self.k_ex / math.sqrt(step)
-        eddy = self.eddy_stiffness(s, step)
+        start, h_start, limit = op.branch_towards(s)
+        eddy = self.eddy_stiffness(s, step, start)
         linear = eddy + self.nu
         # f(u) = s R(b0 + s u^2) rises from -|r0|; f(u) >= -|r0| + linear u^2 + excess u
         need = abs(r0)
@@ -194,7 +197,6 @@ class TimeDomainMagnetics:
         # first guess: the same quadratic with the operator's slope at the last solution
         steep = linear + self._slope
         u = (-excess + math.sqrt(excess * excess + 4.0 * steep * need)) / (2.0 * steep)
-        start, h_start, limit = op.branch_towards(s)
         g_branch = self.branch.value_and_slope
         for _ in range(_MAX_ITERATIONS):
             b = b0 + s * u * u
