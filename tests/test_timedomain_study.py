@@ -135,3 +135,22 @@ def test_gains_command_time_domain_inverse_strokes_the_demand():
     own = rows["time-domain model, time-domain inverse"]
     assert own["dy_free_compensated_um"] == pytest.approx(30.0, rel=0.01)
     assert own["measured_gain"] == pytest.approx(35.2 / 26.6)
+
+
+def test_sweep_table_from_before_issue_21_keeps_its_finished_points(tmp_path):
+    # a sweep table written before the magnetics/inverse/waveform/amplitude columns existed
+    # ran the paper's magnetics and sinusoid: its rows must match today's default points
+    import csv
+
+    from smeha.studies import sweep
+
+    point = sweep.Point(flow.Case(frequency=50.0, mode="compensated"))
+    old = [c for c in sweep.COLUMNS if c not in sweep.DEFAULTED_SETTINGS]
+    path = tmp_path / "old.csv"
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(old)
+        values = {**point.columns(), "status": "ok", "error": ""}
+        w.writerow(["" if values.get(c) is None else values.get(c, "") for c in old])
+    (row,) = sweep.read_table(path)
+    assert sweep.row_key(row) == point.key

@@ -51,6 +51,10 @@ SETTINGS_DEFAULTS = {f.name: f.default for f in dataclass_fields(flow.Case)
 #: Settings a table written before they existed has no column for (read as empty: such
 #: rows keep their own keys and never match a point of this version).
 OPTIONAL_SETTINGS = ("controller_period", "hydraulic_step", "coupling", "compensator_period")
+#: Settings whose every run before they existed had their present default (the paper's
+#: magnetics and sinusoid, issue 21): a table without their column is read with it, so its
+#: finished points still match.
+DEFAULTED_SETTINGS = ("magnetics", "inverse", "waveform", "amplitude")
 
 #: Result fields copied from flow.run_case's row dict, SI with unit suffixes.
 RESULT_FIELDS = ("load_N", "flow_sim_m3_s", "flow_eq_m3_s", "flow_ratio", "dy_um",
@@ -66,7 +70,7 @@ KEY_COLUMNS = GRID_KEYS + tuple(SETTINGS_DEFAULTS)
 COLUMNS = KEY_COLUMNS + ("status", "error") + RESULT_FIELDS
 #: Text columns (the others are numbers, or empty).
 TEXT_COLUMNS = ("mode", "circuit", "backend", "branch_rule", "coupling", "status", "error",
-                "p_min_volume")
+                "p_min_volume", "magnetics", "inverse", "waveform")
 
 
 class SpecError(ValueError):
@@ -267,7 +271,7 @@ def read_table(path) -> list[dict]:
         names = reader.fieldnames or []
         legacy = "circuit" not in names and "ideal" in names  # tables before named circuits
         missing = [c for c in KEY_COLUMNS + ("status",)
-                   if c not in names and c not in OPTIONAL_SETTINGS
+                   if c not in names and c not in OPTIONAL_SETTINGS + DEFAULTED_SETTINGS
                    and not (legacy and c == "circuit")]
         if missing:
             raise SpecError(f"{path}: not a sweep table (no column(s) {missing}); "
@@ -276,6 +280,9 @@ def read_table(path) -> list[dict]:
         for n, raw in enumerate(reader, start=2):
             if legacy:
                 raw["circuit"] = "ideal" if raw.get("ideal", "").lower() == "true" else "realistic"
+            for c in DEFAULTED_SETTINGS:
+                if c not in names and SETTINGS_DEFAULTS[c] is not None:
+                    raw[c] = str(SETTINGS_DEFAULTS[c])
             try:
                 rows.append({c: _parse_cell(c, raw.get(c) or "") for c in COLUMNS})
             except ValueError as exc:
