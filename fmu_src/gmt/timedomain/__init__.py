@@ -24,6 +24,9 @@ module                 contents
                        and its sampled compensator
 ``steady``             the model under a sinusoid in the paper's terms
                        (B_m, mu', mu'', lag, loss); the fit of the
-                       reversible curve to Table 1
+                       reversible curve to Table 1; both models side
+                       by side
+``transducer``         the parts gmt.Transducer builds for
+                       magnetics="time_domain"
 =====================  ==============================================
 """
