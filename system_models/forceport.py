@@ -60,7 +60,12 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
     # the transducer's step from t = 0: (t, h, u, current, force)
     times = grid.points(0.0, 1)
     u0 = control(0.0)
-    pending = (u0,) + tuple(backend.drive_step(0.0, times[1], u0))
+    # the control the transducer holds over a step: u at its start, except for the
+    # time-domain magnetics driven continuously, whose B integrates the held current:
+    # u at mid-step then (a held u(t_k) would lag the drive by half a step)
+    mid = 0.5 if drive.continuous_force and not drive.compensated else 0.0
+    pending = (u0,) + tuple(backend.drive_step(0.0, times[1],
+                                               control(mid * times[1]) if mid else u0))
     t = 0.0
     previous = None  # the last row's valve phase (the final row repeats it)
     while grid.before_end(t):
@@ -74,8 +79,9 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
         for k in range(1, m + 1):
             if k < points.size - 1:
                 u[k] = control(points[k])
-                current[k], force[k] = backend.drive_step(points[k],
-                                                          points[k + 1] - points[k], u[k])
+                h = points[k + 1] - points[k]
+                current[k], force[k] = backend.drive_step(
+                    points[k], h, control(points[k] + mid * h) if mid else u[k])
             else:  # the run's end: the last step holds its force
                 u[k], current[k], force[k] = u[k - 1], current[k - 1], force[k - 1]
         pending = (u[m], current[m], force[m])

@@ -276,20 +276,17 @@ def test_loss_per_cycle_is_eq_13_of_b_fundamental(f, current):
     # under a sinusoidal H only B's fundamental does work over a cycle (orthogonality), so
     # the model's loss per cycle must equal eq 13 per cycle and volume, pi mu_0 mu'' H_m^2,
     # with mu'' of that fundamental: two different sums over the same run (the loop integral
-    # sum H_k dB_k against a Fourier coefficient). Summed by parts, the loop sum is
-    # pi mu_0 H_m^2 (mu'' - mu' w h / 2) to second order in w h (H_k held over the step):
-    # a relative difference (mu'/mu'') pi / samples, 0.16-0.56 % here; 1.2 times that allowed
+    # sum H_k dB_k against a Fourier coefficient). Summed by parts with H_k held at the
+    # step's middle, the loop sum is exactly pi mu_0 mu'' H_m^2 sin(pi/N)/(pi/N) for a
+    # periodic B sampled N times a period (no mu' term); the run is periodic to ~1e-7
     from gmt.timedomain.steady import sinusoidal_response
 
     samples = 2000
     r = sinusoidal_response(frequency=f, current_amplitude=current, samples=samples)
     mu_0 = 4e-7 * math.pi
-    first_order = r.mu_real / r.mu_imag * math.pi / samples
-    assert r.loss_per_cycle == pytest.approx(math.pi * mu_0 * r.mu_imag * r.field_amplitude ** 2,
-                                             rel=1.2 * first_order)
-    corrected = math.pi * mu_0 * r.field_amplitude ** 2 * (r.mu_imag - r.mu_real * math.pi
-                                                             / samples)
-    assert r.loss_per_cycle == pytest.approx(corrected, rel=0.05 * first_order)
+    x = math.pi / samples
+    assert r.loss_per_cycle == pytest.approx(
+        math.pi * mu_0 * r.mu_imag * r.field_amplitude ** 2 * math.sin(x) / x, rel=1e-5)
     # and it is the sum of its three parts (the separation), each computed from the run's B
     # by its continuous formula (k_e int (dB/dt)^2 dt, k_ex int |dB/dt|^1.5 dt, the loop of
     # H_hys at the steps' ends): the step's exponentially fitted eddy term and the

@@ -332,8 +332,11 @@ def free_dy(frequency: float, mode: str, branch_rule: str = BRANCH_RULE,
     n = int(math.ceil((whole + end - 1.0) / (frequency * h)))
     y = np.empty(n + 1)
     y[0] = unit.forward.displacement
+    # the time-domain magnetics driven continuously hold u at each step's middle, as the
+    # force port does (system_models.forceport): a held u(t_k) would lag by half a step
+    mid = 0.5 if magnetics == "time_domain" and mode == "uncompensated" else 0.0
     for k in range(n):
-        y[k + 1] = unit.step(control(k * h), h).displacement
+        y[k + 1] = unit.step(control((k + mid) * h), h).displacement
     # compression window k runs from (k + start) T to (k + end) T (the samples nearest those
     # instants); for the paper's cosine from its minimum, (k + 1/2) T, to its maximum
     k = np.arange(SKIP_CYCLES, whole - 1)

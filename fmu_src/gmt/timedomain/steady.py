@@ -75,10 +75,9 @@ def sinusoidal_response(params: TransducerParameters | None = None,
 
     Notes
     -----
-    The step equation is backward Euler: the energy the source delivers over
-    step k is exactly H_k (B_{k+1} - B_k), so the discrete loop integral is
-    the model's loss; it converges to the continuous one at first order in
-    the step.
+    Over step k the current is held at its value at the step's middle. The
+    energy the source delivers over the step is exactly H_k (B_{k+1} - B_k), so
+    the discrete loop integral is the model's loss.
     """
     if not (frequency > 0.0 and current_amplitude > 0.0):
         raise ParameterError(f"frequency = {frequency!r} Hz and current_amplitude = "
@@ -91,7 +90,9 @@ def sinusoidal_response(params: TransducerParameters | None = None,
     h = 1.0 / (frequency * samples)
     w = 2.0 * math.pi * frequency
     n = samples * periods
-    current = current_amplitude * np.cos(w * h * np.arange(n + 1))
+    # the current held over step k is the sinusoid at the step's middle (the symmetric
+    # sample: a held i(t_k) would lag the drive by half a step); B, y at the steps' ends
+    current = current_amplitude * np.cos(w * h * (np.arange(n + 1) + 0.5))
     b = np.empty(n + 1)
     hyst = np.empty(n + 1)
     y = np.empty(n + 1)
