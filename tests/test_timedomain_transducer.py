@@ -108,3 +108,23 @@ def test_follow_drive_is_refused_with_time_domain_magnetics():
 def test_the_paper_model_stays_the_default():
     tr = gmt.Transducer()
     assert tr.magnetics == "paper" and isinstance(tr.forward, gmt.ForwardStepper)
+
+
+@pytest.mark.parametrize("compensated", [False, True])
+def test_random_drives_and_steps_stay_finite(compensated):
+    # an FMI host may send anything: steps from 0.1 us to 50 ms, currents to +-10 A
+    # (uncompensated, the amplifier's 3 A limit clips), demands far out of reach
+    # (compensated); every output stays finite and the state round-trips
+    rng = np.random.default_rng(21)
+    tr = gmt.Transducer(gmt.TransducerParameters(), gmt.Excitation(100.0, 1.0),
+                        gmt.DriveParameters(compensated=compensated), magnetics="time_domain")
+    for _ in range(400):
+        h = float(10.0 ** rng.uniform(-7, np.log10(5e-2)))
+        u = float(rng.uniform(-10.0, 10.0))
+        out = tr.step(u, h, float(rng.uniform(-100.0, 100.0)))
+        assert all(math.isfinite(v) for v in (*out.magnetics, out.displacement, out.velocity,
+                                              out.current))
+        assert not out.outside_design_point
+    state = tr.get_state()
+    tr.set_state(state)
+    assert tr.get_state() == state
