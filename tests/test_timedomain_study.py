@@ -171,3 +171,17 @@ def test_both_couplings_agree_with_time_domain_magnetics(mode):
         rows[coupling] = flow.run_case(case)[2]
     assert rows["force"]["flow_sim_m3_s"] == pytest.approx(rows["displacement"]["flow_sim_m3_s"],
                                                            rel=5e-3)
+
+
+def test_sweep_spec_sets_the_time_domain_settings():
+    from smeha.studies import sweep
+
+    (point,) = sweep.parse_spec({"grid": {"frequency": [100], "mode": ["compensated"]},
+                                 "settings": {"magnetics": "time_domain", "inverse": "paper",
+                                              "waveform": "square", "amplitude": 1.2}})
+    case = point.case
+    assert (case.magnetics, case.inverse, case.waveform, case.amplitude) == (
+        "time_domain", "paper", "square", 1.2)
+    with pytest.raises(sweep.SpecError, match="inverse"):
+        sweep.parse_spec({"grid": {"frequency": [100], "mode": ["compensated"]},
+                          "settings": {"inverse": "jiles"}})

@@ -190,7 +190,7 @@ def parse_spec(spec: dict) -> list[Point]:
     _reject_unknown("settings", settings, tuple(SETTINGS_DEFAULTS))
     values = {}
     for key, value in settings.items():
-        if isinstance(SETTINGS_DEFAULTS[key], str):
+        if isinstance(SETTINGS_DEFAULTS[key], str) or key in TEXT_COLUMNS:
             if not isinstance(value, str):
                 raise SpecError(f"settings.{key} = {value!r}: must be a string")
         elif not _is_number(value):
