@@ -267,6 +267,9 @@ def main(argv=None) -> int:
     except FileNotFoundError as exc:  # a file of the installation (the paper's data)
         print(f"smeha {args.command}: error: {exc}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:  # Ctrl-C: one line, the shell's 128 + SIGINT
+        print(f"\nsmeha {args.command}: interrupted", file=sys.stderr)
+        return 130
     except BrokenPipeError:  # stdout closed early, e.g. `smeha paper --json | head`
         sys.stdout = open(os.devnull, "w")
         return 1

@@ -28,3 +28,7 @@ DEFAULT_CYCLES = 8.0
 
 #: Coupling of the transducer to the plant (system_models.cosim): the force port.
 DEFAULT_COUPLING = "force"
+
+#: The longest co-simulation a run accepts, [s] (CosimSettings.duration): 1e4 s is 1e8
+#: communication steps at the default step, days of wall time.
+MAXIMUM_DURATION = 1e4

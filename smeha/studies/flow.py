@@ -356,19 +356,27 @@ def flag_row(row: dict, rod_lag_deg: float | None = None, dead_time: float = 0.0
 
 
 def _reversed_note(row, rod_lag_deg, dead_time) -> str:
-    """Why a row's flow runs backwards (:func:`flag_row`)."""
-    if row["dy_um"] < 0.0:
-        timing = dead_time * row["frequency_Hz"] * 360.0
+    """Why a row's flow runs backwards (:func:`flag_row`): the rod's lag past a quarter
+    period after the valves' timing, or else the load past the stall point (which can
+    drive the rod back between the switches too, dy < 0)."""
+    timing = dead_time * row["frequency_Hz"] * 360.0
+    lagging = rod_lag_deg is not None and abs(rod_lag_deg) + timing > 90.0
+    if row["dy_um"] < 0.0 and (lagging or rod_lag_deg is None):
         lag = "" if rod_lag_deg is None else (
             f": the rod lags the control signal by {rod_lag_deg:.0f} deg")
         return (f"flow reversed{lag}, the valves act {timing:.0f} deg after its "
                 f"extremes (dead time): past a quarter period the rod moves backwards "
                 f"between the valve switches (dy {row['dy_um']:.1f} um < 0), so the "
                 f"pump empties the big cavity instead of filling it")
+    back = (" and pushes the rod back between the valve switches" if row["dy_um"] < 0.0
+            else "")
+    lag = "" if rod_lag_deg is None else (
+        f"; the rod's lag ({abs(rod_lag_deg):.0f} deg, {timing:.0f} deg of valve dead time) "
+        "is within a quarter period")
     return (f"flow reversed: the load needs p_B - p_S = "
             f"{row['load_pressure_Pa'] / 1e6:.2f} MPa, more than the pump holds "
             f"at this stroke (dy {row['dy_um']:.1f} um): the load drives the "
-            f"cylinder back (past the stall point of its load line)")
+            f"cylinder back{back} (past the stall point of its load line){lag}")
 
 
 def run_case(case: Case, fmu_path: Path | None = None, progress=None):
@@ -417,7 +425,8 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
         "p_pump_max_Pa": float(record["p_pump"][half:].max()),
         "p_min_Pa": p_min, "p_min_volume": p_min_volume,
         "volume_imbalance_m3": imbalance, "volume_pumped_m3": pumped,
-        "cycles_averaged": check.cycles, "step_s": case.step, "coupling": case.coupling,
+        "cycles_averaged": check.cycles, "flow_drift_per_cycle": check.drift,
+        "settled": check.settled, "step_s": case.step, "coupling": case.coupling,
         "backend": case.backend, "wall_s": wall,
     }
     window = slice(half, None)
@@ -478,7 +487,21 @@ def format_table(rows) -> str:
     for r in rows:
         if r.get("note"):
             lines.append(f"(!) {r['frequency_Hz']:g} Hz {r['mode']}: {r['note']}")
+    lines += _unsettled_note(rows)
     return "\n".join(lines)
+
+
+def _unsettled_note(rows) -> list:
+    """A line naming the rows whose cycles' flows still change (FlowCheck.settled)."""
+    loose = [r for r in rows if r.get("settled") is False]
+    if not loose:
+        return []
+    worst = max(abs(r["flow_drift_per_cycle"]) for r in loose)
+    names = ", ".join(f"{r['frequency_Hz']:g} Hz {r['mode']}" for r in loose)
+    return [f"not settled ({names}): the cycles' flows still change, by up to "
+            f"{100 * worst:.3f} % a cycle (the realistic circuit follows the piston: its "
+            "cavities' volumes, the accumulator's charge); those means depend on the run's "
+            "length (--cycles)"]
 
 
 def format_load_lines(rows) -> str:

@@ -18,7 +18,7 @@ from pathlib import Path
 import gmt  # cheap: its names load on first use
 from gmt.parameters import COMPENSATOR_PERIOD
 from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_STEP,
-                                    HYDRAULIC_STEP, VALVE_CONTROLLER_PERIOD)
+                                    HYDRAULIC_STEP, MAXIMUM_DURATION, VALVE_CONTROLLER_PERIOD)
 
 from ..cliargs import (UsageError, add_branch_rule, count, input_file, number, number_list,
                       output_file, scheduler_address, warn)
@@ -35,15 +35,34 @@ CONVERGED_STEPS_PER_CYCLE = {"force": 100, "displacement": 250}
 CIRCUITS = ("realistic", "ideal", "differential")
 
 
-def _check_step(command, step, frequency, coupling) -> None:
-    """Warn (stderr) when the communication step is coarser than any measured to converge."""
+def _check_step(command, step, frequency, coupling, sample_period=0.0) -> None:
+    """Warn (stderr) when the communication step is coarser than any measured to converge.
+
+    ``sample_period``: the digital compensator's T_c (0 uncompensated); the master cuts
+    every step at its samples, so a step longer than T_c runs as T_c (no warning then)."""
     need = CONVERGED_STEPS_PER_CYCLE[coupling]
+    if sample_period > 0.0:
+        step = min(step, sample_period)
     per_cycle = 1.0 / (frequency * step)
     if per_cycle < need * (1.0 - 1e-9):
         warn(command, f"--step {step:g} s is {per_cycle:.0f} steps a cycle at {frequency:g} Hz; "
                       f"the flow was measured to converge from {need} steps a cycle "
                       f"(--step {1.0 / (need * frequency):.2g} s) on (benchmarks/README.md): "
                       "expect a larger error")
+
+
+#: The flow check's rules (system_models.flowcheck; plain numbers: --help loads no solver,
+#: tests/test_cli_input.py checks they agree).
+SKIP_CYCLES = 2
+MINIMUM_CYCLES = 4
+
+
+def _averaged(cycles=DEFAULT_CYCLES) -> float:
+    """Whole cycles the flow check averages in a run of ``cycles``: its compression strokes
+    start at the drive's minima, (k + 1/2) T, and the averaged cycles lie between the
+    strokes after the skipped ones."""
+    import math
+    return max(math.ceil(cycles - 0.5) - SKIP_CYCLES - 1, 0)
 
 
 def _cycles(text):
@@ -72,8 +91,10 @@ def _add_cosim_options(p):
                         "the FMU integrates the rod, the chamber force iterated through its "
                         "state save/restore (the cross-check; needs smaller steps)")
     p.add_argument("--cycles", type=_cycles, metavar="N",
-                   help=f"simulated pumping cycles, at least 4: the flow check discards the "
-                        f"first 2 and averages the rest (default {DEFAULT_CYCLES:g})")
+                   help=f"simulated pumping cycles, at least {MINIMUM_CYCLES}: the flow check "
+                        f"discards the first {SKIP_CYCLES} compression strokes and averages "
+                        f"the whole cycles between the strokes that follow ({_averaged():g} "
+                        f"at the default {DEFAULT_CYCLES:g})")
     p.add_argument("--backend", choices=("fmu", "direct"),
                    help="transducer through the FMU and fmpy (default) or gmt in-process")
     p.add_argument("--fmu", metavar="FILE", type=input_file,
@@ -117,9 +138,9 @@ def add_simulate(subparsers):
                    help="pumping frequency [Hz], in (0, 1000]")
     p.add_argument("--mode", choices=("uncompensated", "compensated"), required=True,
                    help=MODE_HELP)
-    p.add_argument("--duration", type=number(0.0, unit="s"), metavar="S",
-                   help="simulated time [s], at least 4 cycles (default: --cycles pumping "
-                        "cycles)")
+    p.add_argument("--duration", type=number(0.0, MAXIMUM_DURATION, unit="s"), metavar="S",
+                   help=f"simulated time [s], at least {MINIMUM_CYCLES} cycles and at most "
+                        f"{MAXIMUM_DURATION:g} s (default: --cycles pumping cycles)")
     _add_load(p)
     _add_cosim_options(p)
     p.add_argument("--csv", metavar="FILE", type=output_file,
@@ -190,8 +211,11 @@ def _check_simulate(args) -> None:
                 f"and averages at least 2 more: give --duration "
                 f">= {MINIMUM_CYCLES / args.frequency:g} s")
     _check_circuit(args)
+    compensated = args.mode == "compensated"
+    period = (COMPENSATOR_PERIOD if args.compensator_period is None
+              else args.compensator_period) if compensated else 0.0
     _check_step("simulate", args.step or DEFAULT_STEP, args.frequency,
-                args.coupling or DEFAULT_COUPLING)
+                args.coupling or DEFAULT_COUPLING, period)
 
 
 def _run_failures() -> tuple:
@@ -252,6 +276,10 @@ def _run_simulate(args) -> int:
               f"from its measured dy {row['dy_paper_um']:g} um (eqs 40/41)")
     print(f"  volume balance       {row['volume_imbalance_m3']:.2e} m^3 of "
           f"{row['volume_pumped_m3']:.2e} m^3 pumped; wall {row['wall_s']:.1f} s")
+    if not row["settled"]:
+        print(f"  not settled          the cycles' flows change by "
+              f"{100 * row['flow_drift_per_cycle']:+.3f} % a cycle (the circuit follows the "
+              f"piston: cavities, accumulator); the mean depends on the run's length")
     if row.get("note"):  # a reversed flow, cavitation (smeha.studies.flow.flag_row)
         print(f"  (!) {row['note']}")
     for path in (args.csv, args.plot):
