@@ -31,8 +31,10 @@ import sys
 import tempfile
 from pathlib import Path
 
+from gmt.errors import InputError  # cheap: the standard library only
 
-class UsageError(ValueError):
+
+class UsageError(InputError):
     """Bad input to a command that argparse cannot check (exit status 2)."""
 
 

@@ -46,6 +46,8 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from gmt.errors import InputError
+
 #: CSV column -> (attribute of :class:`Run`, factor to SI). Displacement may come
 #: in metres or micrometres.
 COLUMNS = {
@@ -69,7 +71,7 @@ FREQUENCY_TOLERANCE = 0.02
 MIN_SAMPLES = 8
 
 
-class DataError(ValueError):
+class DataError(InputError):
     """A measurement file that cannot be used; the message names file, run and row.
 
     Parameters

@@ -137,3 +137,41 @@ def test_simulate_plot_keeps_the_legend_off_the_averaged_cycles(tmp_path):
     assert legend.y0 > (y[steady] - y[steady].min()).max()
     assert "off scale" in ax.get_title(loc="left")
     assert math.isfinite(legend.y0)
+
+
+# -- the error family (item 5) ----------------------------------------------------------
+def test_input_and_run_errors_and_a_bug(monkeypatch, capsys):
+    # bad input: exit 2, one line; a run that stopped: exit 1, one line; anything else is a
+    # bug: its traceback, not "bad input"
+    from smeha.errors import InputError, RunError
+    from smeha.cliargs import UsageError
+    from smeha.measured import DataError
+    from smeha.studies.sweep import SpecError, SweepError
+    from system_models.displacementport import CouplingError
+    from system_models.implicit import IntegrationError
+    import gmt
+    for cls in (UsageError, DataError, SpecError, gmt.ParameterError):
+        assert issubclass(cls, InputError)
+    for cls in (SweepError, CouplingError, IntegrationError):
+        assert issubclass(cls, RunError)
+    argv = ["simulate", "--frequency", "100", "--mode", "compensated", "--backend", "direct",
+            "--json"]
+    for exc, status in ((gmt.ParameterError("load = x"), 2), (RunError("it stopped"), 1)):
+        monkeypatch.setattr(flow, "run_case", lambda *a, exc=exc, **k: (_ for _ in ()).throw(exc))
+        assert cli.main(argv) == status
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    monkeypatch.setattr(flow, "run_case", lambda *a, **k: (_ for _ in ()).throw(
+        ValueError("a bug inside the study")))
+    with pytest.raises(ValueError, match="a bug"):
+        cli.main(argv)
+
+
+def test_run_plot_marks_a_reversed_flow():
+    import matplotlib
+    matplotlib.use("Agg")
+    from smeha.studies.flowplots import run_figure
+    record, _, row = flow.run_case(flow.Case(50.0, "uncompensated", load=300.0,
+                                             backend="direct"))
+    title = run_figure(record, row)._suptitle.get_text()
+    assert "(!) flow reversed: the load past its stall point" in title

@@ -113,11 +113,20 @@ def run_figure(record, row, skip_cycles: int | None = None):
             label="net volume into the big cavity (V1 - V2)")
     ax.set_ylabel("volume [mm^3]")
     ax.set_xlabel("time [ms]")
-    ax.legend(loc="upper left", fontsize=7)
+    ax.legend(loc="best", fontsize=7)
+    flagged = []
+    if row.get("flow_reversed"):
+        flagged.append("flow reversed: " + ("the load past its stall point"
+                                            if "stall" in row.get("note", "")
+                                            else "the rod lags past a quarter period"))
+    if row.get("cavitation"):
+        flagged.append("cavitation: the oil held below what it can")
+    mark = f"\n(!) {'; '.join(flagged)} (smeha simulate prints why)" if flagged else ""
     fig.suptitle(f"{row['mode']}, {row['frequency_Hz']:g} Hz, {row['circuit']} circuit, "
                  f"load {row['load_N']:g} N: q = {row['flow_sim_m3_s']:.3e} m^3/s, "
                  f"f A_d dy ({_eq(row['mode'])}) = {row['flow_eq_m3_s']:.3e} m^3/s, "
-                 f"dy = {row['dy_um']:.1f} um", fontsize=10)
+                 f"dy = {row['dy_um']:.1f} um{mark}", fontsize=10,
+                 color="tab:red" if flagged else "black")
     fig.tight_layout()
     return fig
 

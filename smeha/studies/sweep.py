@@ -42,6 +42,7 @@ from dataclasses import fields as dataclass_fields
 from pathlib import Path
 
 import gmt
+from gmt.errors import InputError, RunError
 
 from . import flow
 
@@ -71,11 +72,11 @@ TEXT_COLUMNS = ("mode", "circuit", "backend", "branch_rule", "coupling", "status
                 "p_min_volume")
 
 
-class SpecError(ValueError):
+class SpecError(InputError):
     """A sweep spec or sweep table that cannot be used (exit status 2 on the command line)."""
 
 
-class SweepError(RuntimeError):
+class SweepError(RunError):
     """The sweep cannot run at all, e.g. no scheduler at the address (exit status 1)."""
 
 
