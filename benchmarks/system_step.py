@@ -1,8 +1,8 @@
 """The EHA system's cylinder flow against the harness, by communication step and force hold.
 
-For each case (frequency, mode) it writes the system (smeha.ssp) twice -- the plant holding
+For each case (frequency, mode) it writes the system (smeha.fmu.ssp) twice -- the plant holding
 the transducer's force over each step, and extrapolating it from its last two values --
-runs each in fmpy's SSP master (smeha.systemrun.run_fmpy) at every step given, each run in
+runs each in fmpy's SSP master (smeha.fmu.systemrun.run_fmpy) at every step given, each run in
 a child process, and prints the flow of eqs 39-41's check, its relative difference from
 the harness's flow for the same case (smeha.studies.flow.run_case with the transducer FMU,
 its own default step) and the wall time. The plant's valve controller samples u at each
@@ -30,7 +30,7 @@ PISTON_AREA = 1256e-6
 
 def _run(ssp_path, step, frequency) -> dict:
     """Child: one fmpy SSP run; print its flow and wall time as JSON."""
-    from smeha import systemrun
+    from smeha.fmu import systemrun
 
     record, wall = systemrun.run_fmpy(ssp_path, step=float(step))
     flow = systemrun.flow(record, float(frequency), PISTON_AREA).flow_sim
@@ -38,7 +38,7 @@ def _run(ssp_path, step, frequency) -> dict:
 
 
 def _fmus(dist: Path) -> dict:
-    from smeha import fmu_build, ssp
+    from smeha.fmu import build as fmu_build, ssp
 
     fmus = {}
     for comp, key in ssp.COMPONENTS.items():
@@ -60,7 +60,7 @@ def main(argv=None):
     if args.run:
         print(json.dumps(_run(*args.run)))
         return 0
-    from smeha import fmu_build, ssp
+    from smeha.fmu import build as fmu_build, ssp
     from smeha.studies import flow
 
     fmus = _fmus(args.dist or fmu_build.DIST)

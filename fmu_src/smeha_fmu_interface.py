@@ -4,14 +4,14 @@ Both slaves (``smeha_gmt_fmu.py``, FMI 2.0, and ``smeha_gmt_fmu3.py``, FMI 3.0,
 next to this file in ``fmu_src/``) register their variables from
 :data:`VARIABLES` and take every callback from ``smeha_fmu_slave.TransducerSlave``,
 which builds gmt's objects from the parameters named here;
-``smeha.fmu_build`` writes the units of the FMI 2.0 model description from the
+``smeha.fmu.build`` writes the units of the FMI 2.0 model description from the
 same table, and ``docs/FMU.md`` documents it.
 
 The FMU bundles this file under its own name, ``resources/smeha_fmu_interface.py``
 (a module name unique to this project, so that it cannot collide with another
 Python FMU in the same host process). It imports nothing from ``smeha`` and does
 not import ``gmt`` at module level; :func:`check_against_gmt` imports ``gmt``
-when called, which inside an FMU is the bundled copy. ``smeha.fmu_build`` loads
+when called, which inside an FMU is the bundled copy. ``smeha.fmu.build`` loads
 this file from the source tree under another module name
 (``smeha._smeha_fmu_interface``), so a process that builds an FMU and then loads
 it still runs the FMU's bundled copy.

@@ -3,7 +3,7 @@
 A pythonfmu FMU embeds no Python: its binary calls the CPython 3.11 of the host
 process, or, in a host that has none (a C or C++ tool), starts one from the
 ``libpython`` the build made a needed library of the binary
-(``smeha.fmu_build``). Each slave calls :func:`prepare` as its first statement,
+(``smeha.fmu.build``). Each slave calls :func:`prepare` as its first statement,
 before pythonfmu, numpy or gmt are imported, because three things may need
 mending first, in this order:
 
@@ -76,7 +76,7 @@ def parse_environment(text: str) -> dict:
 
 def format_environment(record: dict) -> str:
     """The text of an environment record (the inverse of :func:`parse_environment`)."""
-    lines = ["# The Python environment this FMU was built in (smeha.fmu_build), read by "
+    lines = ["# The Python environment this FMU was built in (smeha.fmu.build), read by "
              "smeha_fmu_runtime.py"]
     for key, values in record.items():
         lines.extend(f"{key}\t{value}" for value in values)

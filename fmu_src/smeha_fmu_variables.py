@@ -4,7 +4,7 @@ the units they use.
 The FMUs of this project each define their variables once, in a table next to their slave
 (``smeha_fmu_interface.py``: the transducer; ``smeha_plant_interface.py``: the hydraulic
 plant; ``smeha_drive_fmu.py``: the drive signal), as :class:`Variable` records; the slaves
-register them, ``smeha.fmu_build`` writes their units into the FMI 2.0 model description
+register them, ``smeha.fmu.build`` writes their units into the FMI 2.0 model description
 from :data:`UNITS`, and ``docs/FMU.md`` documents them.
 
 Bundled into each FMU's resources under this name (a module name unique to this project).

@@ -4,7 +4,7 @@
 chamber with the rod's eq 27, the four active valves and their controller (Figure 2's
 stages), the two-cavity cylinder and the accumulator -- for a host that couples it to the
 transducer FMU through the magnetostrictive force (eq 28). Defined once here for the slave
-(``smeha_plant_fmu.py``), the build (units, ``smeha.fmu_build``) and ``docs/FMU.md``.
+(``smeha_plant_fmu.py``), the build (units, ``smeha.fmu.build``) and ``docs/FMU.md``.
 
 Parameters: every field of :class:`system_models.circuit.CircuitParameters`' components,
 named ``<component>_<field>`` (``fluid_bulk_modulus``, ``v1_area``; a valve's

@@ -24,11 +24,11 @@ Subcommands
     What the paper's model gets wrong on measured runs, the cause, the
     extended model and its held-out gain (:mod:`smeha.diagnose`).
 ``smeha build [--fmi 2|3|both] [--out DIR] [--no-validate] [--system ...]``
-    Build the FMU(s) (:mod:`smeha.fmu_build`) into the source tree's ``dist/``,
+    Build the FMU(s) (:mod:`smeha.fmu.build`) into the source tree's ``dist/``,
     where ``simulate``, ``flow`` and ``sweep`` look for the FMU; ``--system`` also
     builds the hydraulic plant's and the drive's FMUs and writes the EHA system of
     one case, ``SmehaEha.ssp``, ``SmehaEha/OspSystemStructure.xml`` and the container FMU
-    ``SmehaEha.fmu`` (:mod:`smeha.ssp`).
+    ``SmehaEha.fmu`` (:mod:`smeha.fmu.ssp`).
 
 Adding a subcommand: write ``_add_<name>(subparsers)`` (here, or
 ``add_<name>`` in a module of its own, as :mod:`smeha.studies.flowcommands`) that
@@ -101,7 +101,7 @@ def _run_paper(args) -> int:
 def _add_build(subparsers):
     p = subparsers.add_parser(
         "build", help="build the transducer FMU(s) into dist/ of the source tree",
-        description="Build and validate the transducer FMU(s) (smeha.fmu_build; "
+        description="Build and validate the transducer FMU(s) (smeha.fmu.build; "
                     "'python build_fmu.py' is the same command). By default they go into "
                     "dist/ of the smeha source tree, where simulate, flow and sweep look for "
                     "dist/SmehaGmt.fmu (and build it when it is missing or older than its "
@@ -130,13 +130,13 @@ def _add_build(subparsers):
 
 
 def _run_build(args) -> int:
-    from . import fmu_build
+    from .fmu import build as fmu_build
 
     out = args.out or fmu_build.DIST
     status = fmu_build.build_all(args.fmi, out, validate=not args.no_validate)
     if not args.system:
         return status
-    from . import ssp
+    from .fmu import ssp
     transducer = out / f"{fmu_build.iface.MODEL_NAME_FMI2}.fmu"
     built = {"transducer": transducer} if status == 0 and args.fmi != "3" else {}
     try:

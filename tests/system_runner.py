@@ -5,7 +5,7 @@
 Commands
 --------
 ``write OUT DIST FOLDER CIRCUIT CYCLES F:MODE...``
-    the .ssp, OspSystemStructure.xml and container FMU of each case (smeha.ssp), from the
+    the .ssp, OspSystemStructure.xml and container FMU of each case (smeha.fmu.ssp), from the
     FMUs in DIST
 ``harness OUT FMU CIRCUIT CYCLES F:MODE...``
     the project's co-simulation harness (smeha.studies.flow.run_case, the transducer FMU)
@@ -52,7 +52,7 @@ def _check(chk, wall, steps) -> dict:
 def write(out_path, dist, folder, circuit, cycles, *cases):
     from pathlib import Path
 
-    from smeha import ssp
+    from smeha.fmu import ssp
     from smeha.studies.flow import Case
 
     fmus = {comp: Path(dist) / f"{name}.fmu" for comp, name in
@@ -88,7 +88,7 @@ def harness(out_path, fmu, circuit, cycles, *cases):
 def fmpy(out_path, ssp_path, frequency):
     import fmpy as fmpy_package
 
-    from smeha import systemrun
+    from smeha.fmu import systemrun
 
     record, wall = systemrun.run_fmpy(ssp_path)
     chk = systemrun.flow(record, float(frequency), PISTON_AREA)
@@ -97,7 +97,7 @@ def fmpy(out_path, ssp_path, frequency):
 
 
 def container(out_path, fmu_path, frequency):
-    from smeha import systemrun
+    from smeha.fmu import systemrun
 
     record, wall = systemrun.run_container(fmu_path)
     chk = systemrun.flow(record, float(frequency), PISTON_AREA)
@@ -105,7 +105,7 @@ def container(out_path, fmu_path, frequency):
 
 
 def libcosim(out_path, osp_path, frequency):
-    from smeha import systemrun
+    from smeha.fmu import systemrun
 
     record, wall, end_ns, units = systemrun.run_libcosim(osp_path, report=(
         ("transducer", systemrun.MECHANICS + ("displacement",)),
@@ -179,7 +179,7 @@ COMMANDS = {"write": write, "harness": harness, "fmpy": fmpy, "libcosim": libcos
 
 if __name__ == "__main__":
     COMMANDS[sys.argv[1]](*sys.argv[2:])
-    # leave without tearing down libcosim's execution (smeha.systemrun keeps it alive)
+    # leave without tearing down libcosim's execution (smeha.fmu.systemrun keeps it alive)
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(0)

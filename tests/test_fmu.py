@@ -31,7 +31,7 @@ try:
 except ImportError:  # tests/ imported as a package
     from tests.fmu_runner import BAD_PARAMETERS
 
-from smeha.fmu_build import iface
+from smeha.fmu.build import iface
 
 pytestmark = pytest.mark.integration
 
@@ -173,7 +173,7 @@ def test_default_experiment_is_the_50_hz_case(fmu_dist):
 def test_two_builds_give_the_same_model_description_but_the_date(fmu_dist, tmp_path):
     proc = build_fmus(tmp_path, "both")
     assert proc.returncode == 0, proc.stderr
-    from smeha.fmu_build import deterministic_guid
+    from smeha.fmu.build import deterministic_guid
 
     for name, id_attr in (("SmehaGmt.fmu", "guid"), ("SmehaGmt3.fmu", "instantiationToken")):
         first, second = fmu_dist["dir"] / name, tmp_path / name

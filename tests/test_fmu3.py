@@ -25,7 +25,7 @@ try:
 except ImportError:
     from tests.test_fmu import CASES, RTOL, VARIANT_CASES, check_bad_input, check_variant_state
 
-from smeha.fmu_build import iface
+from smeha.fmu.build import iface
 
 pytestmark = pytest.mark.integration
 

@@ -227,7 +227,7 @@ def test_every_bad_parameter_makes_simulate_fmu_raise_naming_it(fmi, fmu_dist, r
         root = ET.fromstring(z.read("modelDescription.xml"))
     reals = {v.get("name") for v in root.iter() if v.get("causality") == "parameter"
              and (v.tag == "Float64" or v.find("Real") is not None)}
-    from smeha.fmu_build import iface
+    from smeha.fmu.build import iface
 
     assert reals == {v.name for v in iface.VARIABLES
                      if v.causality == "parameter" and v.kind == "Real"}

@@ -34,7 +34,7 @@ def test_nothing_in_fmu_src_imports_smeha():
 def test_build_reads_the_table_from_fmu_src_under_its_own_name():
     # the smeha process must not register the table as smeha_fmu_interface: an FMU it loads
     # later imports that name and must get its own bundled copy
-    from smeha.fmu_build import iface
+    from smeha.fmu.build import iface
 
     assert Path(iface.__file__) == FMU_SRC / "smeha_fmu_interface.py"
     assert iface.__name__ != iface.INTERFACE_MODULE == "smeha_fmu_interface"
@@ -86,7 +86,7 @@ def test_fmu_run_time_path_imports_numpy_only():
 def test_docs_list_every_fmu_variable_once():
     # docs/FMU.md's interface table is the user's reference: one row per variable of the
     # table the slaves register (names and causality)
-    from smeha.fmu_build import iface
+    from smeha.fmu.build import iface
 
     doc = (FMU_SRC.parent / "docs" / "FMU.md").read_text()
     rows = {}  # the first row naming each (later tables, e.g. the variants', come after)
@@ -101,7 +101,7 @@ def test_docs_list_every_fmu_variable_once():
 
 # -- the run-time set-up (fmu_src/smeha_fmu_runtime.py) in pieces -------------------------------
 def _runtime():
-    from smeha.fmu_build import runtime
+    from smeha.fmu.build import runtime
     return runtime
 
 
@@ -114,12 +114,12 @@ def test_environment_record_round_trips_through_its_text():
 
 
 def test_the_build_records_this_python():
-    # what smeha.fmu_native writes: this interpreter, its shared libpython, numpy's site
+    # what smeha.fmu.native writes: this interpreter, its shared libpython, numpy's site
     import sys
 
     import numpy
 
-    from smeha import fmu_native
+    from smeha.fmu import native as fmu_native
 
     record = fmu_native.environment_record(["numpy"])
     assert record["version"] == [sys.version]

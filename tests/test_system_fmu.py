@@ -2,7 +2,7 @@
 
 ``smeha build --system`` builds the plant FMU (``system_models``' plant: the pump chamber
 with the rod's eq 27, the valves and their controller, the cylinder, the accumulator) and
-the drive FMU (the control signal); :mod:`smeha.ssp` connects them to the transducer FMU
+the drive FMU (the control signal); :mod:`smeha.fmu.ssp` connects them to the transducer FMU
 in an SSP 1.0 package and an OSP system structure, and packs the three as one FMU (fmpy's
 container FMU). Each is run in its master -- fmpy's ``simulate_ssp``, libcosim (a C++
 master), fmpy's ``simulate_fmu`` for the container -- and checked against:

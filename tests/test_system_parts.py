@@ -19,7 +19,7 @@ import math
 import numpy as np
 import pytest
 
-from smeha import fmu_build
+from smeha.fmu import build as fmu_build
 from system_models import presets
 from system_models.controller import (FedValveController, SampledValveController, dead_times,
                                       valve_commands)
@@ -132,7 +132,7 @@ def test_imports_of_a_bundled_package_are_renamed():
 
 
 def test_ssv_booleans_reach_fmpy_as_booleans():
-    from smeha import systemrun
+    from smeha.fmu import systemrun
 
     assert systemrun._typed("Boolean", "false") is False
     assert systemrun._typed("Boolean", "true") is True
@@ -142,7 +142,7 @@ def test_ssv_booleans_reach_fmpy_as_booleans():
 
 
 def test_the_system_step_is_the_valve_controllers_period():
-    from smeha import ssp
+    from smeha.fmu import ssp
     from system_models.defaults import VALVE_CONTROLLER_PERIOD
 
     # the plant's controller samples u at each step: the harness's controller's rate

@@ -55,7 +55,7 @@ def passes(base: Fit, new: Fit) -> bool:
 def within_noise(fit: Fit, train_dof_lost: int = 5) -> bool:
     """Reduced chi^2 at most :data:`WITHIN_NOISE` on the training fit and on the held-out
     runs (there the predictive chi^2, with the fit's own uncertainty; smeha.diagnose.fit)."""
-    red_train = fit.train_chi2 / max(fit.train_n - train_dof_lost - fit.n_params, 1)
+    red_train = fit.train_chi2 / max(fit.train_n - train_dof_lost - fit.k, 1)
     return (red_train <= WITHIN_NOISE
             and fit.heldout_predictive_chi2 / fit.heldout_n <= WITHIN_NOISE)
 

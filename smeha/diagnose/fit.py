@@ -64,6 +64,7 @@ from scipy.optimize import least_squares
 import gmt
 
 from .candidates import Batch, Candidate, Evaluator
+from .linearfit import fit_linear, linear_member
 
 #: Bounds of the base unknowns (K_h, n, K_e, K_ex, s).
 BASE_LOWER = (0.0, 1.0, 0.0, 0.0, 0.2)
@@ -93,6 +94,9 @@ class Fit:
     heldout_noise_misfit: float
     parameters: dict
     at_bounds: tuple = field(default=())
+    #: the effective number of added parameters when it is not their count (a penalised
+    #: linear family, smeha.diagnose.linearfit); None: the count
+    effective_params: float | None = None
 
     @property
     def loss(self):
@@ -125,6 +129,12 @@ class Fit:
         return self.candidate.n_params
 
     @property
+    def k(self) -> float:
+        """The added parameters the score charges: their count, or the effective number
+        of a penalised linear family (smeha.diagnose.linearfit)."""
+        return self.n_params if self.effective_params is None else self.effective_params
+
+    @property
     def heldout_excess(self):
         return self.heldout_chi2 - self.heldout_n
 
@@ -133,7 +143,7 @@ class Fit:
         """chi^2 of the training and the held-out features plus k ln n over both: how well
         the model describes all the data (module docstring; the ranking)."""
         n = self.train_n + self.heldout_n
-        return self.train_chi2 + self.heldout_chi2 + self.n_params * math.log(max(n, 2))
+        return self.train_chi2 + self.heldout_chi2 + self.k * math.log(max(n, 2))
 
     @property
     def weak(self) -> bool:
@@ -155,14 +165,16 @@ def _split(z, nb, base0, factor):
 
 
 def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=None,
-                  fit_scale=True) -> tuple:
+                  fit_scale=True, residuals=None) -> tuple:
     """Least squares on the training features: (base, x, chi^2, residuals, cov).
 
     ``base0`` is (K_h, n, K_e, K_ex, s) to start from (s held there when
     ``fit_scale`` is False); ``starts`` replaces the candidate's own start
     vectors (e.g. a combination started from its members' fitted values).
     ``cov`` is the covariance (J^T J)^-1 of the unknowns (the base ones over
-    :func:`base_factor`, then the candidate's), [-].
+    :func:`base_factor`, then the candidate's), [-]. ``residuals(base, x)``
+    replaces the training residuals of ``cand`` (the linear family's fit holds
+    its weights in it, :mod:`smeha.diagnose.linearfit`).
     """
     nb = 5 if fit_scale else 4
     factor = base_factor(base0)
@@ -173,6 +185,8 @@ def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=No
 
     def fun(z):
         base, x = _split(z, nb, base0, factor)
+        if residuals is not None:
+            return residuals(base, x)
         return ev.residuals(train, base, cand, x)
 
     best = None
@@ -221,8 +235,9 @@ def predictive_chi2(ev: Evaluator, held: Batch, cand: Candidate, base, x, cov) -
 
 
 def score(ev: Evaluator, cand: Candidate, base, x, chi2_train, n_train, held: Batch,
-          cov=None) -> Fit:
-    """The held-out score and RMS of a fitted candidate (module docstring)."""
+          cov=None, k=None) -> Fit:
+    """The held-out score and RMS of a fitted candidate (module docstring); ``k`` the
+    effective number of its added parameters when it is not their count."""
     cy, cb, cd = ev.parts(held, base, cand, x)
     n = sum(sum(ev.n_features(rf)) for rf in held.runs)
     y, _, s_off, s_y1 = ev.predict(held, base, cand, x)
@@ -248,11 +263,18 @@ def score(ev: Evaluator, cand: Candidate, base, x, chi2_train, n_train, held: Ba
                heldout_rms=math.sqrt(sq / max(ns, 1)),
                heldout_misfit=math.sqrt(max(float(np.mean(misfit2 - noise2)), floor2)),
                heldout_noise_misfit=math.sqrt(float(np.mean(noise2))),
-               score=chi + cand.n_params * math.log(max(n, 2)),
-               parameters=cand.parameters(x, ev.context), at_bounds=cand.at_bounds(x))
+               score=chi + (cand.n_params if k is None else k) * math.log(max(n, 2)),
+               parameters=cand.parameters(x, ev.context), at_bounds=cand.at_bounds(x),
+               effective_params=k)
 
 
 def fit_and_score(ev, train, held, cand, base0, starts=None, fit_scale=True) -> Fit:
-    """:func:`fit_candidate` then :func:`score`."""
+    """:func:`fit_candidate` (or, for a linear family, :func:`smeha.diagnose.linearfit.fit_linear`)
+    then :func:`score`."""
+    if linear_member(cand) is not None:
+        base, x, chi2, n, cov, k = fit_linear(ev, train, cand, base0, fit_candidate,
+                                              start=starts[0] if starts else None,
+                                              fit_scale=fit_scale)
+        return score(ev, cand, base, x, chi2, n, held, cov, k=k)
     base, x, chi2, n, cov = fit_candidate(ev, train, cand, base0, starts, fit_scale)
     return score(ev, cand, base, x, chi2, n, held, cov)

@@ -359,12 +359,12 @@ def format_diagnosis(d, path: str = "") -> str:
                  f"{d.extended.heldout_rms * 1e6:.4g} um")
     lines.append("")
     head = (f"{'candidate':<72} {'misfit [um]':>12} {'RMS [um]':>10} {'chi2/n':>10} "
-            f"{'score':>12} {'k':>3}")
+            f"{'score':>12} {'k':>5}")
     lines += [head, "-" * len(head)]
     for f in sorted([d.paper] + d.fits + d.combinations, key=lambda f: f.score):
         lines.append(f"{('paper (none)' if f.cause == 'none' else f.label):<72.72} "
                      f"{f.heldout_misfit * 1e6:>12.4g} {f.heldout_rms * 1e6:>10.4g} "
-                     f"{f.heldout_chi2 / f.heldout_n:>10.4g} {f.score:>12.5g} {f.n_params:>3}")
+                     f"{f.heldout_chi2 / f.heldout_n:>10.4g} {f.score:>12.5g} {f.k:>5.3g}")
     lines.append("")
     lines.append("evidence:")
     lines += [f"  - {e}" for e in d.evidence]
@@ -380,7 +380,7 @@ def _fit_dict(fit) -> dict:
             "heldout_chi2_y": fit.heldout_chi2_y, "heldout_chi2_b": fit.heldout_chi2_b,
             "heldout_chi2_drift": fit.heldout_chi2_drift,
             "train_chi2": fit.train_chi2, "train_n": fit.train_n,
-            "added_parameters": fit.n_params, "parameters": fit.parameters,
+            "added_parameters": fit.n_params, "effective_parameters": fit.k, "parameters": fit.parameters,
             "at_bounds": list(fit.at_bounds),
             "loss_coefficients": dict(zip(("K_h", "n", "K_e", "K_ex"), fit.loss)),
             "strain_scale": fit.strain_scale}

@@ -224,14 +224,14 @@ def variant_start_values(variant: gmt.ModelVariant | None) -> dict:
 
 
 def default_fmu_path() -> Path:
-    """dist/SmehaGmt.fmu of the source tree (:data:`smeha.fmu_build.DIST`)."""
-    from .. import fmu_build
+    """dist/SmehaGmt.fmu of the source tree (:data:`smeha.fmu.build.DIST`)."""
+    from ..fmu import build as fmu_build
     return fmu_build.DIST / "SmehaGmt.fmu"
 
 
 def ensure_fmu(path: Path | None = None, quiet: bool = False) -> Path:
     """Build the FMI 2.0 FMU unless it exists and is newer than its sources."""
-    from .. import fmu_build
+    from ..fmu import build as fmu_build
     path = Path(path) if path else default_fmu_path()
     sources = list((fmu_build.FMU_SRC).rglob("*.py")) + [Path(fmu_build.__file__)]
     newest = max(p.stat().st_mtime for p in sources)

@@ -11,10 +11,16 @@ the diagnosis' unknowns, periodic form, time-stepped form):
 cause (form)                   module       formulation
 =============================  ===========  =============================================
 rate_independent_hysteresis    hysteresis   Prandtl-Ishlinskii operator of H
+rate_independent_hysteresis    preisach     classical Preisach model, a general
+(preisach)                                  nonnegative density of relays over
+                                            (coercive, interaction) field
 magnetization_saturation       saturation   tanh law of M_b + M about the bias
 eddy_current_diffusion (lag)   eddy         H_in = (1 + j w tau)^-alpha H
 eddy_current_diffusion (slab,  diffusion    exact 1-D diffusion into a lamination or a
 cylinder)                                   solid rod, the profile across the section
+eddy_current_diffusion         diffusion    the same acting on the magnetisation, the
+(slab_magnetization,                        coil seeing an unshielded share of the
+cylinder_magnetization)                     vacuum flux (rod's M lags, air flux in the coil)
 transport_delay                delay        e^{-j k w tau} on the sensed y
 mechanical_resonance (one_dof) resonance    eq 27 with re-identified m, c, K
 mechanical_resonance (two_dof) resonance    rod and output mass on a compliant joint
@@ -37,18 +43,21 @@ from __future__ import annotations
 from ..errors import ParameterError
 from ._base import STAGES, Extension, FieldState, FitSpec, Parameter, harmonic_remainder
 from .delay import DelayForm, TransportDelay
-from .diffusion import (DIFFUSION_GEOMETRIES, CylinderDiffusionForm, EddyCurrentDiffusion,
-                        ModalBank, SlabDiffusionForm)
+from .diffusion import (DIFFUSION_GEOMETRIES, CylinderDiffusionForm,
+                        CylinderMagnetizationForm, EddyCurrentDiffusion, ModalBank,
+                        SlabDiffusionForm, SlabMagnetizationForm)
 from .drift import DriftForm, LinearDrift
 from .eddy import EddyCurrentLag, EddyLagForm, SectionBank, eddy_calibrated_permeability
 from .hysteresis import PLAY_GRID, HysteresisForm, PrandtlIshlinskii, play_thresholds
+from .preisach import PreisachForm
 from .resonance import MechanicsForm, ReidentifiedMechanics, TwoMassForm, TwoMassMechanics
 from .saturation import SaturationForm, SoftSaturation
 
 #: Every extension, in the order the diagnosis lists its candidates; the first form of
 #: a cause is its default.
-EXTENSIONS = (HysteresisForm, SaturationForm, EddyLagForm, SlabDiffusionForm,
-              CylinderDiffusionForm, DelayForm, MechanicsForm, TwoMassForm, DriftForm)
+EXTENSIONS = (HysteresisForm, PreisachForm, SaturationForm, EddyLagForm, SlabDiffusionForm,
+              CylinderDiffusionForm, SlabMagnetizationForm, CylinderMagnetizationForm, DelayForm,
+              MechanicsForm, TwoMassForm, DriftForm)
 
 #: (cause, form) -> extension class; the one registry (module docstring).
 REGISTRY: dict = {(e.cause, e.form): e for e in EXTENSIONS}
@@ -157,9 +166,10 @@ def parse_name(name) -> tuple:
 __all__ = [
     "STAGES", "Extension", "FieldState", "FitSpec", "Parameter", "harmonic_remainder",
     "DelayForm", "TransportDelay", "DIFFUSION_GEOMETRIES", "CylinderDiffusionForm",
-    "EddyCurrentDiffusion", "ModalBank", "SlabDiffusionForm", "DriftForm", "LinearDrift",
+    "EddyCurrentDiffusion", "ModalBank", "SlabDiffusionForm", "SlabMagnetizationForm",
+    "CylinderMagnetizationForm", "DriftForm", "LinearDrift",
     "EddyCurrentLag", "EddyLagForm", "SectionBank", "eddy_calibrated_permeability",
-    "PLAY_GRID", "play_thresholds", "HysteresisForm", "PrandtlIshlinskii", "MechanicsForm",
+    "PLAY_GRID", "play_thresholds", "HysteresisForm", "PreisachForm", "PrandtlIshlinskii", "MechanicsForm",
     "ReidentifiedMechanics", "TwoMassForm", "TwoMassMechanics", "SaturationForm",
     "SoftSaturation", "EXTENSIONS", "REGISTRY", "CAUSES", "FORMS", "PAPER", "forms_of",
     "lookup", "variant_name", "VARIANTS", "ordered", "combination_name", "parse_name",

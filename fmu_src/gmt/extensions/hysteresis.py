@@ -147,6 +147,8 @@ class HysteresisForm(MagnetizationStage, Extension):
 
     cause = "rate_independent_hysteresis"
     stage = "magnetization"
+    #: its output adds to M and does not depend on it (gmt.extensions.steady.stage_adder)
+    additive = True
     signals = "B and y"
     parameters = (Parameter("thresholds_A_per_m", "A/m", 0.0, math.inf, low_open=False,
                             is_list=True),

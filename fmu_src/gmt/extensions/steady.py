@@ -164,6 +164,16 @@ def stage_adder(magnetic, steady: Steady):
         return None
     theta = 2.0 * np.pi * np.arange(GRID) / GRID
     memo = {}
+    if all(getattr(cls, "additive", False) for cls, _ in magnetic):
+        # outputs that do not depend on M (an operator of H): p is one constant per run
+        m0 = np.zeros(np.shape(steady.field_amplitude), complex)
+        m, out = magnetization_stage(magnetic, steady, m0, theta, memo)
+        p = 2.0 * np.fft.rfft(out - m, axis=-1)[..., 1] / GRID / steady.field_amplitude
+
+        def constant(m1):
+            return p
+        constant.memo = memo
+        return constant
 
     def adder(m1):
         m, out = magnetization_stage(magnetic, steady, m1, theta, memo)

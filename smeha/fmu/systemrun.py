@@ -1,4 +1,4 @@
-"""Run the EHA system (:mod:`smeha.ssp`) in SSP and OSP masters and check its cylinder flow.
+"""Run the EHA system (:mod:`smeha.fmu.ssp`) in SSP and OSP masters and check its cylinder flow.
 
 * :func:`run_fmpy` runs the ``.ssp`` with fmpy's ``fmpy.ssp.simulation.simulate_ssp``:
   fixed step, every unit stepped from the same communication point with the inputs of
@@ -30,7 +30,7 @@ PLANT_FIELDS = ("rod_displacement", "volume_into_big", "valves_compressing", "p_
 
 
 def ssp_experiment(ssp_path) -> tuple[float, float]:
-    """(step, stop time) [s] of a .ssp of :mod:`smeha.ssp`: its DefaultExperiment's stopTime
+    """(step, stop time) [s] of a .ssp of :mod:`smeha.fmu.ssp`: its DefaultExperiment's stopTime
     and the fixed step of its OSP annotation (fmpy's SSD reader keeps neither)."""
     import zipfile
     from xml.etree import ElementTree as ET
@@ -191,7 +191,7 @@ def _values(execution, observer, report) -> dict:
 
 
 def run_container(fmu_path, step: float | None = None, stop_time: float | None = None):
-    """Run the container FMU (:func:`smeha.ssp.write_container`) with fmpy's
+    """Run the container FMU (:func:`smeha.fmu.ssp.write_container`) with fmpy's
     ``simulate_fmu`` (its DefaultExperiment's step and stop time unless given), recording
     every step; return (record, wall time [s])."""
     from fmpy import read_model_description, simulate_fmu

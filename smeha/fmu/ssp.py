@@ -23,7 +23,7 @@ Files: :func:`write_ssp` (``<name>.ssp``: ``SystemStructure.ssd``, the FMUs and 
 parameter set per component under ``resources/``, SSP 1.0), :func:`write_osp`
 (``OspSystemStructure.xml``, the Open Simulation Platform's format that libcosim reads,
 with the same values as initial values) and :func:`write_container` (the three as one
-FMU, fmpy's container FMU). The runners are in :mod:`smeha.systemrun`.
+FMU, fmpy's container FMU). The runners are in :mod:`smeha.fmu.systemrun`.
 """
 from __future__ import annotations
 
@@ -42,7 +42,7 @@ SYSTEM_NAME = "SmehaEha"
 #: controller samples at the same rate). docs/FMU.md explains the step's error.
 SYSTEM_STEP = VALVE_CONTROLLER_PERIOD
 
-#: Component -> FMU key of smeha.fmu_build.SPECS.
+#: Component -> FMU key of smeha.fmu.build.SPECS.
 COMPONENTS = {"drive": "drive", "transducer": "transducer2", "plant": "plant"}
 #: Signal connections (start component, connector, end component, connector).
 CONNECTIONS = (("drive", "u", "transducer", "u"), ("drive", "u", "plant", "u"),
@@ -131,10 +131,10 @@ def describe(case, fmus: dict, step: float = SYSTEM_STEP, name: str = SYSTEM_NAM
     from system_models import presets
     from system_models.cosim import FmuTransducer
 
-    from . import fmu_build
-    from .studies.flow import control_signal
+    from . import build
+    from ..studies.flow import control_signal
 
-    plant_table = fmu_build.table("smeha_plant_interface")
+    plant_table = build.table("smeha_plant_interface")
     transducer = case.fmu_start_values()
     # the transducer FMU is the source of the rod's mechanics and of its rest position
     unit = FmuTransducer(fmus["transducer"], transducer, instance_name="ssp_writer")
@@ -183,15 +183,16 @@ def _ssv(component: str, values: dict, types: dict) -> bytes:
 
 
 def _units(desc: SystemDescription, connectors: dict) -> list:
-    from . import fmu_build
-    units = fmu_build.iface.UNITS
+    from . import build
+    units = build.iface.UNITS
     return sorted({desc.types[c][n][2] for c, conns in connectors.items() for n, _ in conns
                    if desc.types[c][n][0] == "Real" and desc.types[c][n][2] in units})
 
 
 def ssd_xml(desc: SystemDescription, fmu_names: dict) -> bytes:
     """The SystemStructure.ssd of ``desc`` (SSP 1.0), the FMUs as ``resources/<name>``."""
-    from . import __version__, fmu_build
+    from .. import __version__
+    from . import build
 
     root = ET.Element(_s("SystemStructureDescription"), {
         "version": "1.0", "name": desc.name, "generationTool": f"smeha {__version__}",
@@ -220,7 +221,7 @@ def ssd_xml(desc: SystemDescription, fmu_names: dict) -> bytes:
     for name in _units(desc, connectors):
         unit = ET.SubElement(units, _s("Unit", "ssc"), {"name": name})
         ET.SubElement(unit, _s("BaseUnit", "ssc"),
-                      {k: str(v) for k, v in fmu_build.iface.UNITS[name].items() if v})
+                      {k: str(v) for k, v in build.iface.UNITS[name].items() if v})
     experiment = ET.SubElement(root, _s("DefaultExperiment"), {
         "startTime": "0.0", "stopTime": repr(desc.stop_time)})
     # libcosim reads its fixed step from this annotation (cosim/ssp/ssp_parser.cpp)
@@ -297,20 +298,20 @@ def build_system(out: str | os.PathLike, frequency: float = 100.0,
 
     Raises
     ------
-    smeha.fmu_build.BuildError
+    smeha.fmu.build.BuildError
         An FMU could not be built.
     gmt.ParameterError
         A bad frequency, mode or circuit.
     """
-    from . import fmu_build
-    from .studies.flow import Case
+    from . import build
+    from ..studies.flow import Case
 
     case = Case(frequency, mode, circuit=circuit)  # checks the values before any build
     out = Path(out)
     fmus = dict(built or {})
     for comp, key in COMPONENTS.items():
         if comp not in fmus:
-            fmus[comp] = fmu_build.build_fmu(key, out, validate=validate)
+            fmus[comp] = build.build_fmu(key, out, validate=validate)
     desc = describe(case, fmus)
     return (write_ssp(desc, out / f"{SYSTEM_NAME}.ssp"), write_osp(desc, out / SYSTEM_NAME),
             write_container(desc, out / f"{SYSTEM_NAME}.fmu"))
@@ -348,7 +349,7 @@ def write_container(desc: SystemDescription, path: str | os.PathLike) -> Path:
     from fmpy.model_description import (CoSimulation, DefaultExperiment, ModelDescription,
                                         ModelVariable, Unknown)
 
-    from . import fmu_build
+    from . import build
 
     def fmi3_type(variable):
         return attrs.evolve(variable, type={"Real": "Float64", "Integer": "Int32"}.get(
@@ -379,7 +380,7 @@ def write_container(desc: SystemDescription, path: str | os.PathLike) -> Path:
                 name=f"{comp}.{name}", type=v.type, causality="output",
                 variability=v.variability, initial="calculated", description=v.description))
             mappings[variables[-1]] = [(components[comp], v)]
-    token = "{%s}" % uuid.uuid5(fmu_build.GUID_NAMESPACE, repr(
+    token = "{%s}" % uuid.uuid5(build.GUID_NAMESPACE, repr(
         (desc.name, desc.step, sorted((c, sorted(p.items())) for c, p in
                                       desc.parameters.items()),
          [read_model_description(str(desc.fmus[c])).guid for c in COMPONENTS])))

@@ -48,10 +48,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
-from . import fmu_native
+from . import native
 
 #: Repository root (the build needs the source tree: fmu_src/ is not installed).
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 FMU_SRC = REPO / "fmu_src"
 #: Where ``smeha build`` writes the FMUs and ``smeha simulate``/``flow``/``sweep`` look for
 #: ``SmehaGmt.fmu``: dist/ of the source tree, whatever the current folder.
@@ -315,7 +315,7 @@ LINUX_BINARIES = ("binaries/linux64/", "binaries/x86_64-linux/")
 def rewrite_fmu(raw: Path, dest: Path, variables=None, extra=None) -> Path:
     """Write ``dest``: ``raw`` with its model description finished (``variables`` as
     :func:`patch_fmi2`), the members ``extra`` (archive name -> bytes) added, its Linux binary
-    linked to the libpython of its environment record (:mod:`smeha.fmu_native`),
+    linked to the libpython of its environment record (:mod:`smeha.fmu.native`),
     members sorted, timestamps fixed (SOURCE_DATE_EPOCH, else 1980-01-01)."""
     stamp = _build_time().timetuple()[:6] if os.environ.get("SOURCE_DATE_EPOCH") \
         else (1980, 1, 1, 0, 0, 0)
@@ -332,7 +332,7 @@ def rewrite_fmu(raw: Path, dest: Path, variables=None, extra=None) -> Path:
                 data = finish_model_description(data, variables)
             elif (name.startswith(LINUX_BINARIES) and name.endswith(".so")
                   and record.get("libpython")):
-                data = fmu_native.link_libpython(data, record["libpython"][0])
+                data = native.link_libpython(data, record["libpython"][0])
             info = zipfile.ZipInfo(name, date_time=stamp)
             info.compress_type = zipfile.ZIP_DEFLATED
             info.external_attr = 0o644 << 16
@@ -401,7 +401,7 @@ def _stage(fmu: FmuSpec, staging: Path) -> Path:
     for module in fmu.modules:
         shutil.copy2(FMU_SRC / f"{module}.py", staging)
     (staging / runtime.ENVIRONMENT_FILE).write_text(runtime.format_environment(
-        fmu_native.environment_record(fmu.required)), encoding="utf-8")
+        native.environment_record(fmu.required)), encoding="utf-8")
     for bundled, key in fmu.packages:
         bundle_package(PACKAGE_SOURCES[key], staging / bundled, fmu.renames)
     return staging / script.name
@@ -436,7 +436,7 @@ def _child(key: str, workdir: str) -> int:
     """Entry point of the child process: :func:`_worker`, a known failure as a message."""
     try:
         _worker(key, workdir)
-    except (fmu_native.NativeError, BuildError) as exc:
+    except (native.NativeError, BuildError) as exc:
         print(exc, file=sys.stderr)
         return 1
     return 0
@@ -470,7 +470,7 @@ def build_fmu(key: str, out: str | os.PathLike = DIST, validate: bool = True) ->
         env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1",
                    PYTHONPATH=os.pathsep.join(
                        p for p in (str(REPO), os.environ.get("PYTHONPATH", "")) if p))
-        code = "import sys; from smeha.fmu_build import _child; sys.exit(_child(*sys.argv[1:]))"
+        code = "import sys; from smeha.fmu.build import _child; sys.exit(_child(*sys.argv[1:]))"
         proc = subprocess.run([sys.executable, "-c", code, key, tmp], cwd=tmp, env=env,
                               capture_output=True, text=True)
         raw = Path(tmp) / "raw" / f"{fmu.model_name}.fmu"
@@ -480,7 +480,7 @@ def build_fmu(key: str, out: str | os.PathLike = DIST, validate: bool = True) ->
         try:
             dest = rewrite_fmu(raw, Path(out) / f"{fmu.model_name}.fmu",
                                table(fmu.table).BY_NAME, _compiled(fmu, Path(tmp) / "src"))
-        except fmu_native.NativeError as exc:
+        except native.NativeError as exc:
             raise BuildError(str(exc)) from None
     if validate:
         problems = validate_fmu(dest)
@@ -525,12 +525,3 @@ def build_all(fmi: str = "2", out: str | os.PathLike = DIST, validate: bool = Tr
         print(f"FMI {version}.0 co-simulation FMU: {path}{checked}")
     return status
 
-
-def main(argv=None) -> int:
-    """``python build_fmu.py [...]``: the command line of ``smeha build`` (:mod:`smeha.cli`)."""
-    from .cli import main as cli_main
-    return cli_main(["build", *(sys.argv[1:] if argv is None else argv)])
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())

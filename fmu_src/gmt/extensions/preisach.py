@@ -1,0 +1,346 @@
+"""Rate-independent hysteresis: the classical Preisach model with a general density.
+
+A Preisach model (Preisach 1935; Mayergoyz, *Mathematical Models of
+Hysteresis and Their Applications*, Elsevier 2003, ch. 1) is a population of
+elementary hysterons: relays R_{a,b} with up-switching field a and
+down-switching field b <= a, output +1 after H has risen to a and -1 after it
+has fallen to b. Written in the coercive field h_c = (a - b)/2 and the
+interaction field h_u = (a + b)/2, a density rho(h_c, h_u) >= 0 over the
+half-plane h_c > 0 gives the magnetisation
+
+    M_P(t) = int int rho(h_c, h_u) R_{h_u + h_c, h_u - h_c}[H](t) dh_c dh_u.
+
+The model is linear in rho. The density here is general: nonnegative values
+w_n at the nodes of a grid, h_c geometric from :data:`COERCIVE_GRID` and h_u
+uniform over :data:`INTERACTION_GRID` (both in units of the largest field
+amplitude of the data, H_max), interpolated bilinearly (in ln h_c and h_u)
+between the nodes, over the Preisach triangle a <= H_max, b >= -H_max (relays
+outside it never switch in the data: their state is the record's history). w_n is the saturation magnetisation of node n's share of the
+population [A/m] (the relays under its interpolation weight), so M_P is
+sum_n w_n R_n[H] with R_n the weighted mean of the relays of node n. A
+nonnegative density makes every relay's loop run anticlockwise in (H, M), so
+the loss per cycle, the loop area, is never negative (Mayergoyz 2003, sec. 1.2).
+Saturating relays (a population that switches whole within the drive's
+amplitude), asymmetric loops (a density off h_u = 0) and a Prandtl-Ishlinskii
+operator (a density spread along h_u, the plays' limit) are all members.
+
+Periodic form: for H = H_m cos(theta) a relay that switches (a <= H_m,
+b >= -H_m) is +1 for theta in [0, theta_b) and [2 pi - theta_a, 2 pi),
+theta_x = arccos(x/H_m), -1 in between; its Fourier coefficients are exact,
+
+    c_k = 2 (e^{j k theta_a} - e^{-j k theta_b}) / (j pi k),   k >= 1,
+    c_0 = 2 (theta_a + theta_b)/pi - 2,
+
+(derived for this module), the output being c_0/2 + Re sum_k c_k e^{j k theta}.
+A relay that cannot switch up (a > H_m) ends down, one that cannot switch down
+(b < -H_m) ends up, and one that does neither keeps the demagnetised state
+(up for h_u < 0, down for h_u > 0; Mayergoyz 2003, sec. 1.3). The node
+outputs are summed over :data:`SUBGRID` relays per grid cell and axis, and
+synthesised from their first :data:`PERIODIC_HARMONICS` harmonics (the band
+the steady-state evaluation samples without aliasing,
+:data:`gmt.extensions.steady.GRID`).
+
+**Rate factor.** Measured populations switch less at higher drive
+frequencies: a relay needs time to switch (a wall moves at a finite speed), so
+the share that completes its switching falls with the rate (Mayergoyz's
+dynamic Preisach models, IEEE Trans. Magn. 24 (1988) 2925-2927, make the
+density depend on the input's rate). Here that share is one factor of the
+drive frequency on the whole population, g(f) = 1/(1 + (f/f_r)^q), two more
+unknowns; f_r -> infinity (its upper bound, 10^4.5 Hz) is the classical
+rate-independent model, and the loop still stays open as f -> 0.
+
+Time-stepped form: the same relays, each holding its state, switched by the
+held H of each step (:meth:`PreisachForm.adjust`), their weights times g at
+the operating point's frequency.
+
+The diagnosis fits the node weights as a nonnegative least-squares problem with
+a smoothness penalty (:mod:`smeha.diagnose.fit`): the family's unknowns are
+linear, and its effective number of parameters is the trace of the penalised
+fit's hat matrix, not the number of nodes.
+"""
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+
+from ..errors import ParameterError
+from ._base import Extension, FitSpec, Parameter
+from .magnetic import MagnetizationStage
+
+#: Coercive nodes: (first, last, count), geometric, in units of H_max.
+COERCIVE_GRID = (0.03, 1.0, 6)
+#: Interaction nodes: (first, last, count), uniform, in units of H_max.
+INTERACTION_GRID = (-0.6, 0.6, 7)
+#: Relays per grid cell along each axis (the density's quadrature).
+SUBGRID = 6
+#: Harmonics of the periodic output kept (below the steady state's Nyquist harmonic).
+PERIODIC_HARMONICS = 48
+
+
+def node_grid(field_max, coercive=COERCIVE_GRID, interaction=INTERACTION_GRID):
+    """(h_c nodes, h_u nodes) for H_max [A/m], [A/m]."""
+    c0, c1, nc = coercive
+    u0, u1, nu = interaction
+    return (field_max * np.geomspace(c0, c1, int(nc)),
+            field_max * np.linspace(u0, u1, int(nu)))
+
+
+def _hat_weights(nodes, points, log=False):
+    """Linear interpolation weights of ``points`` on ``nodes``: (points, nodes)."""
+    x = np.log(nodes) if log else np.asarray(nodes, float)
+    p = np.log(points) if log else np.asarray(points, float)
+    eye = np.eye(x.size)
+    return np.stack([np.interp(p, x, eye[n]) for n in range(x.size)], axis=-1)
+
+
+@functools.lru_cache(maxsize=16)
+def _relays(coercive, interaction, subgrid=SUBGRID):
+    """The relays of the density's quadrature: (a, b, weight matrix relays x nodes).
+
+    Each node's column sums to 1: its output R_n is the weighted mean of its relays.
+    """
+    hc_nodes, hu_nodes = np.asarray(coercive), np.asarray(interaction)
+    lc = np.log(hc_nodes)
+    # relays at the centres of sub-cells between the nodes
+    ts = (np.arange(subgrid) + 0.5) / subgrid
+    hc = np.exp(np.concatenate([lc[i] + ts * (lc[i + 1] - lc[i]) for i in range(lc.size - 1)]))
+    hu = np.concatenate([hu_nodes[i] + ts * (hu_nodes[i + 1] - hu_nodes[i])
+                         for i in range(hu_nodes.size - 1)])
+    wc = _hat_weights(hc_nodes, hc, log=True)  # (relays_c, nodes_c)
+    wu = _hat_weights(hu_nodes, hu)  # (relays_u, nodes_u)
+    # each relay stands for its sub-cell: area in (h_c, h_u) is h_c d(ln h_c) dh_u
+    dlc = np.repeat(np.diff(lc) / subgrid, subgrid)
+    area_c = hc * dlc
+    area_u = np.repeat(np.diff(hu_nodes) / subgrid, subgrid)
+    weight = np.einsum("in,i,jm,j->ijnm", wc, area_c, wu, area_u)
+    weight = weight.reshape(hc.size * hu.size, hc_nodes.size * hu_nodes.size)
+    hcg, hug = np.meshgrid(hc, hu, indexing="ij")
+    a = (hug + hcg).ravel()
+    b = (hug - hcg).ravel()
+    # only relays that the largest amplitude of the grid switches (the Preisach triangle
+    # a <= H_max, b >= -H_max): the others' state is the record's history, not the loop
+    inside = (a <= hc_nodes[-1] * (1.0 + 1e-9)) & (b >= -hc_nodes[-1] * (1.0 + 1e-9))
+    weight = weight[inside]
+    total = weight.sum(axis=0, keepdims=True)
+    weight = weight / np.where(total > 0, total, 1.0)
+    return a[inside], b[inside], weight
+
+
+def relay_harmonics(up, down, field_amplitude, harmonics=PERIODIC_HARMONICS):
+    """Fourier coefficients c_0..c_K of relays in periodic steady state (module docstring).
+
+    Parameters
+    ----------
+    up, down : arrays
+        The relays' switching fields a >= b, [A/m].
+    field_amplitude : float
+        H_m of H = H_m cos(theta), [A/m].
+
+    Returns
+    -------
+    array (relays, K + 1), complex
+        Output = c_0/2 + Re sum_k c_k e^{j k theta}.
+
+    Examples
+    --------
+    A relay switching at +-H_m/2 is a square wave between theta = pi/3 and 5 pi/3:
+    >>> c = relay_harmonics(np.array([0.5]), np.array([-0.5]), 1.0, 3)
+    >>> bool(np.isclose(c[0, 1].real, 4 * np.sin(np.pi / 3) / np.pi))
+    True
+    """
+    a, b = np.asarray(up, float), np.asarray(down, float)
+    hm = float(field_amplitude)
+    k = np.arange(1, harmonics + 1)
+    out = np.zeros((a.size, harmonics + 1), complex)
+    switches = (a <= hm) & (b >= -hm)
+    ta = np.arccos(np.clip(a[switches] / hm, -1.0, 1.0))
+    tb = np.arccos(np.clip(b[switches] / hm, -1.0, 1.0))
+    out[switches, 0] = 2.0 * (ta + tb) / math.pi - 2.0
+    out[switches, 1:] = 2.0 * (np.exp(1j * np.outer(ta, k)) - np.exp(-1j * np.outer(tb, k))) \
+        / (1j * math.pi * k)
+    hu = 0.5 * (a + b)
+    still = np.where(a > hm, np.where(b < -hm, np.where(hu < 0, 1.0, np.where(hu > 0, -1.0, 0.0)),
+                                       -1.0), 1.0)
+    out[~switches, 0] = 2.0 * still[~switches]
+    return out
+
+
+@functools.lru_cache(maxsize=64)
+def _node_harmonics_cached(coercive, interaction, field_amplitude, harmonics):
+    a, b, weight = _relays(coercive, interaction)
+    return weight.T @ relay_harmonics(a, b, field_amplitude, harmonics)
+
+
+def node_harmonics(coercive, interaction, field_amplitude, harmonics=PERIODIC_HARMONICS):
+    """Harmonics (nodes, K + 1) of each node's output R_n at H_m [A/m] (module docstring)."""
+    return _node_harmonics_cached(tuple(float(v) for v in coercive),
+                                  tuple(float(v) for v in interaction),
+                                  float(field_amplitude), int(harmonics))
+
+
+@functools.lru_cache(maxsize=32)
+def _runs_harmonics(coercive, interaction, field_amplitudes):
+    """(runs, nodes, K + 1) node harmonics of several runs (cached: the fit asks often)."""
+    return np.stack([node_harmonics(coercive, interaction, hm) for hm in field_amplitudes])
+
+
+@functools.lru_cache(maxsize=8)
+def _synthesis(theta):
+    """e^{j k theta}, k = 1..K, (K, theta)."""
+    return np.exp(1j * np.outer(np.arange(1, PERIODIC_HARMONICS + 1), np.asarray(theta)))
+
+
+def synthesise(coefficients, theta):
+    """c_0/2 + Re sum_k c_k e^{j k theta} on ``theta``: (rows of c, theta)."""
+    c = np.atleast_2d(np.asarray(coefficients))
+    k = np.arange(1, c.shape[-1])
+    e = np.exp(1j * np.outer(k, np.asarray(theta, float)))
+    return np.real(c[:, 1:] @ e) + 0.5 * np.real(c[:, :1])
+
+
+class PreisachForm(MagnetizationStage, Extension):
+    """The Preisach model's output added to the paper's magnetisation (module docstring).
+
+    Memory of the time-stepped form: each relay's state, +1 or -1 (the demagnetised
+    state at reset).
+    """
+
+    cause = "rate_independent_hysteresis"
+    form = "preisach"
+    stage = "magnetization"
+    signals = "B and y"
+    #: The unknowns are the node weights, linear in the model: fitted by the penalised
+    #: nonnegative least squares of smeha.diagnose.fit, not one by one.
+    linear = True
+    #: its output adds to M and does not depend on it (gmt.extensions.steady.stage_adder)
+    additive = True
+    parameters = (Parameter("rate_frequency_Hz", "Hz", 0.0, math.inf, high_open=False),
+                  Parameter("rate_exponent", "-", 0.0, 10.0),
+                  Parameter("coercive_fields_A_per_m", "A/m", 0.0, math.inf, is_list=True),
+                  Parameter("interaction_fields_A_per_m", "A/m", is_list=True),
+                  Parameter("weights_A_per_m", "A/m", 0.0, math.inf, low_open=False,
+                            is_list=True))
+    _n = COERCIVE_GRID[2] * INTERACTION_GRID[2]
+    #: the first two unknowns are nonlinear (the rate factor), the rest the node weights
+    fit = FitSpec(("log10_rate_frequency_Hz", "rate_exponent")
+                  + tuple(f"w{j}" for j in range(_n)),
+                  ((4.5, 2.0) + (0.0,) * _n, (2.0, 2.0) + (0.0,) * _n),
+                  (0.5, 0.5) + (0.0,) * _n, (4.5, 4.0) + (math.inf,) * _n)
+    #: which of the unknowns are linear (the node weights)
+    linear_unknowns = slice(2, None)
+
+    @classmethod
+    def validate(cls, values):
+        hc = values["coercive_fields_A_per_m"]
+        hu = values["interaction_fields_A_per_m"]
+        w = values["weights_A_per_m"]
+        if len(w) != len(hc) * len(hu):
+            raise ParameterError(f"{cls.cause} parameter weights_A_per_m has {len(w)} values; "
+                                 f"it needs one per node, {len(hc)} x {len(hu)} = "
+                                 f"{len(hc) * len(hu)}")
+        for name, nodes in (("coercive_fields_A_per_m", hc), ("interaction_fields_A_per_m", hu)):
+            if len(nodes) < 2 or np.any(np.diff(nodes) <= 0):
+                raise ParameterError(f"{cls.cause} parameter {name} = {list(nodes)} must hold "
+                                     "at least two increasing values")
+
+    @classmethod
+    def from_fit(cls, x, context):
+        hc, hu = node_grid(context["field_max"])
+        return {"rate_frequency_Hz": float(10.0 ** x[0]), "rate_exponent": float(x[1]),
+                "coercive_fields_A_per_m": [float(v) for v in hc],
+                "interaction_fields_A_per_m": [float(v) for v in hu],
+                "weights_A_per_m": [float(v) for v in x[2:]]}
+
+    @classmethod
+    def at_bounds(cls, x, tolerance=1e-3):
+        # a zero weight is a node without relays, and the upper rate frequency the
+        # rate-independent limit: neither is a bound pressed on
+        return tuple(n for n in super().at_bounds(x[:2], tolerance)
+                     if n != "log10_rate_frequency_Hz" or x[0] < cls.fit.upper[0] - 0.01)
+
+    @staticmethod
+    def rate_factor(values, frequency):
+        """g(f) = 1 / (1 + (f/f_r)^q): the share of the population that switches at f, [-]."""
+        fr, q = values["rate_frequency_Hz"], values["rate_exponent"]
+        if math.isinf(fr):
+            return np.ones_like(np.asarray(frequency, float))
+        return 1.0 / (1.0 + (np.asarray(frequency, float) / fr) ** q)
+
+    @staticmethod
+    def smoothness(shape=(COERCIVE_GRID[2], INTERACTION_GRID[2])):
+        """Second differences of the node weights along each axis: the penalty's matrix."""
+        nc, nu = shape
+        rows = []
+        for i in range(nc):
+            for j in range(nu):
+                if 0 < i < nc - 1:
+                    rows.append({(i - 1) * nu + j: 1.0, i * nu + j: -2.0, (i + 1) * nu + j: 1.0})
+                if 0 < j < nu - 1:
+                    rows.append({i * nu + j - 1: 1.0, i * nu + j: -2.0, i * nu + j + 1: 1.0})
+        d = np.zeros((len(rows), nc * nu))
+        for r, row in enumerate(rows):
+            for c, v in row.items():
+                d[r, c] = v
+        return d
+
+    # periodic form
+    @classmethod
+    def periodic_output(cls, values, field_amplitudes, theta, frequencies=0.0):
+        """M_P over ``theta`` for each H_m (and f, [Hz]), (runs, theta), [A/m]."""
+        w = np.asarray(values["weights_A_per_m"], float)
+        hc = tuple(float(v) for v in values["coercive_fields_A_per_m"])
+        hu = tuple(float(v) for v in values["interaction_fields_A_per_m"])
+        hms = np.atleast_1d(np.asarray(field_amplitudes, float))
+        g = np.broadcast_to(cls.rate_factor(values, frequencies), hms.shape)
+        coeff = g[:, None] * np.einsum("n,rnk->rk", w, _runs_harmonics(hc, hu, tuple(hms)))
+        return np.real(coeff[:, 1:] @ _synthesis(tuple(np.asarray(theta, float)))) \
+            + 0.5 * np.real(coeff[:, :1])
+
+    @classmethod
+    def steady_output(cls, values, steady, magnetization, theta, memo=None):
+        if memo is not None and "output" in memo:
+            return magnetization + memo["output"]
+        out = cls.periodic_output(values, steady.field_amplitude, theta, steady.frequency)
+        if np.ndim(steady.field_amplitude) == 0:
+            out = out[0]
+        if memo is not None:
+            memo["output"] = out
+        return magnetization + out
+
+    # time-stepped form
+    def __init__(self, values, params, point, upstream=None):
+        super().__init__(values, params, point, upstream)
+        hc = tuple(values["coercive_fields_A_per_m"])
+        hu = tuple(values["interaction_fields_A_per_m"])
+        self.up, self.down, weight = _relays(hc, hu)
+        # the rate factor at the operating point's frequency (module docstring)
+        self.relay_weights = (weight @ np.asarray(values["weights_A_per_m"], float)
+                              * float(self.rate_factor(values, point.frequency)))
+        self.states = self._demagnetised()
+
+    def _demagnetised(self):
+        hu = 0.5 * (self.up + self.down)
+        return np.where(hu < 0, 1.0, np.where(hu > 0, -1.0, 0.0))
+
+    def adjust(self, mag, step, time):
+        h = mag.field
+        self.states = np.where(h >= self.up, 1.0, np.where(h <= self.down, -1.0, self.states))
+        return self.with_magnetization(mag, float(self.relay_weights @ self.states))
+
+    def waveform(self, theta, upstream):
+        return upstream(theta) + self.periodic_output(
+            self.values, self.point.field_amplitude, theta, self.point.frequency)[0]
+
+    def reset(self, rest_displacement):
+        self.states = self._demagnetised()
+
+    def get_state(self):
+        return tuple(float(s) for s in self.states)
+
+    def set_state(self, state):
+        if len(state) != len(self.states):
+            raise ParameterError(f"{self.cause} state has {len(state)} values; the model has "
+                                 f"{len(self.states)} relays")
+        self.states = np.array(state, dtype=float)

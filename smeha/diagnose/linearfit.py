@@ -1,0 +1,245 @@
+"""Fitting a candidate whose family is linear in many unknowns: penalised NNLS.
+
+A Preisach density (:class:`gmt.extensions.PreisachForm`) has one weight per
+node of its grid, dozens of them, and the model's magnetisation is linear in
+them. Fitting them one by one as nonlinear unknowns would be slow and would
+count every node as a parameter. Here instead, alternately until the training
+chi^2 settles:
+
+1. the residuals are linearised in the weights w about the current fit,
+   r(w') ~ r + J (w' - w) (J by finite differences: the magnetisation is
+   linear in w, the force of eq 25 quadratic and the paper's part is solved for
+   the measured B_m, so the linearisation is refreshed each round);
+2. the weights solve the penalised nonnegative least-squares problem
+   min ||r + J (w' - w)||^2 + lambda ||D w'||^2, w' >= 0 (NNLS, Lawson & Hanson,
+   *Solving Least Squares Problems*, 1974, ch. 23; D the second differences
+   over the grid, a Tikhonov smoothness penalty), the step halved while it does
+   not lower chi^2;
+3. the nonlinear unknowns (the base ones, eq 16's loss coefficients and the
+   strain scale, and the other members' of a combination) are refitted by
+   :func:`smeha.diagnose.fit.fit_candidate` with the weights held.
+
+lambda is chosen once, in the first round, from a grid of
+:data:`PENALTY_GRID` times trace(J^T J)/trace(D^T D), by the training BIC
+of the linearised solution, chi^2 + df ln n, where the effective number of
+parameters is df = trace(J_f (J_f^T J_f + lambda D_f^T D_f)^-1 J_f^T) over the
+free weights (those not held at zero by the constraint): the trace of the
+penalised fit's hat matrix (Hastie, Tibshirani & Friedman, *The Elements of
+Statistical Learning*, 2nd ed., 2009, sec. 7.6). That df, plus the other
+members' unknowns, is the candidate's k in the score
+(:attr:`smeha.diagnose.fit.Fit.k`), so a density with many nodes is charged for
+what the data let it fit, not for its node count.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import nnls
+
+from .candidates import Batch, Candidate, Evaluator
+
+#: Penalty weights tried, times trace(J^T J) / trace(D^T D).
+PENALTY_GRID = (1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2)
+#: Rounds of the alternation at most, and the relative change of chi^2 that ends it.
+ROUNDS, SETTLED = 8, 1e-4
+#: Finite-difference step of the weights' Jacobian, [A/m].
+WEIGHT_STEP = 50.0
+
+
+def linear_member(cand: Candidate):
+    """Index of the member whose unknowns are linear (``linear`` True), or None."""
+    for k, m in enumerate(cand.members):
+        if getattr(m, "linear", False):
+            return k
+    return None
+
+
+def _slices(cand: Candidate, lin: int):
+    """Index arrays of the linear member's linear unknowns (its ``linear_unknowns``) and of
+    all the other unknowns within x."""
+    sizes = [m.fit.size for m in cand.members]
+    start = sum(sizes[:lin])
+    lin_idx = np.arange(start, start + sizes[lin])[cand.members[lin].linear_unknowns]
+    other = np.setdiff1d(np.arange(sum(sizes)), lin_idx)
+    return lin_idx, other
+
+
+def effective_dof(jac, penalty, lam, free):
+    """df = trace of the penalised hat matrix over the free columns (module docstring)."""
+    if not np.any(free):
+        return 0.0
+    j = jac[:, free]
+    d = penalty[:, free]
+    a = j.T @ j + lam * (d.T @ d)
+    return float(np.trace(np.linalg.solve(a + 1e-12 * np.trace(a) * np.eye(a.shape[0]),
+                                          j.T @ j)))
+
+
+class _Problem:
+    """The training residuals as a function of (base, x), with the weights apart."""
+
+    def __init__(self, ev: Evaluator, train: Batch, cand: Candidate, lin: int):
+        self.ev, self.train, self.cand = ev, train, cand
+        self.lin_idx, self.other_idx = _slices(cand, lin)
+        self.penalty = cand.members[lin].smoothness()
+
+    def x_of(self, w, other):
+        x = np.zeros(self.lin_idx.size + self.other_idx.size)
+        x[self.lin_idx] = w
+        x[self.other_idx] = other
+        return tuple(float(v) for v in x)
+
+    def residuals(self, base, w, other):
+        return self.ev.residuals(self.train, base, self.cand, self.x_of(w, other))
+
+    def jacobian(self, base, w, other, r0):
+        jac = np.empty((r0.size, w.size))
+        for j in range(w.size):
+            ww = w.copy()
+            ww[j] += WEIGHT_STEP
+            jac[:, j] = (self.residuals(base, ww, other) - r0) / WEIGHT_STEP
+        return jac
+
+    def solve(self, jac, r0, w, lam):
+        """The penalised NNLS weights for the linearisation (module docstring, step 2)."""
+        a = np.vstack((jac, np.sqrt(lam) * self.penalty))
+        b = np.concatenate((jac @ w - r0, np.zeros(self.penalty.shape[0])))
+        scale = np.sqrt(np.sum(a * a, axis=0))
+        scale = np.where(scale > 0, scale, 1.0)
+        sol, _ = nnls(a / scale, b, maxiter=50 * a.shape[1])
+        return sol / scale
+
+
+def fit_linear(ev: Evaluator, train: Batch, cand: Candidate, base0, fit_candidate,
+               start=None, fit_scale=True) -> tuple:
+    """Fit a candidate with a linear member (module docstring).
+
+    Returns (base, x, chi^2, n, cov, k): as :func:`smeha.diagnose.fit.fit_candidate`
+    plus the effective number of the candidate's parameters k.
+    """
+    lin = linear_member(cand)
+    prob = _Problem(ev, train, cand, lin)
+    starts = [np.asarray(s, float) for s in ([start] if start is not None else cand.starts())]
+    best = None
+    for x0 in starts:
+        out = _alternate(ev, train, prob, base0, x0, fit_candidate, fit_scale)
+        if best is None or out[2] < best[2]:
+            best = out
+    base, w, chi2, other, lam = best
+    r0 = prob.residuals(base, w, other)
+    jac = prob.jacobian(base, w, other, r0)
+    free = w > 0
+    k = effective_dof(jac, prob.penalty, lam, free) + other.size
+    cov = _covariance(ev, train, cand, prob, base, w, other, jac, lam, fit_scale)
+    return base, prob.x_of(w, other), float(r0 @ r0), int(r0.size), cov, k
+
+
+def _alternate(ev, train, prob, base0, x0, fit_candidate, fit_scale):
+    """The alternation of the module docstring from ``x0``: (base, w, chi^2, other, lambda)."""
+    w = np.maximum(x0[prob.lin_idx], 0.0)
+    other = x0[prob.other_idx]
+    held = _HeldWeights(prob)
+    base = tuple(base0)
+    lam = None
+    chi2_prev = np.inf
+    jac = None
+    for _ in range(ROUNDS):
+        # step 3: the nonlinear unknowns with the weights held
+        held.w = w
+        base, other, _, _, _ = fit_candidate(ev, train, held.unknowns(), base,
+                                             starts=[tuple(other)], fit_scale=fit_scale,
+                                             residuals=held.residuals)
+        other = np.asarray(other, float)
+        r0 = prob.residuals(base, w, other)
+        chi2 = float(r0 @ r0)
+        if chi2_prev - chi2 <= SETTLED * chi2 and jac is not None:
+            break
+        chi2_prev = chi2
+        # steps 1-2: linearise in the weights, solve the penalised NNLS
+        jac = prob.jacobian(base, w, other, r0)
+        if lam is None:
+            lam = _choose_penalty(prob, jac, r0, w)
+        w_new = prob.solve(jac, r0, w, lam)
+        for _ in range(6):  # halve the step while chi^2 does not fall
+            r1 = prob.residuals(base, w_new, other)
+            if float(r1 @ r1) < chi2:
+                break
+            w_new = 0.5 * (w + w_new)
+        else:
+            break
+        w = w_new
+    r0 = prob.residuals(base, w, other)
+    return base, w, float(r0 @ r0), other, lam
+
+
+def _choose_penalty(prob, jac, r0, w):
+    """lambda of :data:`PENALTY_GRID` with the least training BIC (module docstring)."""
+    d = prob.penalty
+    unit = np.trace(jac.T @ jac) / max(np.trace(d.T @ d), 1e-300)
+    n = r0.size
+    best = None
+    for f in PENALTY_GRID:
+        lam = f * unit
+        sol = prob.solve(jac, r0, w, lam)
+        r = r0 + jac @ (sol - w)
+        df = effective_dof(jac, d, lam, sol > 0)
+        bic = float(r @ r) + df * np.log(max(n, 2))
+        if best is None or bic < best[0]:
+            best = (bic, lam)
+    return best[1]
+
+
+def _covariance(ev, train, cand, prob, base, w, other, jac_w, lam, fit_scale):
+    """(J^T J + P)^-1 of all unknowns (base scaled as in the fit, then x), the weights'
+    block penalised as in the fit and the weights held at zero pinned."""
+    from .fit import base_factor
+
+    nb = 5 if fit_scale else 4
+    factor = base_factor(base)
+    z0 = np.asarray(base[:nb]) / factor[:nb]
+    r0 = prob.residuals(base, w, other)
+    cols = []
+    for j in range(nb):
+        z = z0.copy()
+        dz = 1e-6 * max(abs(z0[j]), 1e-3)
+        z[j] += dz
+        b = np.array(base, float)
+        b[:nb] = z * factor[:nb]
+        cols.append((prob.residuals(tuple(b), w, other) - r0) / dz)
+    for j in range(other.size):
+        o = other.copy()
+        dz = 1e-6 * max(abs(o[j]), 1e-3)
+        o[j] += dz
+        cols.append((prob.residuals(base, w, o) - r0) / dz)
+    jz = np.column_stack(cols) if cols else np.zeros((r0.size, 0))
+    # the columns in the order of x: base, then x's linear and other unknowns in place
+    nx = prob.lin_idx.size + prob.other_idx.size
+    jx = np.zeros((r0.size, nx))
+    jx[:, prob.lin_idx] = jac_w
+    jx[:, prob.other_idx] = jz[:, nb:]
+    j_all = np.hstack((jz[:, :nb], jx))
+    pen = np.zeros((nb + nx, nb + nx))
+    li = nb + prob.lin_idx
+    pen[np.ix_(li, li)] = lam * prob.penalty.T @ prob.penalty
+    a = j_all.T @ j_all + pen
+    cov = np.linalg.pinv(a)
+    pinned = li[w <= 0]
+    cov[pinned, :] = 0.0
+    cov[:, pinned] = 0.0
+    return cov
+
+
+class _HeldWeights:
+    """The nonlinear unknowns alone, the weights held, for the nonlinear fit."""
+
+    def __init__(self, prob: _Problem):
+        self.prob, self.w = prob, None
+        cand = prob.cand
+        self.lower = tuple(np.asarray(cand.lower, float)[prob.other_idx])
+        self.upper = tuple(np.asarray(cand.upper, float)[prob.other_idx])
+
+    def unknowns(self):
+        """What :func:`smeha.diagnose.fit.fit_candidate` reads of a candidate: the bounds."""
+        return self
+
+    def residuals(self, base, x_other):
+        return self.prob.residuals(base, self.w, np.asarray(x_other, float))

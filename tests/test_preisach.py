@@ -1,0 +1,124 @@
+"""The Preisach candidate family (gmt.extensions.preisach) and its penalised NNLS fit.
+
+References: I. D. Mayergoyz, *Mathematical Models of Hysteresis and Their Applications*,
+Elsevier 2003, ch. 1 (relays, the loop area of a relay 2 (a - b), the demagnetised state);
+Hastie, Tibshirani & Friedman, *The Elements of Statistical Learning*, 2009, sec. 7.6 (the
+effective degrees of freedom of a penalised fit, trace of its hat matrix).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import gmt
+from gmt.extensions.preisach import (PreisachForm, _relays, node_grid, node_harmonics,
+                                     relay_harmonics, synthesise)
+from smeha.diagnose.linearfit import effective_dof
+
+H_MAX = 14000.0
+
+
+def stepped_relays(a, b, weights, field):
+    """Brute force: each relay switched sample by sample from the demagnetised state."""
+    hu = 0.5 * (a + b)
+    state = np.where(hu < 0, 1.0, np.where(hu > 0, -1.0, 0.0))
+    out = np.empty(field.size)
+    for k, h in enumerate(field):
+        state = np.where(h >= a, 1.0, np.where(h <= b, -1.0, state))
+        out[k] = weights @ state
+    return out
+
+
+@pytest.mark.parametrize("amplitude", [H_MAX, 0.6 * H_MAX, 0.2 * H_MAX])
+def test_closed_form_harmonics_match_relays_switched_in_time(amplitude):
+    # the exact Fourier series of the periodic relays against relays switched sample by
+    # sample over two periods (4000 samples: the switching instants are late by up to one
+    # sample, 2 pi / 4000 = 1.6e-3 rad; harmonics agree to that order)
+    hc, hu = node_grid(H_MAX)
+    a, b, weight = _relays(tuple(hc), tuple(hu))
+    w = np.random.default_rng(1).uniform(0.0, 3e3, weight.shape[1])
+    theta = np.linspace(0, 2 * np.pi, 4000, endpoint=False)
+    stepped = stepped_relays(a, b, weight @ w, amplitude * np.cos(np.tile(theta, 2)))[4000:]
+    coeff = w @ node_harmonics(hc, hu, amplitude)
+    measured = 2.0 * np.fft.rfft(stepped)[:9] / theta.size
+    assert np.abs(measured[1:] - coeff[1:9]).max() <= 2e-3 * abs(coeff[1])
+    assert abs(measured[0].real - coeff[0].real) <= 2e-3 * abs(coeff[1])
+    # the synthesised waveform is the band-limited series of the relays (Gibbs at the jumps
+    # of single relays averages out over the population)
+    assert np.abs(synthesise(coeff, theta)[0] - stepped).max() <= 0.02 * np.ptp(stepped)
+
+
+def test_loss_per_cycle_is_the_relays_loop_area_and_never_negative():
+    # Mayergoyz 2003, sec. 1.2: a relay's loop in (H, M) has area 2 (a - b); a population
+    # with a nonnegative density loses sum w_i 2 (a_i - b_i) per cycle. Here the loss per
+    # cycle from the closed form's fundamental, pi H_m |Im c_1| with c_1 lagging
+    # (the work H dM, only the fundamental of M contributes for a sinusoidal H)
+    hc, hu = node_grid(H_MAX)
+    a, b, weight = _relays(tuple(hc), tuple(hu))
+    rng = np.random.default_rng(2)
+    for amplitude in (H_MAX, 0.5 * H_MAX):
+        w = rng.uniform(0.0, 2e3, weight.shape[1])
+        c1 = (w @ node_harmonics(hc, hu, amplitude))[1]
+        loss = -math.pi * amplitude * c1.imag  # J/m^3 / mu_0 per cycle: int H dM
+        switched = (a <= amplitude) & (b >= -amplitude)
+        area = float(np.sum((weight @ w)[switched] * 2.0 * (a - b)[switched]))
+        assert c1.imag < 0  # M lags H: the loop runs anticlockwise
+        assert loss == pytest.approx(area, rel=1e-9)
+
+
+def test_a_relay_that_switches_at_half_the_amplitude_is_a_shifted_square_wave():
+    # relay (a, b) = (H_m/2, -H_m/2) under H_m cos(theta): down where H falls to -H_m/2
+    # (theta = 2 pi/3), up where it rises to H_m/2 (5 pi/3): +1 on a rectangle of width pi
+    # centred on pi/6, whose Fourier coefficients are e^{-j k pi/6} 4 sin(k pi/2)/(pi k)
+    # (the shifted rectangle's series), and mean 0
+    c = relay_harmonics(np.array([0.5]), np.array([-0.5]), 1.0, 5)[0]
+    for k in (1, 2, 3, 4, 5):
+        expected = np.exp(-1j * k * math.pi / 6) * 4.0 * math.sin(k * math.pi / 2) / (math.pi * k)
+        assert c[k] == pytest.approx(expected, abs=1e-12)
+    assert c[0].real == pytest.approx(0.0, abs=1e-12)
+
+
+def test_relays_the_drive_cannot_switch_hold_their_demagnetised_state():
+    # a > H_m: ends down; b < -H_m: ends up (Mayergoyz 2003, sec. 1.3)
+    c = relay_harmonics(np.array([2.0, 0.2, 3.0]), np.array([0.5, -2.0, -3.0]), 1.0, 3)
+    assert c[0, 0].real / 2 == -1.0 and c[1, 0].real / 2 == 1.0 and c[2, 0].real == 0.0
+    assert np.all(c[:, 1:] == 0)
+
+
+def test_rate_factor_is_one_half_at_its_frequency_and_one_in_the_rate_independent_limit():
+    v = {"rate_frequency_Hz": 100.0, "rate_exponent": 2.0}
+    assert PreisachForm.rate_factor(v, 100.0) == pytest.approx(0.5)
+    assert PreisachForm.rate_factor(v, 0.0) == 1.0
+    assert PreisachForm.rate_factor({"rate_frequency_Hz": math.inf, "rate_exponent": 2.0},
+                                    1e4) == 1.0
+
+
+def test_bad_density_refused_by_name():
+    good = PreisachForm.from_fit((4.0, 2.0) + (1.0,) * 42, {"field_max": H_MAX})
+    gmt.ModelVariant("rate_independent_hysteresis", good, "preisach")
+    with pytest.raises(gmt.ParameterError, match="weights_A_per_m has 3 values"):
+        gmt.ModelVariant("rate_independent_hysteresis", dict(good, weights_A_per_m=[1, 2, 3]),
+                         "preisach")
+    with pytest.raises(gmt.ParameterError, match=r"weights_A_per_m\[0\] = -1"):
+        gmt.ModelVariant("rate_independent_hysteresis",
+                         dict(good, weights_A_per_m=[-1.0] + [1.0] * 41), "preisach")
+
+
+def test_effective_dof_is_the_free_count_without_penalty_and_falls_with_it():
+    # the trace of a ridge hat matrix: p for lambda = 0 (full column rank), decreasing in
+    # lambda (Hastie et al. 2009, eq. 3.50 and sec. 7.6)
+    rng = np.random.default_rng(3)
+    jac = rng.normal(size=(200, 42))
+    pen = PreisachForm.smoothness()
+    free = np.ones(42, bool)
+    assert effective_dof(jac, pen, 0.0, free) == pytest.approx(42.0, rel=1e-6)
+    dfs = [effective_dof(jac, pen, lam, free) for lam in (1e-2, 1.0, 1e2, 1e4)]
+    assert all(x > y for x, y in zip(dfs, dfs[1:]))
+    # a quadratic (plane) density is not penalised by second differences: df -> 3 ... plus
+    # nothing else as lambda grows (the penalty's null space: constant and linear per axis)
+    assert effective_dof(jac, pen, 1e9, free) == pytest.approx(
+        42 - np.linalg.matrix_rank(pen), abs=0.05)
+    free[:10] = False
+    assert effective_dof(jac, pen, 0.0, free) == pytest.approx(32.0, rel=1e-6)
