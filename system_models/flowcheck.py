@@ -11,6 +11,10 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+#: Cycles :func:`flow_check` discards by default, and the fewest a run needs (their home:
+#: system_models.defaults, plain numbers the command line's help reads).
+from .defaults import MINIMUM_CYCLES, SKIP_CYCLES  # noqa: F401  (MINIMUM_CYCLES re-exported)
+
 
 @dataclass(frozen=True)
 class FlowCheck:
@@ -43,9 +47,6 @@ class FlowCheck:
         return d
 
 
-#: Cycles :func:`flow_check` discards by default, and the fewest a run needs.
-SKIP_CYCLES = 2
-MINIMUM_CYCLES = SKIP_CYCLES + 2
 #: The largest trend of the cycles' flows in a settled run, [1/cycle]: 1 % in 100 cycles.
 #: The realistic circuit's state follows the piston (its cavities' volumes, the
 #: accumulator's charge), so its flow keeps changing while the piston travels: the

@@ -81,8 +81,6 @@ def test_drift_is_the_relative_slope_per_cycle():
 def test_cycles_help_gives_what_the_flow_check_averages():
     # 8 cycles: compression strokes start at 0.5 T ... 7.5 T; the first 2 skipped, the
     # whole cycles between the remaining 6 are 5 -- what a run reports
-    assert (flowcommands.SKIP_CYCLES, flowcommands.MINIMUM_CYCLES) == (
-        flowcheck.SKIP_CYCLES, flowcheck.MINIMUM_CYCLES)
     assert flowcommands._averaged(8.0) == 5
     row = flow.run_case(flow.Case(100.0, "compensated", circuit="ideal", backend="direct"))[2]
     assert row["cycles_averaged"] == 5
@@ -175,3 +173,18 @@ def test_run_plot_marks_a_reversed_flow():
                                              backend="direct"))
     title = run_figure(record, row)._suptitle.get_text()
     assert "(!) flow reversed: the load past its stall point" in title
+
+
+def test_one_settings_object_checks_the_case():
+    # Case accepted step = 1.0, which CosimSettings refuses; the case's co-simulation
+    # settings are now checked by CosimSettings alone, with its message
+    import gmt
+    from system_models.cosim import CosimSettings
+    with pytest.raises(gmt.ParameterError) as case_error:
+        flow.Case(100.0, "compensated", step=1.0)
+    with pytest.raises(gmt.ParameterError) as settings_error:
+        CosimSettings(step=1.0)
+    assert str(case_error.value) == str(settings_error.value)
+    case = flow.Case(50.0, "compensated", cycles=8, load=20.0)
+    s = case.cosim_settings()
+    assert (s.duration, s.load_force, s.step) == (8 / 50.0, 20.0, case.step)

@@ -168,18 +168,20 @@ class Case:
         if self.backend not in ("fmu", "direct"):
             raise gmt.ParameterError(
                 f"backend = {self.backend!r} is not one of ('fmu', 'direct')")
-        if self.coupling not in COUPLINGS:
-            raise gmt.ParameterError(f"coupling = {self.coupling!r} is not one of {COUPLINGS}")
-        check_range = gmt.errors.check_range
-        check_range("step", self.step, 0.0, 1.0, unit="s", high_open=False)
-        check_range("controller_period", self.controller_period, 0.0, 1.0, unit="s",
-                    high_open=False)
-        if self.hydraulic_step is not None:
-            check_range("hydraulic_step", self.hydraulic_step, 0.0, 1.0, unit="s",
-                        high_open=False)
         if self.load is not None:
-            check_range("load", self.load, -1e7, 1e7, unit="N")
-        self.drive()  # the drive's checks (compensator_period, branch_rule) before any run
+            gmt.errors.check_range("load", self.load, -1e7, 1e7, unit="N")
+        # the co-simulation's and the drive's settings, checked once, by their own classes
+        # (step, coupling, controller_period, hydraulic_step, duration; compensator_period,
+        # branch_rule), before any run
+        self.cosim_settings()
+        self.drive()
+
+    def cosim_settings(self) -> CosimSettings:
+        """The co-simulation's settings of this case (the one place they are checked)."""
+        return CosimSettings(duration=self.cycles / self.frequency, step=self.step,
+                             coupling=self.coupling, load_force=self.load_force,
+                             controller_period=self.controller_period,
+                             hydraulic_step=self.hydraulic_step)
 
     @classmethod
     def field_names(cls) -> tuple[str, ...]:
@@ -385,10 +387,7 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
     drive = case.drive()
     control, a = control_signal(case.mode, case.frequency)
     circuit = presets.circuit(case.circuit)
-    settings = CosimSettings(duration=case.cycles / case.frequency, step=case.step,
-                             coupling=case.coupling, load_force=case.load_force,
-                             controller_period=case.controller_period,
-                             hydraulic_step=case.hydraulic_step)
+    settings = case.cosim_settings()
     if case.backend == "fmu":
         backend = FmuTransducer(fmu_path or default_fmu_path(), case.fmu_start_values())
     else:

@@ -18,7 +18,8 @@ from pathlib import Path
 import gmt  # cheap: its names load on first use
 from gmt.parameters import COMPENSATOR_PERIOD
 from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_STEP,
-                                    HYDRAULIC_STEP, MAXIMUM_DURATION, VALVE_CONTROLLER_PERIOD)
+                                    HYDRAULIC_STEP, MAXIMUM_DURATION, MINIMUM_CYCLES,
+                                    REALISTIC_LOAD, SKIP_CYCLES, VALVE_CONTROLLER_PERIOD)
 
 from ..cliargs import (UsageError, add_branch_rule, count, input_file, number, number_list,
                       output_file, scheduler_address, warn)
@@ -51,12 +52,6 @@ def _check_step(command, step, frequency, coupling, sample_period=0.0) -> None:
                       "expect a larger error")
 
 
-#: The flow check's rules (system_models.flowcheck; plain numbers: --help loads no solver,
-#: tests/test_cli_input.py checks they agree).
-SKIP_CYCLES = 2
-MINIMUM_CYCLES = 4
-
-
 def _averaged(cycles=DEFAULT_CYCLES) -> float:
     """Whole cycles the flow check averages in a run of ``cycles``: its compression strokes
     start at the drive's minima, (k + 1/2) T, and the averaged cycles lie between the
@@ -67,7 +62,6 @@ def _averaged(cycles=DEFAULT_CYCLES) -> float:
 
 def _cycles(text):
     """--cycles: at least system_models.flowcheck.MINIMUM_CYCLES (the flow check's need)."""
-    from system_models.flowcheck import MINIMUM_CYCLES
     return number(MINIMUM_CYCLES, low_open=False, unit="cycles")(text)
 
 
@@ -76,12 +70,13 @@ _cycles.numeric = True
 def _add_cosim_options(p):
     p.add_argument("--circuit", choices=CIRCUITS,
                    help="realistic (default: 0.5 %% air in the oil, 0.2 ms valve dead time, "
-                        "differential cylinder, 150 N load); ideal: the limit in which eqs "
+                        f"differential cylinder, {REALISTIC_LOAD:g} N load); ideal: the limit "
+                        "in which eqs "
                         "40/41 hold (the chamber pressure constant: equal-area cylinder, "
                         "stiff oil, instant valves, no load); differential: ideal oil and "
                         "valves on the differential cylinder, whose rebound adds stroke")
     p.add_argument("--ideal", action="store_true", help="the same as --circuit ideal")
-    p.add_argument("--step", type=number(0.0, 1.0, unit="s"), metavar="S",
+    p.add_argument("--step", type=number(0.0, 1.0, high_open=True, unit="s"), metavar="S",
                    help=f"communication step [s] (default {DEFAULT_STEP:g}; a warning below "
                         f"{CONVERGED_STEPS_PER_CYCLE['force']} steps a cycle); steps are also "
                         "cut at the compensator's samples and the valve actions")
@@ -106,11 +101,13 @@ def _add_cosim_options(p):
                    help=f"sample period of the digital compensator [s] (default "
                         f"{COMPENSATOR_PERIOD:g}: 10 kHz); its current is held between "
                         f"samples; 0: a sample every step")
-    p.add_argument("--controller-period", type=number(0.0, 1.0, unit="s"), metavar="S",
+    p.add_argument("--controller-period", type=number(0.0, 1.0, high_open=True, unit="s"),
+                   metavar="S",
                    help=f"sample period of the valve controller [s] (default "
                         f"{VALVE_CONTROLLER_PERIOD:g}); the valves act after their exact dead "
                         f"times, at communication points")
-    p.add_argument("--hydraulic-step", type=number(0.0, 1.0, unit="s"), metavar="S",
+    p.add_argument("--hydraulic-step", type=number(0.0, 1.0, high_open=True, unit="s"),
+                   metavar="S",
                    help=f"longest hydraulic substep [s] (default {HYDRAULIC_STEP:g}; after "
                         f"each valve action the substeps start at 1 us and grow fourfold)")
 
@@ -118,7 +115,7 @@ def _add_cosim_options(p):
 def _add_load(p):
     p.add_argument("--load", type=number(unit="N"), metavar="N",
                    help="load on the cylinder [N]: positive opposes the pumped direction "
-                        "(oil into the big cavity), negative assists it (default 150 "
+                        f"(oil into the big cavity), negative assists it (default {REALISTIC_LOAD:g} "
                         "realistic, 0 ideal and differential)")
 
 
@@ -198,7 +195,6 @@ def _progress_bar(total_steps, label, quiet):
 
 def _check_simulate(args) -> None:
     """The cross-option rules of simulate, in the options' own terms (before any work)."""
-    from system_models.flowcheck import MINIMUM_CYCLES
     if args.duration is not None:
         if args.cycles is not None:
             raise UsageError(f"give --duration or --cycles, not both (--duration "
@@ -207,8 +203,9 @@ def _check_simulate(args) -> None:
         if args.duration * args.frequency < MINIMUM_CYCLES:
             raise UsageError(
                 f"--duration {args.duration:g} s is {args.duration * args.frequency:.3g} "
-                f"cycles at {args.frequency:g} Hz; the flow check discards the first 2 cycles "
-                f"and averages at least 2 more: give --duration "
+                f"cycles at {args.frequency:g} Hz; the flow check discards the first "
+                f"{SKIP_CYCLES} cycles "
+                f"and averages at least {MINIMUM_CYCLES - SKIP_CYCLES} more: give --duration "
                 f">= {MINIMUM_CYCLES / args.frequency:g} s")
     _check_circuit(args)
     compensated = args.mode == "compensated"

@@ -47,6 +47,7 @@ from system_models.defaults import DEFAULT_STEP, HYDRAULIC_STEP, VALVE_CONTROLLE
 from system_models.fluid import MINIMUM_PRESSURE
 
 from . import flow
+from .positioncommands import FREQUENCY_HZ, LOAD_STEP_N, TARGET_MM
 from .positionloop import Decision, LoopRecord, run_loop
 
 __all__ = ["PositionSettings", "PlantModel", "Design", "PositionResult", "identify", "design",
@@ -75,9 +76,10 @@ HOLD_BAND = 0.0
 #: Periods the runs hold (amplitude 0) before the command starts: the load settles on the
 #: oil from the circuit's rest state (its first period moves the piston ~0.4 mm at 150 N).
 SETTLE_PERIODS = 5
-#: Default step and load step.
-TARGET = 5e-3
-LOAD_STEP = 50.0
+#: Default step [m], load step [N] and pump frequency [Hz] (smeha.studies.positioncommands).
+TARGET = TARGET_MM * 1e-3
+LOAD_STEP = LOAD_STEP_N
+FREQUENCY = FREQUENCY_HZ
 #: The piston this close to an end stop is flagged, [m].
 END_STOP_MARGIN = 0.5e-3
 
@@ -88,7 +90,7 @@ class PositionSettings:
 
     mode: str = "compensated"
     target: float = TARGET  #: the step, [m]; > 0 moves "down" (x grows)
-    frequency: float = 100.0  #: pump frequency, [Hz]
+    frequency: float = FREQUENCY  #: pump frequency, [Hz]
     load: float | None = None  #: [N] on the cylinder, opposing "down"; None: the circuit's
     duration: float | None = None  #: simulated time of the step, [s]; None: from the design
     circuit: str = "realistic"
