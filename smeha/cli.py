@@ -63,6 +63,8 @@ from .cliargs import (Parser, UsageError, add_branch_rule, input_file,
 from .studies.flowcommands import CIRCUITS, FREQUENCY, add_flow, add_simulate, add_sweep
 from .studies.positioncommands import add_position
 
+__all__ = ["SUBCOMMANDS", "build_parser", "main"]
+
 
 def _add_paper(subparsers):
     p = subparsers.add_parser(

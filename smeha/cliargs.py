@@ -33,6 +33,10 @@ from pathlib import Path
 
 from gmt.errors import InputError  # cheap: the standard library only
 
+__all__ = ["UsageError", "Parser", "join_negative_values", "input_file", "output_file",
+           "output_dir", "number", "number_list", "count", "scheduler_address", "add_branch_rule",
+           "warn"]
+
 
 class UsageError(InputError):
     """Bad input to a command that argparse cannot check (exit status 2)."""

@@ -48,6 +48,10 @@ from scipy.optimize import minimize_scalar
 
 from gmt.errors import InputError
 
+__all__ = ["COLUMNS", "REQUIRED", "DISPLACEMENT_COLUMNS", "OPTIONAL_COLUMNS",
+           "FREQUENCY_TOLERANCE", "MIN_SAMPLES", "DataError", "Run", "harmonic_basis",
+           "fundamental_frequency", "read_measurements", "write_measurements"]
+
 #: CSV column -> (attribute of :class:`Run`, factor to SI). Displacement may come
 #: in metres or micrometres.
 COLUMNS = {

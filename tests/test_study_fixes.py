@@ -188,3 +188,25 @@ def test_one_settings_object_checks_the_case():
     case = flow.Case(50.0, "compensated", cycles=8, load=20.0)
     s = case.cosim_settings()
     assert (s.duration, s.load_force, s.step) == (8 / 50.0, 20.0, case.step)
+
+
+def test_public_modules_declare_all():
+    # every public module of the studies, the command line's helpers, the measurement
+    # files and the identification names what it exports, and each name exists
+    import importlib
+    import pkgutil
+    from pathlib import Path
+
+    import smeha
+    root = Path(smeha.__file__).parent
+    names = [f"smeha.{m.name}" for m in pkgutil.iter_modules([str(root)])
+             if not m.ispkg and not m.name.startswith("_")]
+    for package in ("studies", "identify"):
+        names += [f"smeha.{package}.{m.name}"
+                  for m in pkgutil.iter_modules([str(root / package)])
+                  if not m.name.startswith("_")]
+    for name in names:
+        module = importlib.import_module(name)
+        assert hasattr(module, "__all__"), name
+        missing = [n for n in module.__all__ if not hasattr(module, n)]
+        assert not missing, (name, missing)

@@ -43,7 +43,7 @@ import gmt
 from gmt.parameters import BRANCH_RULE, COMPENSATOR_PERIOD
 from system_models import presets
 from system_models.controller import dead_times
-from system_models.cosim import (COUPLINGS, CosimSettings, DirectTransducer, FmuTransducer,
+from system_models.cosim import (CosimSettings, DirectTransducer, FmuTransducer,
                                  cosimulate, volume_balance)
 from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_STEP,
                                     HYDRAULIC_STEP, VALVE_CONTROLLER_PERIOD)
@@ -51,6 +51,13 @@ from system_models.flowcheck import flow_check
 from system_models.fluid import MINIMUM_PRESSURE
 
 from .. import paperdata
+
+__all__ = ["MODES", "CIRCUITS", "CURRENT_AMPLITUDE", "paper_control_amplitudes", "paper_dy",
+           "control_amplitude", "Sinusoid", "control_signal", "Case", "variant_start_values",
+           "default_fmu_path", "ensure_fmu", "FREE_SAMPLES_PER_CYCLE", "free_dy",
+           "rod_lag_degrees", "WATCHED_PRESSURES", "lowest_pressure", "flag_row", "run_case",
+           "run_cases", "format_table", "format_load_lines", "compare_variant",
+           "format_comparison"]
 
 MODES = ("uncompensated", "compensated")
 #: The named circuits (system_models.presets).

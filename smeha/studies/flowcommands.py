@@ -24,6 +24,9 @@ from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_ST
 from ..cliargs import (UsageError, add_branch_rule, count, input_file, number, number_list,
                       output_file, scheduler_address, warn)
 
+__all__ = ["FREQUENCY", "CONVERGED_STEPS_PER_CYCLE", "CIRCUITS", "MODE_HELP", "add_simulate",
+           "WORKERS_HELP", "add_flow", "FAST_RETIRED", "add_sweep", "default_sweep_table"]
+
 #: Frequencies the study accepts, (0, 1000] Hz (gmt.Excitation's range).
 FREQUENCY = number(0.0, 1000.0, unit="Hz")
 

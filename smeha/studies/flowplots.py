@@ -16,6 +16,8 @@ import numpy as np  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
+__all__ = ["MODE_COLOURS", "MARKERS", "run_figure", "plot_run", "flow_figure", "plot_flow"]
+
 #: Colour of each drive mode, the same in every panel.
 MODE_COLOURS = {"uncompensated": "tab:blue", "compensated": "tab:red"}
 #: Markers for the curves a colour does not tell apart (frequencies of the load lines,

@@ -46,6 +46,12 @@ from gmt.errors import InputError, RunError
 
 from . import flow
 
+__all__ = ["GRID_KEYS", "SETTINGS_DEFAULTS", "OPTIONAL_SETTINGS", "RESULT_FIELDS", "FLAG_FIELDS",
+           "KEY_COLUMNS", "COLUMNS", "TEXT_COLUMNS", "SpecError", "SweepError", "Point",
+           "SweepResult", "parse_spec", "read_spec", "write_table", "read_table", "row_key",
+           "FINISHED", "run_point", "run_point_shipped", "run_sweep", "format_summary",
+           "plot_sweep"]
+
 #: Grid keys: Case fields that take a list of values.
 GRID_KEYS = ("frequency", "mode", "load", "circuit")
 #: Settings keys shared by every point: the other Case fields, with Case's defaults.
