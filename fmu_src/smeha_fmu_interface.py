@@ -72,10 +72,12 @@ DESCRIPTION = ("Giant magnetostrictive transducer (GMT) of a smart-material "
 #: Accepted values of the String parameter ``model_variant`` (gmt.VARIANTS): the
 #: paper's model, or the paper's plus the extension for one cause ``smeha diagnose`` names,
 #: ``cause:form`` for a form other than the cause's first (gmt.ModelVariant.name).
-MODEL_VARIANTS = ("paper", "rate_independent_hysteresis", "magnetization_saturation",
+MODEL_VARIANTS = ("paper", "rate_independent_hysteresis",
+                  "rate_independent_hysteresis:preisach", "magnetization_saturation",
                   "eddy_current_diffusion", "eddy_current_diffusion:slab",
-                  "eddy_current_diffusion:cylinder", "transport_delay", "mechanical_resonance",
-                  "mechanical_resonance:two_dof", "thermal_drift")
+                  "eddy_current_diffusion:cylinder", "eddy_current_diffusion:slab_magnetization",
+                  "eddy_current_diffusion:cylinder_magnetization", "transport_delay",
+                  "mechanical_resonance", "mechanical_resonance:two_dof", "thermal_drift")
 #: Accepted values of the String parameter ``branch_rule`` (gmt.parameters.BRANCH_RULES).
 BRANCH_RULES = ("control", "demand")
 
@@ -169,9 +171,13 @@ VARIABLES: tuple[Variable, ...] = (
     # -- model selection ----------------------------------------------------------
     _par(_M, "model_variant", None, "Transducer model: \"paper\" (eqs 1-37 of the source "
          "paper), or the paper's plus the extension for the cause smeha diagnose names: "
-         "\"rate_independent_hysteresis\", \"magnetization_saturation\", "
+         "\"rate_independent_hysteresis\" (play operators), "
+         "\"rate_independent_hysteresis:preisach\", \"magnetization_saturation\", "
          "\"eddy_current_diffusion\" (lag), \"eddy_current_diffusion:slab\", "
-         "\"eddy_current_diffusion:cylinder\", \"transport_delay\" (sensed_displacement "
+         "\"eddy_current_diffusion:cylinder\", "
+         "\"eddy_current_diffusion:slab_magnetization\", "
+         "\"eddy_current_diffusion:cylinder_magnetization\", "
+         "\"transport_delay\" (sensed_displacement "
          "only), \"mechanical_resonance\" (one DOF), \"mechanical_resonance:two_dof\", "
          "\"thermal_drift\"; several of these joined by \"+\" combine them (one form "
          "of each cause); anything else is an error",

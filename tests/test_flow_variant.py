@@ -72,8 +72,11 @@ def test_cli_flow_variant_json_pairs_the_models(tmp_path, capsys):
                                                   "gain_rate_per_A2s": 0.0,
                                                   "thermal_time_constant_s": 1.0}}]}
     path, out = _flow_with_variant(diagnosis, tmp_path, capsys)
+    check = out["variant"].pop("check")
     assert out["variant"] == {"cause": "transport_delay", "parameters": {"delay_s": 4e-4},
                               "source": str(path)}
+    # the paper's mechanics, a strong finding: nothing to mark (smeha.studies.variantcheck)
+    assert not check["weak"] and check["marks"] == {"100": []}
     assert sorted(r["model"] for r in out["rows"]) == ["paper", "paper", "transport_delay",
                                                        "transport_delay"]
     assert len(out["comparison"]) == 2
@@ -83,6 +86,7 @@ def test_cli_flow_variant_json_pairs_the_models(tmp_path, capsys):
         assert pair["flow_variant_m3_s"] == pair["flow_paper_model_m3_s"]
         assert pair["flow_ratio_variant_to_paper"] == 1.0
         assert pair["dy_variant_um"] == pair["dy_paper_model_um"]
+        assert pair["variant_marks"] == []
 
 
 @pytest.mark.integration
@@ -137,6 +141,7 @@ def test_cli_flow_variant_runs_a_diagnosis_won_by_another_form(tmp_path, capsys,
     diagnosis = {"cause": cause, "form": form, "gain": 5.0, "candidates": candidates}
     path, out = _flow_with_variant(diagnosis, tmp_path, capsys)
     winner = candidates[1]
+    assert out["variant"].pop("check")["circuit"] == "ideal"
     assert out["variant"] == {"cause": cause, "form": form, "parameters": winner["parameters"],
                               "source": str(path)}
     name = f"{cause}:{form}"

@@ -244,7 +244,8 @@ def test_small_variant_json_and_a_whole_diagnosis():
     with pytest.raises(gmt.ParameterError, match="unknown 'rod_mass_kg'"):
         ModelVariant.from_json(small.replace('"form": "two_dof", ', "") % json.dumps(two))
     with pytest.raises(gmt.ParameterError, match=r"form = 'sphere' .*\['lag', 'slab', "
-                                                 r"'cylinder'\]"):
+                                                 r"'cylinder', 'slab_magnetization', "
+                                                 r"'cylinder_magnetization'\]"):
         ModelVariant.from_dict({"cause": "eddy_current_diffusion", "form": "sphere",
                                 "parameters": {"time_constant_s": 1e-3}})
     with pytest.raises(gmt.ParameterError, match="one form"):

@@ -380,7 +380,8 @@ def _fit_dict(fit) -> dict:
             "heldout_chi2_y": fit.heldout_chi2_y, "heldout_chi2_b": fit.heldout_chi2_b,
             "heldout_chi2_drift": fit.heldout_chi2_drift,
             "train_chi2": fit.train_chi2, "train_n": fit.train_n,
-            "added_parameters": fit.n_params, "effective_parameters": fit.k, "parameters": fit.parameters,
+            "added_parameters": fit.n_params, "effective_parameters": fit.k,
+            "parameters": fit.parameters,
             "at_bounds": list(fit.at_bounds),
             "loss_coefficients": dict(zip(("K_h", "n", "K_e", "K_ex"), fit.loss)),
             "strain_scale": fit.strain_scale}

@@ -13,6 +13,7 @@ import gmt
 from gmt import losses as gmt_losses
 from gmt.parameters import STEINMETZ_RANGE
 
+from .flags import loss_law_flags
 from .results import LOSS_COEFFICIENTS, LossFit
 
 __all__ = ["MIN_RUNS_FOR_UNCERTAINTY", "RESIDUAL_VARIANCE_TAIL", "fit_losses", "physical_flags"]
@@ -172,7 +173,8 @@ def fit_losses(runs, params: gmt.TransducerParameters | None = None) -> LossFit 
         stderrs, corr, why = _uncertainties(problem.jacobian(x), rv)
         note += why
     values = tuple(float(v_) for v_ in x)
-    flags = physical_flags(values, stderrs, rv, dof)
+    flags = physical_flags(values, stderrs, rv, dof) + loss_law_flags(
+        values, runs, params.rod_volume, _loss_terms)
     if flags:
         note = (note.strip().rstrip(";") + "; " if note.strip() else "") + (
             "not a physical result (" + "; ".join(flags) + "): the paper's loss law does not "

@@ -29,8 +29,13 @@ def format_identification(ident: Identification, path: str = "") -> str:
             f"{r.run:<14.14} {r.frequency:>8.4g} {r.current_amplitude:>8.4f} "
             f"{r.flux_density_amplitude:>9.5f} {short[r.flux_density_source]:<14} "
             f"{_pm(r.mu_imag, r.mu_imag_stderr, 6) + mark:>20} {r.mu_real:>8.4f} "
-            f"{math.degrees(r.lag):>9.2f} {r.rms_residual * 1e6:>9.4f}")
+            f"{math.degrees(r.lag):>9.2f} {r.rms_residual * 1e6:>9.4f}"
+            f"{'  (!)' if r.flags else ''}")
     lines.append("B_m: sense voltage = eq 22; displacement = fundamental of y (eqs 19, 25, 29)")
+    flagged = [r for r in ident.runs if r.flags]
+    if flagged:
+        lines.append("(!) values that make no physical sense:")
+        lines += [f"  - {r.run}: {flag}" for r in flagged for flag in r.flags]
     lines.append("")
     fit = ident.loss_fit
     if fit is None:

@@ -85,18 +85,31 @@ class RunIdentification:
     discarded_time: float
 
     @property
+    def flags(self) -> tuple:
+        """Why this run's values make no physical sense (:func:`smeha.identify.flags.run_flags`:
+        B_m, H_m, mu'', mu', the lag); empty when they do."""
+        from .flags import run_flags
+        return run_flags(self)
+
+    @property
+    def physical(self) -> bool:
+        """True when no flag was raised (:attr:`flags`)."""
+        return not self.flags
+
+    @property
     def loss_density(self) -> float:
         """P/V = pi f mu_0 mu'' H_m^2, [W/m^3] (eq 13)."""
         return math.pi * self.frequency * MU_0 * self.mu_imag * self.field_amplitude ** 2
 
     def as_dict(self) -> dict:
         """JSON-able dict: SI fields plus ``lag_deg``, ``rms_residual_um``,
-        ``loss_density_W_m3``."""
+        ``loss_density_W_m3``, ``physical`` and ``flags`` (:attr:`flags`)."""
         d = {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
              for k, v in asdict(self).items()}
         d["lag_deg"] = math.degrees(self.lag)
         d["rms_residual_um"] = self.rms_residual * 1e6
         d["loss_density_W_m3"] = self.loss_density
+        d["physical"], d["flags"] = self.physical, list(self.flags)
         return d
 
 
@@ -124,7 +137,9 @@ class LossFit:
         Why the coefficients are not a physical result, when they are not
         (:func:`~smeha.identify.physical_flags`): a negative loss coefficient, an uncertainty
         larger than the value, a residual variance the per-run errors cannot
-        explain. Empty for a fit that makes physical sense.
+        explain; and (:func:`smeha.identify.flags.loss_law_flags`) n on or
+        outside its physical range, a negative loss per cycle predicted at a
+        run. Empty for a fit that makes physical sense.
     """
 
     values: tuple
@@ -177,11 +192,24 @@ class Identification:
     loss_fit: LossFit | None
     note: str = ""
 
+    @property
+    def flags(self) -> tuple:
+        """Every flag of the runs (``"run: flag"``) and of the loss fit, in that order."""
+        out = tuple(f"{r.run}: {flag}" for r in self.runs for flag in r.flags)
+        return out + (self.loss_fit.flags if self.loss_fit is not None else ())
+
+    @property
+    def physical(self) -> bool:
+        """True when neither a run nor the loss fit raised a flag."""
+        return not self.flags
+
     def as_dict(self) -> dict:
         """``{"runs": [...], "loss_coefficients": {...} | None, "correlation": ...,
-        "loss_fit": ...}``."""
+        "loss_fit": ..., "physical", "flags"}``."""
         lf = self.loss_fit
         return {
+            "physical": self.physical,
+            "flags": list(self.flags),
             "runs": [r.as_dict() for r in self.runs],
             "loss_coefficients": None if lf is None else lf.as_dict(),
             "correlation": None if lf is None or lf.correlation is None else

@@ -536,7 +536,9 @@ def compare_variant(rows) -> list[dict]:
         variant's cause), ``flow_paper_model_m3_s``, ``flow_variant_m3_s``,
         ``flow_ratio_variant_to_paper``, ``dy_paper_model_um``, ``dy_variant_um``,
         ``dy_free_paper_model_um``, ``dy_free_variant_um``, in the order of the
-        variant rows.
+        variant rows; and the variant row's ``variant_marks`` (the reasons
+        :func:`smeha.studies.variantcheck.mark_rows` gives, [] when unmarked or
+        unchecked), ``variant_note``, and ``note`` (:func:`flag_row`) when it has them.
     """
     def key(r):
         return (r["frequency_Hz"], r["mode"], r["circuit"], r["load_N"])
@@ -555,7 +557,9 @@ def compare_variant(rows) -> list[dict]:
                                                     if p["flow_sim_m3_s"] else None),
                     "dy_paper_model_um": p["dy_um"], "dy_variant_um": r["dy_um"],
                     "dy_free_paper_model_um": p["dy_free_um"],
-                    "dy_free_variant_um": r["dy_free_um"]})
+                    "dy_free_variant_um": r["dy_free_um"],
+                    "variant_marks": list(r.get("variant_marks") or []),
+                    **{k: r[k] for k in ("variant_note", "note") if r.get(k)}})
     return out
 
 
@@ -565,15 +569,32 @@ def format_comparison(pairs, variant: gmt.ModelVariant, source: str = "") -> str
     lines = [f"Cylinder flow: the paper's model against the variant {variant.describe()}"
              f"{where}",
              "(co-simulation, same circuit and drive; the compensator is the paper's inverse "
-             "model in both; dy: the rod between the valve switching instants)",
+             "model in both; dy: the rod between the valve switching instants; dy free "
+             "variant: the variant's transducer alone, no oil; (!): see the notes below)",
              f"{'f [Hz]':>6}  {'mode':<13}  {'circuit':<9}  {'load [N]':>8}  "
              f"{'q paper [m3/s]':>14}  {'q variant [m3/s]':>16}  {'variant/paper':>13}  "
-             f"{'dy paper [um]':>13}  {'dy variant [um]':>15}"]
+             f"{'dy paper [um]':>13}  {'dy variant [um]':>15}  {'dy free variant':>15}"]
     for c in pairs:
         ratio = "-" if c["flow_ratio_variant_to_paper"] is None else \
             f"{c['flow_ratio_variant_to_paper']:.4f}"
         lines.append(f"{c['frequency_Hz']:>6g}  {c['mode']:<13}  {c['circuit']:<9}  "
                      f"{c['load_N']:>8g}  {c['flow_paper_model_m3_s']:>14.4e}  "
                      f"{c['flow_variant_m3_s']:>16.4e}  {ratio:>13}  "
-                     f"{c['dy_paper_model_um']:>13.2f}  {c['dy_variant_um']:>15.2f}")
+                     f"{c['dy_paper_model_um']:>13.2f}  {c['dy_variant_um']:>15.2f}  "
+                     f"{c['dy_free_variant_um']:>15.2f}"
+                     f"{'  (!)' if c.get('variant_marks') or c.get('note') else ''}")
+    lines += _comparison_notes(pairs)
     return "\n".join(lines)
+
+
+def _comparison_notes(pairs) -> list[str]:
+    """The reasons behind the comparison's (!) marks, each once with the rows it applies to:
+    the variant's (smeha.studies.variantcheck), then the variant rows' own flags (:func:`flag_row`)."""
+    grouped = {}
+    for c in pairs:
+        where = f"{c['frequency_Hz']:g} Hz {c['mode']}"
+        for reason in c.get("variant_marks") or ():
+            grouped.setdefault(f"variant: {reason}", []).append(where)
+        if c.get("note"):
+            grouped.setdefault(f"variant row: {c['note']}", []).append(where)
+    return [f"(!) {', '.join(rows)}: {reason}" for reason, rows in grouped.items()]

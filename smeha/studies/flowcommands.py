@@ -315,7 +315,10 @@ def add_flow(subparsers):
                    help="also run every case with the extended transducer model: FILE is the "
                         "output of 'smeha diagnose --json' (its winning extension) or "
                         "{\"cause\": ..., \"parameters\": {...}} (e.g. data/paper_variant.json); "
-                        "prints the flow of both models side by side")
+                        "prints the flow of both models side by side, and marks (!) with "
+                        "the reason a variant that is not physical in the pump (a weak "
+                        "finding, a circuit mode it moves onto the pumping frequency, a "
+                        "rebound it magnifies)")
     # retired (FAST_RETIRED); kept out of --help, refused with the reason
     p.add_argument("--fast", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--json", action="store_true",
@@ -328,7 +331,8 @@ def add_flow(subparsers):
 
 
 def _read_variant(path):
-    """The gmt.ModelVariant of a diagnosis or variant JSON file (--variant FILE)."""
+    """The gmt.ModelVariant of a diagnosis or variant JSON file (--variant FILE), and the
+    file's JSON object (what it states about the variant, e.g. ``weak``)."""
     try:
         text = Path(path).read_text()
     except (OSError, UnicodeDecodeError) as exc:
@@ -337,7 +341,7 @@ def _read_variant(path):
     from ..diagnose import read_variant_json
 
     try:
-        return read_variant_json(text)
+        return read_variant_json(text), json.loads(text)
     except gmt.ParameterError as exc:
         raise UsageError(f"--variant {path}: {exc}") from None
 
@@ -359,7 +363,7 @@ def _run_flow(args) -> int:
     from . import flow
     if args.fast:
         raise UsageError(FAST_RETIRED)
-    variant = _read_variant(args.variant) if args.variant else None
+    variant, declared = _read_variant(args.variant) if args.variant else (None, None)
     no_extension = variant is not None and variant.is_paper
     if no_extension:
         note = (f"--variant {args.variant} names no extension (the diagnosis found nothing "
@@ -375,11 +379,18 @@ def _run_flow(args) -> int:
              for m in flow.MODES]
     cases += [_case_from(args, f, m, load, v) for v in models for f in args.frequencies
               for m in flow.MODES for load in (args.loads or [])]
+    check = None
+    if variant is not None:  # a weak finding or a circuit mode it moves: said in every output
+        from .variantcheck import check_variant
+        check = check_variant(variant, cases[0].circuit, declared, cases[0].frequency)
     fmu = _fmu_for(args, cases)
     try:
         rows = flow.run_cases(cases, fmu, workers=_workers(args), quiet=args.json)
     except _run_failures() as exc:
         return _failed("flow", exc)
+    if check is not None:
+        from .variantcheck import mark_rows
+        mark_rows(rows, check)
     paper_rows = [r for r in rows if r["model"] == "paper"]
     table = [r for r in paper_rows if r["load_N"] == cases[0].load_force]
     pairs = flow.compare_variant(rows) if variant is not None else None
@@ -389,7 +400,8 @@ def _run_flow(args) -> int:
     if args.json:
         out = {"rows": rows}
         if variant is not None:
-            out["variant"] = {**variant.as_dict(), "source": str(args.variant)}
+            out["variant"] = {**variant.as_dict(), "source": str(args.variant),
+                              "check": check.as_dict(args.frequencies)}
             out["comparison"] = pairs
         elif no_extension:
             out["variant"] = {"cause": "none", "source": str(args.variant), "note": note}

@@ -189,11 +189,16 @@ def flow_figure(rows):
             ax.plot(r["frequency_Hz"], q, "X", color="k", ms=11, mfc="none", mew=1.5)
             reason = ("the rod lags the valve switches\nby more than a quarter period"
                       if r["dy_um"] < 0.0 else "the load is past\nthe pump's stall point")
-            ax.annotate(f"reversed: {reason}", (r["frequency_Hz"], q), xytext=(-30, 0),
-                        textcoords="offset points", ha="right", va="center", fontsize=7,
+            first = r["frequency_Hz"] <= min(x["frequency_Hz"] for x in flagged)
+            ax.annotate(f"reversed: {reason}", (r["frequency_Hz"], q),
+                        xytext=(30, 0) if first and len(flagged) > 1 else (-30, 0),
+                        textcoords="offset points",
+                        ha="left" if first and len(flagged) > 1 else "right", va="center",
+                        fontsize=7,
                         arrowprops={"arrowstyle": "-", "color": "0.4", "lw": 0.6})
         styles.append(Line2D([], [], color="k", marker="X", ls="none", mfc="none", ms=9,
                              label="flow reversed (the table's note says why)"))
+    _mark_variant(ax, [r for r in variants if r["load_N"] == base], styles)
     tension = [r for r in rows if r.get("cavitation") and r["load_N"] == base]
     for r in tension:  # oil held below what it can (smeha.studies.flow.flag_row)
         ax.plot(r["frequency_Hz"], r["flow_sim_m3_s"] * 1e6, "o", color="k", ms=15,
@@ -208,6 +213,21 @@ def flow_figure(rows):
         _load_lines(axes[0, 1], paper, variants, simulated)
     fig.tight_layout()
     return fig
+
+
+def _mark_variant(ax, rows, styles):
+    """Ring the variant's rows that smeha.studies.variantcheck marks (a weak finding, a circuit mode
+    it moves onto the pumping frequency) and name the reasons in the legend."""
+    marked = [r for r in rows if r.get("variant_marks")]
+    if not marked:
+        return
+    for r in marked:
+        ax.plot(r["frequency_Hz"], r["flow_sim_m3_s"] * 1e6, "s", color="tab:red", ms=14,
+                mfc="none", mew=1.4)
+    kinds = sorted({m.split(":")[0] for r in marked for m in r["variant_marks"]})
+    styles.append(Line2D([], [], color="tab:red", marker="s", ls="none", mfc="none", ms=10,
+                         label="extended model not physical here:\n" + ";\n".join(kinds)
+                               + "\n(the table's notes say why)"))
 
 
 def _load_lines(ax, paper, variants, simulated):
@@ -251,5 +271,5 @@ def plot_flow(rows, path):
 
 
 def _save(fig, path):
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")  # the legends below the panels included
     plt.close(fig)

@@ -15,7 +15,8 @@ w_n at the nodes of a grid, h_c geometric from :data:`COERCIVE_GRID` and h_u
 uniform over :data:`INTERACTION_GRID` (both in units of the largest field
 amplitude of the data, H_max), interpolated bilinearly (in ln h_c and h_u)
 between the nodes, over the Preisach triangle a <= H_max, b >= -H_max (relays
-outside it never switch in the data: their state is the record's history). w_n is the saturation magnetisation of node n's share of the
+outside it never switch in the data: their state is the record's history).
+w_n is the saturation magnetisation of node n's share of the
 population [A/m] (the relays under its interpolation weight), so M_P is
 sum_n w_n R_n[H] with R_n the weighted mean of the relays of node n. A
 nonnegative density makes every relay's loop run anticlockwise in (H, M), so
