@@ -318,7 +318,8 @@ def test_flow_variant_with_a_none_diagnosis_says_so(tmp_path, monkeypatch, capsy
     seen = []
     monkeypatch.setattr(flow, "run_cases", lambda cases, *a, **k: seen.extend(cases) or [])
     monkeypatch.setattr(flow, "ensure_fmu", lambda **k: None)
-    monkeypatch.setattr(flow, "format_table", lambda rows: "")
+    from smeha.studies import flowtables
+    monkeypatch.setattr(flowtables, "format_table", lambda rows: "")
     assert cli.main(["flow", "--variant", str(path), "--frequencies", "100"]) == 0
     out, err = capsys.readouterr()
     assert "names no extension" in err and "cause 'none'" in err

@@ -69,7 +69,8 @@ def test_the_flow_check_says_when_the_run_has_not_settled():
                                     backend="direct"))[2]
     assert not realistic["settled"] and realistic["flow_drift_per_cycle"] < -1e-4
     assert ideal["settled"] and abs(ideal["flow_drift_per_cycle"]) < 1e-6
-    assert "not settled" in flow.format_table([realistic, ideal])
+    from smeha.studies.flowtables import format_table
+    assert "not settled" in format_table([realistic, ideal])
 
 
 def test_drift_is_the_relative_slope_per_cycle():
@@ -210,3 +211,20 @@ def test_public_modules_declare_all():
         assert hasattr(module, "__all__"), name
         missing = [n for n in module.__all__ if not hasattr(module, n)]
         assert not missing, (name, missing)
+
+
+def test_the_flow_study_returns_a_typed_row():
+    # a frozen dataclass with as_dict() (JSON), that still reads as the mapping it was
+    import dataclasses
+    import json
+    from smeha.studies.flowrow import FlowRow
+    row = flow.run_case(flow.Case(100.0, "compensated", circuit="ideal", backend="direct"))[2]
+    assert isinstance(row, FlowRow)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        row.dy_um = 0.0
+    d = row.as_dict()
+    assert json.loads(json.dumps(d)) == d and "note" not in d and "variant_marks" not in d
+    assert row["dy_um"] == row.dy_um and row.get("note") is None and "note" not in row
+    assert dict(row) == d
+    with pytest.raises(KeyError):
+        row["no_such_figure"]

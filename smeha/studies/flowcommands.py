@@ -263,7 +263,7 @@ def _run_simulate(args) -> int:
         from .flowplots import plot_run
         plot_run(record, row, args.plot)
     if args.json:
-        print(json.dumps(row))
+        print(json.dumps(row.as_dict()))
         return 0
     print(f"{row['mode']} at {row['frequency_Hz']:g} Hz, {row['circuit']} circuit, load "
           f"{row['load_N']:g} N, step {row['step_s']:g} s, backend {row['backend']}")
@@ -390,7 +390,7 @@ def _run_flow(args) -> int:
         return _failed("flow", exc)
     if check is not None:
         from .variantcheck import mark_rows
-        mark_rows(rows, check)
+        rows = mark_rows(rows, check)
     paper_rows = [r for r in rows if r["model"] == "paper"]
     table = [r for r in paper_rows if r["load_N"] == cases[0].load_force]
     pairs = flow.compare_variant(rows) if variant is not None else None
@@ -398,7 +398,7 @@ def _run_flow(args) -> int:
         from .flowplots import plot_flow
         plot_flow(rows, args.plot)
     if args.json:
-        out = {"rows": rows}
+        out = {"rows": [r.as_dict() for r in rows]}
         if variant is not None:
             out["variant"] = {**variant.as_dict(), "source": str(args.variant),
                               "check": check.as_dict(args.frequencies)}
@@ -408,13 +408,14 @@ def _run_flow(args) -> int:
             out["comparison"] = []
         print(json.dumps(out))
         return 0
-    print(flow.format_table(table))
+    from . import flowtables
+    print(flowtables.format_table(table))
     if args.loads:
         print()
-        print(flow.format_load_lines(paper_rows))
+        print(flowtables.format_load_lines(paper_rows))
     if variant is not None:
         print()
-        print(flow.format_comparison(pairs, variant, str(args.variant)))
+        print(flowtables.format_comparison(pairs, variant, str(args.variant)))
     if no_extension:
         print(f"\n{note}")
     if args.plot:
