@@ -13,7 +13,8 @@
   unknowns and the loss coefficients refitted), and the best-ranked such
   combination is kept when it passes the same rule against the model before
   it; and so on, up to :data:`MAX_CAUSES` causes, while the model is still
-  outside noise on the held-out runs;
+  outside noise on the held-out runs; after each added cause, an exchange step
+  (:func:`_swap`) may replace a member by another cause that ranks better with the rest;
 * ``unexplained`` when even the best single candidate fails the rule
   (structure beyond noise that no candidate removes).
 
@@ -29,6 +30,7 @@ margin the rule asks of a name.
 """
 from __future__ import annotations
 
+from .candidates import Candidate
 from .fit import Fit, fit_and_score
 
 #: Reduced chi^2 at or below which a model "explains the data within noise".
@@ -76,22 +78,8 @@ def select(ev, train, held, paper: Fit, singles: list, fit_scale=True) -> tuple:
         return "unexplained", paper, [], []
     current, tried, order = best, [], [best.cause]
     while len(current.causes) < MAX_CAUSES and not within_noise(current):
-        round_fits = []
-        for single in singles:
-            member = single.candidate.members[0]
-            if not current.candidate.combinable(member):
-                continue
-            cand = current.candidate.plus(member)
-            # start from the fitted values of the model so far and of the newcomer alone
-            own = dict(zip(current.candidate.members, current.candidate.split(current.x)))
-            own[member] = single.x
-            start = tuple(v for m in cand.members for v in own[m])
-            try:
-                fit = fit_and_score(ev, train, held, cand, current.base, starts=[start],
-                                    fit_scale=fit_scale)
-            except ValueError:
-                continue
-            round_fits.append(fit)
+        round_fits = [f for f in (_joined(ev, train, held, current, (), s, fit_scale)
+                                  for s in singles) if f is not None]
         tried += round_fits
         if not round_fits:
             break
@@ -100,7 +88,60 @@ def select(ev, train, held, paper: Fit, singles: list, fit_scale=True) -> tuple:
             break
         order += [c for c in nxt.causes if c not in order]
         current = nxt
+        current, order = _swap(ev, train, held, paper, current, order, singles, tried,
+                               fit_scale)
     return order[0], current, tried, order
+
+
+def _joined(ev, train, held, current: Fit, keep, single: Fit, fit_scale):
+    """``current``'s members ``keep`` (all of them when empty) plus ``single``'s extension,
+    fitted from their fitted values; None when they cannot combine or the fit fails."""
+    member = single.candidate.members[0]
+    members = tuple(keep) or current.candidate.members
+    own = dict(zip(current.candidate.members, current.candidate.split(current.x)))
+    if member in members or member.cause in {m.cause for m in members}:
+        return None
+    cand = Candidate(members)
+    if not cand.combinable(member):
+        return None
+    cand = cand.plus(member)
+    own[member] = single.x
+    start = tuple(v for m in cand.members for v in own[m])
+    try:
+        return fit_and_score(ev, train, held, cand, current.base, starts=[start],
+                             fit_scale=fit_scale)
+    except ValueError:
+        return None
+
+
+def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, fit_scale):
+    """Stepwise selection's exchange step (Efroymson's stepwise regression; Miller, *Subset
+    Selection in Regression*, 2nd ed., 2002, sec. 3.4): with two or more causes, each member
+    in turn is replaced by every other single candidate that explains the data on its own
+    (passes the rule against the paper's model), the others refitted with it; the best-ranked
+    exchange is kept when it ranks better than the model it replaces. The first cause is
+    chosen alone, before any other is there to share the misfit, and a cause that only
+    imitates the first's share (a re-identified mechanics for an eddy lag plus a delay) is
+    otherwise kept for good."""
+    if len(current.causes) < 2:
+        return current, order
+    useful = [s for s in singles if passes(paper, s)]
+    swaps = []
+    for out in current.candidate.members:
+        keep = tuple(m for m in current.candidate.members if m is not out)
+        for single in useful:
+            if single.candidate.members[0].cause == out.cause:
+                continue
+            fit = _joined(ev, train, held, current, keep, single, fit_scale)
+            if fit is not None:
+                swaps.append((fit, out.cause, single.cause))
+    tried += [f for f, _, _ in swaps]
+    if not swaps:
+        return current, order
+    fit, gone, came = min(swaps, key=lambda t: t[0].total_score)
+    if fit.total_score >= current.total_score:
+        return current, order
+    return fit, [came if c == gone else c for c in order]
 
 
 def also_consistent(paper: Fit, fits, chosen: Fit, first_cause: str) -> list:

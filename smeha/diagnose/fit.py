@@ -165,7 +165,7 @@ def _split(z, nb, base0, factor):
 
 
 def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=None,
-                  fit_scale=True, residuals=None) -> tuple:
+                  fit_scale=True, residuals=None, max_evaluations=MAX_EVALUATIONS) -> tuple:
     """Least squares on the training features: (base, x, chi^2, residuals, cov).
 
     ``base0`` is (K_h, n, K_e, K_ex, s) to start from (s held there when
@@ -196,7 +196,7 @@ def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=No
         z0 = np.minimum(np.maximum(z0, lo + pad), np.where(np.isfinite(hi), hi - pad, np.inf))
         try:
             sol = least_squares(fun, z0, bounds=(lo, hi), x_scale="jac",
-                                max_nfev=MAX_EVALUATIONS, xtol=1e-10, ftol=1e-10)
+                                max_nfev=max_evaluations, xtol=1e-10, ftol=1e-10)
         except (ValueError, gmt.ParameterError, FloatingPointError):
             continue
         if not np.isfinite(sol.cost):

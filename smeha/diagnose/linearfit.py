@@ -43,6 +43,9 @@ PENALTY_GRID = (1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2)
 ROUNDS, SETTLED = 8, 1e-4
 #: Finite-difference step of the weights' Jacobian, [A/m].
 WEIGHT_STEP = 50.0
+#: Function evaluations of one refit of the nonlinear unknowns within a round: each round
+#: starts from the last one's values, so a few steps suffice (the last round is the fit).
+ROUND_EVALUATIONS = 40
 
 
 def linear_member(cand: Candidate):
@@ -147,7 +150,8 @@ def _alternate(ev, train, prob, base0, x0, fit_candidate, fit_scale):
         held.w = w
         base, other, _, _, _ = fit_candidate(ev, train, held.unknowns(), base,
                                              starts=[tuple(other)], fit_scale=fit_scale,
-                                             residuals=held.residuals)
+                                             residuals=held.residuals,
+                                             max_evaluations=ROUND_EVALUATIONS)
         other = np.asarray(other, float)
         r0 = prob.residuals(base, w, other)
         chi2 = float(r0 @ r0)
@@ -159,6 +163,8 @@ def _alternate(ev, train, prob, base0, x0, fit_candidate, fit_scale):
         if lam is None:
             lam = _choose_penalty(prob, jac, r0, w)
         w_new = prob.solve(jac, r0, w, lam)
+        if not np.any(w_new > 0) and not np.any(w > 0):
+            break  # no density the data want: the paper's model with the others
         for _ in range(6):  # halve the step while chi^2 does not fall
             r1 = prob.residuals(base, w_new, other)
             if float(r1 @ r1) < chi2:

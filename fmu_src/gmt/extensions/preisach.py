@@ -227,7 +227,7 @@ class PreisachForm(MagnetizationStage, Extension):
     #: the first two unknowns are nonlinear (the rate factor), the rest the node weights
     fit = FitSpec(("log10_rate_frequency_Hz", "rate_exponent")
                   + tuple(f"w{j}" for j in range(_n)),
-                  ((4.5, 2.0) + (0.0,) * _n, (2.0, 2.0) + (0.0,) * _n),
+                  ((2.5, 2.0) + (0.0,) * _n,),
                   (0.5, 0.5) + (0.0,) * _n, (4.5, 4.0) + (math.inf,) * _n)
     #: which of the unknowns are linear (the node weights)
     linear_unknowns = slice(2, None)
@@ -257,9 +257,13 @@ class PreisachForm(MagnetizationStage, Extension):
     @classmethod
     def at_bounds(cls, x, tolerance=1e-3):
         # a zero weight is a node without relays, and the upper rate frequency the
-        # rate-independent limit: neither is a bound pressed on
-        return tuple(n for n in super().at_bounds(x[:2], tolerance)
-                     if n != "log10_rate_frequency_Hz" or x[0] < cls.fit.upper[0] - 0.01)
+        # rate-independent limit, where the exponent no longer acts: neither is a bound
+        # pressed on
+        names = super().at_bounds(x[:2], tolerance)
+        if x[0] >= cls.fit.upper[0] - 0.01:
+            return tuple(n for n in names if n not in ("log10_rate_frequency_Hz",
+                                                       "rate_exponent"))
+        return names
 
     @staticmethod
     def rate_factor(values, frequency):
