@@ -228,3 +228,26 @@ def test_the_flow_study_returns_a_typed_row():
     assert dict(row) == d
     with pytest.raises(KeyError):
         row["no_such_figure"]
+
+
+def test_simulate_writes_a_measurement_file_identify_reads(tmp_path, capsys):
+    # simulate --csv claimed the measurement files' columns but identify could not read it;
+    # --measurement writes that format, one run a simulation (replaced by name, others
+    # kept). Round trip: identify fits eq 30 to the co-simulated rod (ideal circuit: the
+    # free rod shifted by A_d p / K) and recovers the model's own mu'' at (f, 1 A) within
+    # 0.2 % (measured 1.451 against 1.450 at 50 Hz, 1.521 against 1.520 at 100 Hz)
+    import gmt
+    from smeha import measured
+    from smeha.identify import identify_run
+    path = tmp_path / "sim.csv"
+    for f in (50, 100, 50):
+        assert cli.main(["simulate", "--frequency", str(f), "--mode", "uncompensated",
+                         "--ideal", "--backend", "direct", "--json", "--measurement",
+                         str(path)]) == 0
+    capsys.readouterr()
+    runs = measured.read_measurements(path)
+    assert [r.name for r in runs] == ["uncompensated_100Hz", "uncompensated_50Hz"]
+    params = gmt.TransducerParameters()
+    for run in runs:
+        mu_imag = gmt.operating_point(params, gmt.Excitation(run.frequency, 1.0)).mu_imag
+        assert identify_run(run, params).mu_imag == pytest.approx(mu_imag, rel=2e-3)

@@ -144,9 +144,14 @@ def add_simulate(subparsers):
     _add_load(p)
     _add_cosim_options(p)
     p.add_argument("--csv", metavar="FILE", type=output_file,
-                   help="write the time series as CSV, SI units in the column names "
-                        "(time_s, rod_displacement_m, p_pump_Pa, ...), as the measurement "
-                        "files of 'smeha identify' name theirs")
+                   help="write the whole record as CSV, SI units in the column names "
+                        "(time_s, rod_displacement_m, p_pump_Pa, ...); for a file 'smeha "
+                        "identify' and 'smeha diagnose' read, use --measurement")
+    p.add_argument("--measurement", metavar="FILE", type=output_file,
+                   help="add the run to FILE in the measurement format (docs/MEASURED.md: "
+                        "run, frequency_Hz, time_s, current_A, displacement_um, control_V), "
+                        "as run '<mode>_<f>Hz'; a run of that name already there is replaced, "
+                        "others kept, so runs at several frequencies make one data set")
     p.add_argument("--plot", metavar="FILE", type=output_file, help="write a PNG of the run")
     p.add_argument("--json", action="store_true", help="print only a JSON object")
     p.set_defaults(run=_run_simulate)
@@ -241,6 +246,19 @@ def _write_record_csv(record, path) -> None:
                delimiter=",", header=",".join(names), comments="")
 
 
+def _add_measurement(record, case, path) -> None:
+    """The run as a measured one (smeha.measured.Run: coil current, the rod's displacement,
+    the control signal at the communication points), added to the measurement file."""
+    from pathlib import Path
+
+    from .. import measured
+    name = f"{case.mode}_{case.frequency:g}Hz"
+    run = measured.Run(name, case.frequency, record["time"].copy(), record["current"].copy(),
+                       record["rod_displacement"].copy(), control=record["control"].copy())
+    runs = measured.read_measurements(path) if Path(path).is_file() else []
+    measured.write_measurements(path, [r for r in runs if r.name != name] + [run])
+
+
 def _run_simulate(args) -> int:
     from . import flow
     _check_simulate(args)
@@ -259,6 +277,8 @@ def _run_simulate(args) -> int:
     bar.close()
     if args.csv:
         _write_record_csv(record, args.csv)
+    if args.measurement:
+        _add_measurement(record, case, args.measurement)
     if args.plot:
         from .flowplots import plot_run
         plot_run(record, row, args.plot)
@@ -282,7 +302,7 @@ def _run_simulate(args) -> int:
               f"piston: cavities, accumulator); the mean depends on the run's length")
     if row.get("note"):  # a reversed flow, cavitation (smeha.studies.flow.flag_row)
         print(f"  (!) {row['note']}")
-    for path in (args.csv, args.plot):
+    for path in (args.csv, args.measurement, args.plot):
         if path:
             print(f"wrote {path}")
     return 0

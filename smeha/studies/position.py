@@ -459,7 +459,7 @@ def run_step(settings, model, gains, fmu_path=None) -> PositionResult:
     m.update(max_velocity_m_s=float(np.max(np.abs(v))) if v.size else 0.0,
              predicted_rise_time_s=gains.predicted_rise_time_s,
              predicted_settling_time_s=gains.predicted_settling_time_s,
-             wall_s=rec.wall_s, simulated_s=float(rec.rows["time"][-1]),
+             wall_s=rec.wall_s, cpu_s=rec.cpu_s, simulated_s=float(rec.rows["time"][-1]),
              saturated_periods=int(rec.periods["saturated"].sum()))
     return PositionResult("step", settings.mode, m,
                           _flags(rec, presets.circuit(settings.circuit)), rec)

@@ -97,6 +97,7 @@ class LoopRecord:
     periods: np.ndarray
     wall_s: float
     frequency: float
+    cpu_s: float = float("nan")  #: the process's CPU time over the run (FMU in-process)
 
 
 PERIOD_FIELDS = ("time", "position", "command", "direction", "amplitude", "saturated", "load",
@@ -143,7 +144,7 @@ def run_loop(backend, mode: str, circuit, frequency: float, periods: int,
     blocks, table = [], np.zeros(periods, dtype=[(n, float) for n in PERIOD_FIELDS])
     x = float(z[4])  # the piston's position (system_models.circuit.STATE_NAMES)
     watch = hasattr(backend, "outside_design_point")
-    wall = _time.perf_counter()
+    wall, cpu = _time.perf_counter(), _time.process_time()
     for k in range(periods):
         t0 = k * period
         shifted.start = t0
@@ -175,7 +176,7 @@ def run_loop(backend, mode: str, circuit, frequency: float, periods: int,
         x = float(rows["piston_position"][-1])
         if watch:
             table[k]["outside"] = float(backend.outside_design_point())
-    wall = _time.perf_counter() - wall
+    wall, cpu = _time.perf_counter() - wall, _time.process_time() - cpu
     rows = np.concatenate([b[0] for b in blocks])
     extra = np.concatenate([b[1] for b in blocks])
     merged = np.zeros(len(rows), dtype=rows.dtype.descr + extra.dtype.descr)
@@ -183,4 +184,4 @@ def run_loop(backend, mode: str, circuit, frequency: float, periods: int,
         merged[name] = rows[name]
     for name in extra.dtype.names:
         merged[name] = extra[name]
-    return LoopRecord(merged, table, wall, frequency)
+    return LoopRecord(merged, table, wall, frequency, cpu)
