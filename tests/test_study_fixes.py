@@ -251,3 +251,23 @@ def test_simulate_writes_a_measurement_file_identify_reads(tmp_path, capsys):
     for run in runs:
         mu_imag = gmt.operating_point(params, gmt.Excitation(run.frequency, 1.0)).mu_imag
         assert identify_run(run, params).mu_imag == pytest.approx(mu_imag, rel=2e-3)
+
+
+def test_simulate_and_position_take_a_variant_file(monkeypatch, capsys):
+    # the variant file reaches the case (simulate) and the settings (position)
+    from pathlib import Path
+    from smeha.studies import position
+    path = str(Path(__file__).resolve().parents[1] / "data" / "paper_variant.json")
+    seen = []
+    monkeypatch.setattr(flow, "run_case", lambda case, *a, **k: (seen.append(case.variant),
+                                                                 (_ for _ in ()).throw(
+                                                                     KeyboardInterrupt))[1])
+    assert cli.main(["simulate", "--frequency", "100", "--mode", "uncompensated",
+                     "--backend", "direct", "--json", "--variant", path]) == 130
+    assert seen[0].name.startswith("mechanical_resonance")
+    monkeypatch.setattr(flow, "ensure_fmu", lambda **k: None)
+    monkeypatch.setattr(position, "run_study", lambda settings, *a, **k: (
+        seen.append(settings.variant), (_ for _ in ()).throw(KeyboardInterrupt))[1])
+    assert cli.main(["position", "--mode", "compensated", "--json", "--variant", path]) == 130
+    assert seen[1] == seen[0]
+    capsys.readouterr()

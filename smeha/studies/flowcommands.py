@@ -147,6 +147,10 @@ def add_simulate(subparsers):
                    help="write the whole record as CSV, SI units in the column names "
                         "(time_s, rod_displacement_m, p_pump_Pa, ...); for a file 'smeha "
                         "identify' and 'smeha diagnose' read, use --measurement")
+    p.add_argument("--variant", metavar="FILE", type=input_file,
+                   help="the transducer with a model variant: FILE is 'smeha diagnose --json' "
+                        "output or {\"cause\": ..., \"parameters\": {...}} (e.g. "
+                        "data/paper_variant.json); with --measurement, a data set to diagnose")
     p.add_argument("--measurement", metavar="FILE", type=output_file,
                    help="add the run to FILE in the measurement format (docs/MEASURED.md: "
                         "run, frequency_Hz, time_s, current_A, displacement_um, control_V), "
@@ -262,7 +266,9 @@ def _add_measurement(record, case, path) -> None:
 def _run_simulate(args) -> int:
     from . import flow
     _check_simulate(args)
-    case = _case_from(args, args.frequency, args.mode, args.load)
+    variant = _read_variant(args.variant)[0] if args.variant else None
+    case = _case_from(args, args.frequency, args.mode, args.load,
+                      None if variant is None or variant.is_paper else variant)
     fmu = _fmu_for(args, [case])
     from system_models import kernel
     kernel.ensure_compiled(None if args.json else (lambda m: print(m, file=sys.stderr,

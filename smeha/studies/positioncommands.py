@@ -82,7 +82,7 @@ def _settings(args, mode):
     from .flowcommands import _read_variant
     if args.target_mm == 0.0:
         raise UsageError("--target-mm 0: a step needs a distance")
-    variant = _read_variant(args.variant) if args.variant else None
+    variant = _read_variant(args.variant)[0] if args.variant else None
     return position.PositionSettings(
         mode=mode, target=args.target_mm * 1e-3, frequency=args.frequency, load=args.load,
         duration=args.duration, circuit=args.circuit, variant=variant, backend=args.backend,
