@@ -97,6 +97,15 @@ class Fit:
     #: the effective number of added parameters when it is not their count (a penalised
     #: linear family, smeha.diagnose.linearfit); None: the count
     effective_params: float | None = None
+    #: held-out features of y, of B and of the drift terms
+    heldout_n_parts: tuple = (0, 0, 0)
+
+    def heldout_excess_in(self, channels) -> float:
+        """chi^2 - n over the held-out features of ``channels`` ("y", "B", "drift")."""
+        chi = {"y": self.heldout_chi2_y, "B": self.heldout_chi2_b,
+               "drift": self.heldout_chi2_drift}
+        n = dict(zip(("y", "B", "drift"), self.heldout_n_parts))
+        return sum(chi[c] - n[c] for c in channels)
 
     @property
     def loss(self):
@@ -239,7 +248,8 @@ def score(ev: Evaluator, cand: Candidate, base, x, chi2_train, n_train, held: Ba
     """The held-out score and RMS of a fitted candidate (module docstring); ``k`` the
     effective number of its added parameters when it is not their count."""
     cy, cb, cd = ev.parts(held, base, cand, x)
-    n = sum(sum(ev.n_features(rf)) for rf in held.runs)
+    n_parts = tuple(int(v) for v in np.sum([ev.n_features(rf) for rf in held.runs], axis=0))
+    n = sum(n_parts)
     y, _, s_off, s_y1 = ev.predict(held, base, cand, x)
     span = np.array([rf.time[-1] - rf.time[0] for rf in held.runs])
     misfit2 = (0.5 * np.sum(np.abs(y - held.y) ** 2, axis=1)
@@ -265,7 +275,7 @@ def score(ev: Evaluator, cand: Candidate, base, x, chi2_train, n_train, held: Ba
                heldout_noise_misfit=math.sqrt(float(np.mean(noise2))),
                score=chi + (cand.n_params if k is None else k) * math.log(max(n, 2)),
                parameters=cand.parameters(x, ev.context), at_bounds=cand.at_bounds(x),
-               effective_params=k)
+               effective_params=k, heldout_n_parts=n_parts)
 
 
 def fit_and_score(ev, train, held, cand, base0, starts=None, fit_scale=True) -> Fit:

@@ -8,7 +8,8 @@ import numpy as np
 from gmt import extensions as ext
 
 from .candidates import CAUSES, FORMS, Batch, Evaluator, label
-from .decision import MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, explained
+from . import remainder
+from .decision import MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, explained, within_noise
 from .workflow import CONFUSABLE_WITHOUT_B
 
 #: What each cause changes, for the evidence text.
@@ -327,6 +328,21 @@ def _contribution_label(d) -> str:
                       if m.cause == c)
 
 
+def remainder_report(d) -> dict | None:
+    """What each named cause explains and what remains (:mod:`smeha.diagnose.remainder`);
+    None for "none"."""
+    if d.cause == "none" or d.context is None:
+        return None
+    fractions, remaining = remainder.contributions(d)
+    feats = list(d.context["features"].values())
+    sig = remainder.signature(d.context["evaluator"], feats, d.extended)
+    outside = not within_noise(d.extended)
+    return {"explained_fraction": fractions,
+            "unexplained_fraction": remaining if outside else 0.0,
+            "signature": sig,
+            "summary": remainder.summary(d, fractions, remaining, sig, outside)}
+
+
 def format_diagnosis(d, path: str = "") -> str:
     """Plain-text report."""
     lines = []
@@ -334,12 +350,15 @@ def format_diagnosis(d, path: str = "") -> str:
         lines.append(f"diagnosis of {path}")
     if d.cause in CAUSES:
         lines.append(f"cause: {d.cause}" + (f" (model: {d.form})"
-                                             if d.cause in FORMS else "")
+                                             if d.cause in FORMS and d.form else "")
                      + (" [weak: parameters on bounds]" if d.weak else ""))
         if len(d.causes) > 1:
             lines.append(f"causes (in order of contribution): {_contribution_label(d)}")
     else:
         lines.append(f"cause: {d.cause}")
+    rem = remainder_report(d)
+    if rem is not None:
+        lines.append(rem["summary"])
     if d.also_consistent:
         lines.append("also consistent: " + ", ".join(f.label for f in d.also_consistent))
     lines += [f"caution, {c}" for c in cautions(d)]
@@ -399,10 +418,14 @@ def sense_voltage_report(d) -> dict:
 def as_dict(d) -> dict:
     """JSON-able report (the ``--json`` output)."""
     named = d.cause in CAUSES
+    rem = remainder_report(d)
     return {
         "cause": d.cause,
         "form": d.form,
         "causes": d.causes,
+        "explained_fraction": rem["explained_fraction"] if rem else {},
+        "unexplained_fraction": rem["unexplained_fraction"] if rem else 0.0,
+        "remainder": rem,
         "weak": d.weak,
         "model": d.variant().as_dict() if named else {"cause": d.cause},
         "evidence": list(d.evidence),

@@ -1,7 +1,8 @@
 """labsim: an independent generator of lab-style measurements of the paper's transducer.
 
 It implements the paper's model (eqs 1-30, Tables 1-2) as a continuous-time system, six
-physical effects the model leaves out (each in two formulations from different literature),
+physical effects the model leaves out (each in two or more formulations from different
+literature; two more effects outside the six, for pairs with an unknown effect),
 and the way a lab records the signals (sample clock, anti-alias filter, noise, ADC). It shares no code or numerics with the project's packages;
 see README.md in this folder for every formulation and its source.
 
@@ -14,6 +15,7 @@ see README.md in this folder for every formulation and its source.
 from .constants import LabsimError, Transducer
 from .dataset import DEFAULT_AMPLITUDES, DEFAULT_FREQUENCIES, Dataset, Run, make_dataset
 from .effects import EFFECTS, FORMULATIONS
+from .outside import OUTSIDE_EFFECTS
 
 __all__ = [
     "EFFECTS",
@@ -22,6 +24,7 @@ __all__ = [
     "DEFAULT_FREQUENCIES",
     "Dataset",
     "LabsimError",
+    "OUTSIDE_EFFECTS",
     "Run",
     "Transducer",
     "make_dataset",

@@ -44,6 +44,7 @@ class Acquisition:
     noise_current: float = 1e-3  # [A]
     noise_voltage: float = 0.5e-3  # [V]
     sense_coil: bool = True
+    sense_air_flux: bool = False  # the sense coil links the air flux too (README.md)
 
     def __post_init__(self) -> None:
         spc, rate = self.samples_per_cycle, self.sample_rate

@@ -66,6 +66,8 @@ class Dataset:
                   if form != defaults[name]}
         if chosen:
             provenance += f"; formulations = {chosen}"
+        if self.truth["acquisition"].sense_air_flux and sense:
+            provenance += "; the sense coil links the air flux (A_c - A_r) mu_0 H"
         lines = [
             "# synthetic lab measurements from labsim (independent generator, tests/labsim)",
             provenance,
@@ -97,6 +99,7 @@ def make_dataset(
     noise_current_A: float = 1e-3,
     noise_voltage_V: float = 0.5e-3,
     sense_coil: bool = True,
+    sense_air_flux: bool = False,
     adc_bits: int = 16,
     full_scale: dict | None = None,
     anti_alias_order: int = 4,
@@ -111,7 +114,8 @@ def make_dataset(
     Parameters
     ----------
     effects : dict {name: strength} or iterable of names (strength 1) or None
-        Effects from ``EFFECTS``; strength 0 = absent, 1 = the reference magnitude.
+        Effects from ``EFFECTS`` or, outside the six causes, ``OUTSIDE_EFFECTS``; strength
+        0 = absent, 1 = the reference magnitude.
     seed : int
         Controls everything random: drive phases, record starts, sensor offset, noise, jitter.
     samples_per_cycle, sample_rate : int, float
@@ -126,6 +130,9 @@ def make_dataset(
         Gaussian noise at the ADC input: displacement [um], current [A], sense voltage [V].
     sense_coil : bool
         Record the sensing-coil voltage (eq 21).
+    sense_air_flux : bool
+        The sensing coil, wound around the excitation coil, links the air flux between rod
+        and coil too: E = -N_c d/dt [A_r B + (A_c - A_r) mu_0 H] (False: eq 21 with A_c).
     adc_bits, full_scale : int, dict
         ADC resolution and per-channel full scale (SI; missing channels auto-range).
     anti_alias_order, anti_alias_cutoff : int, float
@@ -137,10 +144,11 @@ def make_dataset(
         Formulation of every effect: the first one, or the second one from other literature
         (``labsim.FORMULATIONS``; README.md).
     formulations : dict {name: formulation}, optional
-        Per-effect choice, overriding ``formulation``: a name from ``FORMULATIONS[name]`` or
-        "default" / "alt".
+        Per-effect choice, overriding ``formulation``: a name from ``FORMULATIONS[name]``
+        (e.g. "general_preisach", "preisach_random", "slab_magnetization") or "default" /
+        "alt".
     """
-    effect_set = EffectSet.from_strengths(effects, formulation, formulations)
+    effect_set = EffectSet.from_strengths(effects, formulation, formulations, seed)
     if samples_per_cycle is None and sample_rate is None:
         samples_per_cycle = 800
     settings = Acquisition(
@@ -149,6 +157,7 @@ def make_dataset(
         anti_alias_order=anti_alias_order, anti_alias_cutoff=anti_alias_cutoff,
         adc_bits=adc_bits, full_scale=dict(full_scale or {}), noise_displacement=noise_um * 1e-6,
         noise_current=noise_current_A, noise_voltage=noise_voltage_V, sense_coil=sense_coil,
+        sense_air_flux=bool(sense_air_flux),
     )
     grid = _grid(frequencies, amplitudes)
     if not (math.isfinite(jitter) and 0.0 <= jitter <= 0.2):
@@ -160,10 +169,13 @@ def make_dataset(
                for name in JITTERED + ("bm_scale",)}
     device = (transducer or Transducer()).jittered(
         {k: v for k, v in factors.items() if k != "bm_scale"})
+    # phases of the mains hum, from a stream of their own (the other draws stay the same)
+    hum_rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1802,)))
+    hum_phases = hum_rng.uniform(0.0, 2.0 * math.pi, len(grid))
     runs = [
         _run(device, f, amp, effect_set, settings, np.random.default_rng(s), offset,
-             factors["bm_scale"])
-        for (f, amp), s in zip(grid, seeds[1:])
+             factors["bm_scale"], hum)
+        for (f, amp), s, hum in zip(grid, seeds[1:], hum_phases)
     ]
     truth = {
         "seed": seed,
@@ -192,7 +204,8 @@ def _grid(frequencies, amplitudes):
     return [(f, a) for a in amps for f in freqs]
 
 
-def _run(device, frequency, amplitude, effects, settings, rng, offset, bm_scale) -> Run:
+def _run(device, frequency, amplitude, effects, settings, rng, offset, bm_scale,
+         hum_phase) -> Run:
     phase = rng.uniform(0.0, 2.0 * math.pi)
     period = 1.0 / frequency
     rate = settings.rate(frequency)
@@ -209,9 +222,9 @@ def _run(device, frequency, amplitude, effects, settings, rng, offset, bm_scale)
         start = (settle + rng.uniform(0.0, 1.0)) * period
     count = int(round(settings.record_cycles(frequency) * rate / frequency))
     t = start + np.arange(count) / rate
-    signals = _channels(continuous, t, anti_alias, offset, settings.sense_coil)
-    steady = signals if start > 0.0 else _channels(continuous, t + settle * period, anti_alias,
-                                                   offset, settings.sense_coil)
+    chain = (anti_alias, offset, settings, effects, hum_phase)
+    signals = _channels(continuous, t, *chain)
+    steady = signals if start > 0.0 else _channels(continuous, t + settle * period, *chain)
     recorded, ranges, clipped = {}, {}, {}
     for channel, values in signals.items():
         peak = float(np.max(np.abs(steady[channel])))
@@ -233,12 +246,27 @@ def _run(device, frequency, amplitude, effects, settings, rng, offset, bm_scale)
     )
 
 
-def _channels(continuous, t, anti_alias, offset, sense_coil) -> dict:
-    """The filtered, noiseless channels at times t (SI; displacement with the sensor zero)."""
+def _channels(continuous, t, anti_alias, offset, settings, effects, hum_phase) -> dict:
+    """The filtered, noiseless channels at times t (SI; displacement with the sensor zero),
+    with the effects outside the six (module ``outside``)."""
+    y = continuous.displacement(t, anti_alias)
+    backlash = effects.outside_effect("joint_backlash")
+    if backlash is not None:  # the play's state: one period of motion before the record
+        rate = settings.rate(continuous.frequency)
+        lead = t[0] - np.arange(int(math.ceil(rate / continuous.frequency)), 0, -1) / rate
+        moved = backlash.apply(np.concatenate([continuous.displacement(lead, anti_alias), y]))
+        y = moved[lead.size:]
     signals = {
         "current": continuous.current_signal(t, anti_alias),
-        "displacement": continuous.displacement(t, anti_alias) + offset,
+        "displacement": y + offset,
     }
-    if sense_coil:
-        signals["sense_voltage"] = continuous.sense_voltage(t, anti_alias)
+    if settings.sense_coil:
+        signals["sense_voltage"] = continuous.sense_voltage(t, anti_alias,
+                                                            settings.sense_air_flux)
+    hum = effects.outside_effect("mains_hum")
+    if hum is not None:
+        for channel in ("displacement", "sense_voltage"):
+            if channel in signals:
+                signals[channel] = signals[channel] + hum.signal(t, hum_phase, anti_alias,
+                                                                 channel)
     return signals

@@ -6,7 +6,9 @@ displacement by roughly 0.5-3 um RMS at 100 Hz, 1 A (measured figures in README.
 formulations are this generator's own; see README.md for their literature sources.
 
 Every effect has two formulations (``FORMULATIONS``): the first ones below, and second ones
-from other literature in module ``alternatives``. Each class answers the simulator's
+from other literature in module ``alternatives``; hysteresis and eddy currents have further
+textbook ones (general Preisach densities, diffusion acting on the magnetisation), chosen by
+name only. Each class answers the simulator's
 questions for its effect: hysteresis ``periodic``/``sequence``/``window``, saturation
 ``saturate``, eddy currents ``transfer``, sensor ``delay``/``sensor``, mechanics
 ``mechanics``; the thermal drifts act through the force (``Thermal``) or the bias
@@ -14,6 +16,8 @@ questions for its effect: hysteresis ``periodic``/``sequence``/``window``, satur
 """
 from __future__ import annotations
 
+import functools
+import inspect
 import math
 from dataclasses import asdict, dataclass
 
@@ -23,6 +27,8 @@ from . import alternatives, lti
 from .anhysteretic import langevin
 from .constants import LabsimError
 from .hysteresis import periodic_branches, play_sequence
+from .outside import FACTORIES as OUTSIDE_FACTORIES
+from .outside import OUTSIDE_EFFECTS
 
 EFFECTS = (
     "rate_independent_hysteresis",
@@ -160,14 +166,29 @@ class Thermal:
 
 
 #: Formulations of each effect, the first being the default; ``formulation="alt"`` picks the
-#: second for every effect (README.md, "Second formulations").
+#: second for every effect (README.md, "Second formulations"); the others are chosen by name
+#: (README.md, "Textbook formulations").
 FORMULATIONS = {
-    "rate_independent_hysteresis": {"preisach": Hysteresis.at,
-                                    "jiles_atherton": alternatives.JilesAtherton.at},
+    "rate_independent_hysteresis": {
+        "preisach": Hysteresis.at,
+        "jiles_atherton": alternatives.JilesAtherton.at,
+        "general_preisach": functools.partial(alternatives.GeneralPreisach.of_shape,
+                                              "lognormal_normal"),
+        "preisach_bimodal": functools.partial(alternatives.GeneralPreisach.of_shape, "bimodal"),
+        "preisach_correlated": functools.partial(alternatives.GeneralPreisach.of_shape,
+                                                 "correlated"),
+        "preisach_lorentzian": functools.partial(alternatives.GeneralPreisach.of_shape,
+                                                 "lorentzian"),
+        "preisach_random": alternatives.GeneralPreisach.random,
+    },
     "magnetization_saturation": {"langevin": Saturation.at,
                                  "froehlich_kennelly": alternatives.FroehlichKennelly.at},
-    "eddy_current_diffusion": {"solid_rod": EddyDiffusion.at,
-                               "conducting_housing": alternatives.ConductingHousing.at},
+    "eddy_current_diffusion": {
+        "solid_rod": EddyDiffusion.at,
+        "conducting_housing": alternatives.ConductingHousing.at,
+        "slab_magnetization": alternatives.MagnetizationDiffusion.slab,
+        "solid_rod_magnetization": alternatives.MagnetizationDiffusion.cylinder,
+    },
     "transport_delay": {"pure_delay": Delay.at, "bessel_sensor": alternatives.BesselSensor.at},
     "mechanical_resonance": {"two_mass": Resonance.at,
                              "continuum_rod": alternatives.ContinuumRod.at},
@@ -218,11 +239,14 @@ class EffectSet:
     resonance: object | None = None
     thermal: object | None = None
     formulations: tuple[tuple[str, str], ...] = ()
+    outside: tuple[tuple[str, object], ...] = ()  # effects outside the six (``outside``)
 
     @staticmethod
-    def from_strengths(effects, formulation: str = "default", formulations=None) -> "EffectSet":
+    def from_strengths(effects, formulation: str = "default", formulations=None,
+                       seed: int | None = None) -> "EffectSet":
         """Validate {name: strength} (or an iterable of names, strength 1) and build with the
-        chosen formulations (``resolve_formulations``)."""
+        chosen formulations (``resolve_formulations``); formulations drawn per seed (their
+        factory takes ``seed``) get ``seed``."""
         chosen = resolve_formulations(formulation, formulations)
         if effects is None:
             effects = {}
@@ -230,18 +254,30 @@ class EffectSet:
             effects = {effects: 1.0}
         if not isinstance(effects, dict):
             effects = {name: 1.0 for name in effects}
-        built, strengths = {}, []
+        built, strengths, extra = {}, [], []
         for name, strength in effects.items():
-            if name not in FORMULATIONS:
-                raise LabsimError(f"effect {name!r}: unknown; known effects: {', '.join(EFFECTS)}")
+            if name not in FORMULATIONS and name not in OUTSIDE_EFFECTS:
+                raise LabsimError(f"effect {name!r}: unknown; known effects: {', '.join(EFFECTS)}"
+                                  f" and, outside them, {', '.join(OUTSIDE_EFFECTS)}")
             strength = float(strength)
             if not (math.isfinite(strength) and 0.0 <= strength <= 10.0):
                 raise LabsimError(f"effect {name!r}: strength = {strength}; allowed 0 to 10")
             strengths.append((name, strength))
+            if name in OUTSIDE_EFFECTS:
+                if strength > 0.0:
+                    extra.append((name, OUTSIDE_FACTORIES[name](strength)))
+                continue
             if strength > 0.0:
-                built[_FIELDS[name]] = FORMULATIONS[name][chosen[name]](strength)
-        used = tuple((name, chosen[name]) for name, _ in strengths)
-        return EffectSet(tuple(strengths), formulations=used, **built)
+                factory = FORMULATIONS[name][chosen[name]]
+                seeded = "seed" in inspect.signature(factory).parameters
+                built[_FIELDS[name]] = (factory(strength, seed=seed) if seeded
+                                        else factory(strength))
+        used = tuple((name, chosen[name]) for name, _ in strengths if name in chosen)
+        return EffectSet(tuple(strengths), formulations=used, outside=tuple(extra), **built)
+
+    def outside_effect(self, name: str):
+        """The effect outside the six of this name, or None."""
+        return dict(self.outside).get(name)
 
     @property
     def thermal_bias(self):
@@ -253,6 +289,11 @@ class EffectSet:
         chosen = dict(self.formulations)
         out = {}
         for name, s in self.strengths:
+            if name in OUTSIDE_EFFECTS:
+                effect = self.outside_effect(name)
+                out[name] = {"strength": s, "formulation": "outside",
+                             "parameters": asdict(effect) if effect is not None else {}}
+                continue
             effect = getattr(self, _FIELDS[name])
             out[name] = {"strength": s, "formulation": chosen[name],
                          "parameters": asdict(effect) if effect is not None else {}}

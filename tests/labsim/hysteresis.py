@@ -28,8 +28,8 @@ class PlayMemory:
     """The state z(r) of all plays: breakpoints r_b (r_b[0] = 0), values z_b; z constant after
     the last breakpoint."""
 
-    def __init__(self, scale: float) -> None:
-        self.scale = scale  # r_0, [A/m]
+    def __init__(self, scale: float = math.nan) -> None:
+        self.scale = scale  # r_0 of the exponential density (``integral`` only), [A/m]
         self.r = np.array([0.0])
         self.z = np.array([0.0])
 

@@ -155,6 +155,37 @@ def cylinder_diffusion(diffusion_time: float, modes: int = 60) -> Modal:
     return Modal(poles.astype(complex), residues.astype(complex), direct, exact)
 
 
+def slab_diffusion(diffusion_time: float, modes: int = 60) -> Modal:
+    """Mean flux over a conducting lamination (slab of thickness d) per surface field, 1-D
+    diffusion across the thickness.
+
+    With tau = mu sigma d^2 / 4 and q = sqrt(s tau), the exact transfer is
+    F(s) = tanh(q) / q (the averaged permeability of a lamination, mu_avg / mu; Stoll, The
+    Analysis of Eddy Currents, 1974, ch. 3; Lammeraner and Stafl, Eddy Currents, 1966).
+    tanh(q)/q is even in q and meromorphic in q^2 with simple poles where cosh q = 0,
+    q_k^2 = -((2k + 1) pi / 2)^2; its residue in q^2 there is sinh q / (q d(cosh q)/d(q^2))
+    = 2, and it vanishes as |q| -> infinity, so (Mittag-Leffler)
+    F(s) = sum_k 2 / (q^2 + (2k + 1)^2 pi^2 / 4) = sum_k [8 / ((2k + 1)^2 pi^2)]
+    / (1 + s tau / ((2k + 1)^2 pi^2 / 4)), weights summing to 1 (sum of 1 / odd^2 = pi^2 / 8):
+    first-order modes with poles -(2k + 1)^2 pi^2 / (4 tau) and residues 2 / tau. ``modes``
+    of them are kept, the rest enter as an instantaneous term 1 - sum of their weights.
+    """
+    if not diffusion_time > 0:
+        raise LabsimError(f"diffusion time = {diffusion_time} s: must be > 0")
+    odd = 2.0 * np.arange(modes) + 1.0
+    poles = -((odd * math.pi / 2.0) ** 2) / diffusion_time
+    residues = np.full(modes, 2.0 / diffusion_time)
+    direct = 1.0 - float(np.sum(8.0 / (odd * math.pi) ** 2))
+
+    def exact(s):
+        q = np.sqrt(np.asarray(s, dtype=complex) * diffusion_time)
+        small = np.abs(q) < 1e-4
+        q_safe = np.where(small, 1.0, q)
+        return np.where(small, 1.0 - q**2 / 3.0, np.tanh(q_safe) / q_safe)
+
+    return Modal(poles.astype(complex), residues.astype(complex), direct, exact)
+
+
 def shorted_turn(time_constant: float, coupling: float) -> Modal:
     """Field in the rod per coil field with a conducting loop (housing, coil former) around it.
 

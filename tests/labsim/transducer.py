@@ -11,7 +11,7 @@ Signal chain (each arrow exact unless marked):
     B - B_bias = mu_0 (H_eff + M_tot - S(M_b(0)))                  (eq 5)
     F - F_bias = A_r E^H [K_l(T) M_tot^2 - K_l(T0) S(M_b(0))^2] + thermal expansion (eqs 25, 28)
     y = G_sensor(s) G_mech(s) F (eq 27, two masses or the continuum rod; delayed),
-    E = -N_c A_c dB/dt (eq 21)
+    E = -N_c A_c dB/dt (eq 21), or with the air flux -N_c d/dt [A_r B + (A_c - A_r) mu_0 H]
 
 M_b(t) = M_b except with the magnet-warming drift, whose relative change eps(t) is a constant
 plus decaying exponentials; the outputs are then expanded to second order in eps about its
@@ -56,6 +56,8 @@ class ContinuousRun:
     sense_gain: float  # -N_c A_c, [m^2]
     settle_time: float  # after it, transients are below 1e-15 of the signal, [s]
     permeability: paper.Permeability
+    air_flux: Waveform | None = None  # mu_0 H of the applied field in the coil's air, [T]
+    rod_share: float = 1.0  # A_r / A_c, the rod's share of the sense coil's area, [-]
 
     def displacement(self, t, anti_alias: lti.Zpk | None = None) -> np.ndarray:
         """y(t) - y(0-) at the sensor, after the optional filter, [m]."""
@@ -63,10 +65,18 @@ class ContinuousRun:
         system = lti.chain(*parts, self.mechanics)
         return evaluate_response(system, self.force, np.asarray(t) - self.delay)
 
-    def sense_voltage(self, t, anti_alias: lti.Zpk) -> np.ndarray:
-        """E(t) = -N_c A_c dB/dt (eq 21) after the anti-alias filter, [V]."""
-        system = anti_alias * lti.derivative(self.sense_gain)
-        return evaluate_response(lti.modal(system), self.flux, t)
+    def sense_voltage(self, t, anti_alias: lti.Zpk, air_flux: bool = False) -> np.ndarray:
+        """E(t) = -N_c A_c dB/dt (eq 21) after the anti-alias filter, [V].
+
+        ``air_flux``: the coil, wound around the excitation coil, links the rod's flux and
+        the air's between rod and coil, E = -N_c d/dt [A_r B + (A_c - A_r) mu_0 H]; eddy
+        currents in the rod do not shield the air's share.
+        """
+        system = lti.modal(anti_alias * lti.derivative(self.sense_gain))
+        if not air_flux:
+            return evaluate_response(system, self.flux, t)
+        linked = self.flux.scaled(self.rod_share) + self.air_flux.scaled(1.0 - self.rod_share)
+        return evaluate_response(system, linked, t)
 
     def current_signal(self, t, anti_alias: lti.Zpk | None = None) -> np.ndarray:
         """i(t) after the optional filter, [A]."""
@@ -90,11 +100,13 @@ def simulate(
     drive = np.exp(1j * phase)
     current = Waveform.sinusoid(omega, current_amplitude * drive)
     field = Waveform.sinusoid(omega, perm.field_amplitude * drive)
+    air = field.scaled(MU_0)
     magnetization = Waveform.sinusoid(omega, (perm.complex - 1.0) * perm.field_amplitude * drive)
     slowest = math.inf
     if effects.eddy is not None:
         eddy = effects.eddy.transfer()
-        field = respond(eddy, field)
+        if getattr(effects.eddy, "acts_on", "field") == "field":  # H, so M and B follow
+            field = respond(eddy, field)
         magnetization = respond(eddy, magnetization)
         slowest = eddy.slowest_rate
     stage = _NonlinearStage(transducer, effects, omega, current_amplitude)
@@ -115,7 +127,7 @@ def simulate(
     settle = max(2.0 * 2.0 * math.pi / omega, window + DECAY_CONSTANTS / min(rates))
     sense_gain = -transducer.sense_turns * transducer.sense_area
     return ContinuousRun(frequency, current, flux, force, mechanics, delay, sensor, sense_gain,
-                         settle, perm)
+                         settle, perm, air, transducer.rod_area / transducer.sense_area)
 
 
 class _NonlinearStage:
@@ -197,10 +209,12 @@ class _NonlinearStage:
         m_per = harmonic_sum(magnetization.steady(), self.omega, t)
         extra_w, square_w = self._periodic_waveforms(
             h_per, m_per, self._hysteresis_periodic(field, phase))
-        needs_grid = field.has_transient_deviation or hyst is not None
+        linear = field + magnetization  # its exponents: the eddy filter's, on H or M alone
+        needs_grid = linear.has_transient_deviation or hyst is not None
         if not (transient and needs_grid):
-            return extra_w, square_w, _transient_window(field, self.effects, self.omega)
-        step, times = _transient_grid(field, self.effects, self.omega)
+            return extra_w, square_w, _transient_window(linear, field, self.effects,
+                                                        self.omega)
+        step, times = _transient_grid(linear, field, self.effects, self.omega)
         h_full, m_full = field.evaluate(times), magnetization.evaluate(times)
         h_steady = harmonic_sum(field.steady(), self.omega, times)
         m_steady = harmonic_sum(magnetization.steady(), self.omega, times)
@@ -229,22 +243,24 @@ def _with_grid(w: Waveform, step: float, deviation: np.ndarray) -> Waveform:
     return Waveform(w.omega, w.decays, w.harmonics, w.exponents, w.amplitudes, step, deviation)
 
 
-def _transient_window(field: Waveform, effects: EffectSet, omega: float) -> float:
-    """Time after the switch-on beyond which the magnetic state is periodic, [s]."""
+def _transient_window(linear: Waveform, field: Waveform, effects: EffectSet,
+                      omega: float) -> float:
+    """Time after the switch-on beyond which the magnetic state is periodic, [s]; ``linear``
+    holds the transients of H and M, ``field`` is the hysteresis input."""
     window = 0.0
-    if field.exponents.size:
-        window = DECAY_CONSTANTS / float(np.min(-field.exponents.real))
+    if linear.exponents.size:
+        window = DECAY_CONSTANTS / float(np.min(-linear.exponents.real))
     if effects.hysteresis is not None:
         window += effects.hysteresis.window(omega, abs(field.steady()[1]))
     return window
 
 
-def _transient_grid(field: Waveform, effects: EffectSet, omega: float):
+def _transient_grid(linear: Waveform, field: Waveform, effects: EffectSet, omega: float):
     period = 2.0 * math.pi / omega
     step = period / TRANSIENT_STEPS_PER_PERIOD
-    if field.exponents.size:
-        step = min(step, 1.0 / (25.0 * float(np.min(-field.exponents.real))))
-    window = _transient_window(field, effects, omega)
+    if linear.exponents.size:
+        step = min(step, 1.0 / (25.0 * float(np.min(-linear.exponents.real))))
+    window = _transient_window(linear, field, effects, omega)
     count = int(math.ceil(window / step)) + 1
     return step, np.arange(count) * step
 

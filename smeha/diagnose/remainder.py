@@ -1,0 +1,154 @@
+"""What each named cause explains, and what remains unexplained (its signature).
+
+The paper's model leaves a held-out excess chi^2, E_0 = chi^2 - n over the
+held-out features (:attr:`smeha.diagnose.fit.Fit.heldout_excess`). Forward
+selection adds causes one by one (:mod:`smeha.diagnose.decision`); the model
+with the first j causes leaves E_j, so cause j **explains** (E_{j-1} - E_j)/E_0
+of it, and (E_k)/E_0 **remains**, both floored at 0 (an excess below zero is
+noise). A remainder counts as unexplained only while the chosen model is
+outside noise (:func:`smeha.diagnose.decision.within_noise`).
+
+The remainder's **signature** is read from the chosen model's residual over
+every run (training and held-out): the share of its chi^2 in y, in B and in
+the drift terms; in y's and B's fundamental, even and odd (>= 3) harmonics;
+the residual on the falling against the rising current (branch asymmetry); and
+its growth with frequency and with the current's amplitude, each as the
+exponent of a power law fitted in logs (a least-squares line of ln RMS against
+ln f, or the ratio between the largest and the smallest amplitude).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .candidates import Batch
+
+
+def _excess(fit) -> float:
+    return max(fit.heldout_excess, 0.0)
+
+
+def _sub_fit(d, members):
+    """The fit of the model with ``members`` (a set of extension classes) among the
+    diagnosis' fits, or None."""
+    for f in [d.paper] + d.fits + d.combinations + [d.extended]:
+        if set(f.candidate.members) == set(members):
+            return f
+    return None
+
+
+def contributions(d) -> tuple:
+    """({cause: explained fraction}, remaining fraction) of the paper's held-out excess
+    (module docstring); ({}, 1.0) when nothing is named, ({}, 0.0) for "none"."""
+    e0 = _excess(d.paper)
+    if d.cause == "none" or e0 <= 0.0:
+        return {}, 0.0
+    if not d.causes:
+        return {}, 1.0
+    by_cause = {m.cause: m for m in d.extended.candidate.members}
+    out, before, members = {}, e0, []
+    for cause in d.causes:
+        members.append(by_cause[cause])
+        fit = _sub_fit(d, members)
+        after = _excess(fit) if fit is not None else before
+        out[cause] = max(before - after, 0.0) / e0
+        before = after
+    return out, min(max(_excess(d.extended) / e0, 0.0), 1.0)
+
+
+def _power_law(x, y) -> float | None:
+    """Exponent p of y ~ x^p by least squares in logs (None for fewer than 2 distinct x)."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    ok = (x > 0) & (y > 0)
+    if len(set(np.round(x[ok], 9))) < 2:
+        return None
+    return float(np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0])
+
+
+def signature(ev, feats, fit) -> dict:
+    """The residual's signature for the fitted model ``fit`` (module docstring)."""
+    theta = 2.0 * np.pi * np.arange(128) / 128
+    falling = theta < np.pi
+    chi = {"y": 0.0, "B": 0.0, "drift": 0.0}
+    harm = {"y": np.zeros(3), "B": np.zeros(3)}  # fundamental, even, odd >= 3
+    rows = []
+    for rf in feats:
+        one = Batch([rf])
+        y, b, _, _ = ev.predict(one, fit.base, fit.candidate, fit.x)
+        cy, cb, cd = (float(v[0]) for v in ev.parts(one, fit.base, fit.candidate, fit.x))
+        chi["y"] += cy
+        chi["B"] += cb
+        chi["drift"] += cd
+        k = np.arange(1, y.shape[1] + 1)
+        for key, model, data, sd in (("y", y[0], rf.y, one.y_sd[0]),
+                                     ("B", b[0], rf.b, one.b_sd[0])):
+            if key == "B" and not rf.has_b:
+                continue
+            z = np.abs((model - data) / sd) ** 2
+            harm[key] += (z[k == 1].sum(), z[(k % 2 == 0)].sum(), z[(k % 2 == 1) & (k > 1)].sum())
+        r = np.real(np.exp(1j * np.outer(theta, k)) @ (rf.y - y[0]))
+        rows.append((rf.frequency, rf.current_amplitude, float(np.sqrt(np.mean(r * r))),
+                     float(np.sqrt(np.mean(r[falling] ** 2))),
+                     float(np.sqrt(np.mean(r[~falling] ** 2)))))
+    total = sum(chi.values()) or 1.0
+    f, a, rms, fall, rise = (np.array(c) for c in zip(*rows))
+    amps = sorted(set(np.round(a, 3)))
+    amp_law = None
+    if len(amps) > 1:
+        lo = rms[np.isclose(a, amps[0], atol=1e-3)].mean()
+        hi = rms[np.isclose(a, amps[-1], atol=1e-3)].mean()
+        amp_law = float(math.log(hi / lo) / math.log(amps[-1] / amps[0])) if lo > 0 else None
+    harmonics = {}
+    for key, v in harm.items():
+        s = v.sum()
+        if s > 0:
+            harmonics[key] = dict(zip(("fundamental", "even", "odd"), (float(x / s) for x in v)))
+    return {
+        "chi2_share": {k: v / total for k, v in chi.items()},
+        "harmonic_share": harmonics,
+        "branch_asymmetry": float(np.mean(np.abs(fall - rise)) / max(np.mean(rms), 1e-30)),
+        "frequency_exponent": _power_law(f, rms),
+        "amplitude_exponent": amp_law,
+        "residual_rms_um": float(np.sqrt(np.mean(rms * rms))) * 1e6,
+    }
+
+
+def describe(sig) -> str:
+    """The signature in words (for the text report's one line)."""
+    words = []
+    chans = [k for k in ("y", "B") if sig["chi2_share"].get(k, 0.0) >= 0.2]
+    for part, name in (("odd", "odd harmonics"), ("even", "even harmonics"),
+                       ("fundamental", "the fundamental")):
+        where = [k for k in chans if sig["harmonic_share"].get(k, {}).get(part, 0.0) >= 0.3]
+        if where:
+            words.append(f"{name} of {' and '.join(where)}")
+    if sig["chi2_share"].get("drift", 0.0) >= 0.2:
+        words.append("drift within runs")
+    if sig["branch_asymmetry"] >= 0.3:
+        words.append("falling and rising branches differ")
+    p = sig["frequency_exponent"]
+    if p is not None and abs(p) >= 0.5:
+        words.append(f"{'growing' if p > 0 else 'falling'} with frequency as f^{p:.1f}")
+    q = sig["amplitude_exponent"]
+    if q is not None and abs(q - 1.0) >= 0.5:
+        words.append(f"amplitude-dependent (residual ~ I_m^{q:.1f})")
+    return ", ".join(words) or "no dominant pattern"
+
+
+def summary(d, fractions, remaining, sig, outside_noise) -> str:
+    """The one line of the text report (module docstring)."""
+    names = list(fractions)
+    shares = [f"{100 * v:.0f} %" for v in fractions.values()]
+    if len(names) == 1:
+        named = f"{names[0]} explains {shares[0]} of the held-out excess"
+    elif names:
+        named = (f"{', '.join(names[:-1])} and {names[-1]} explain "
+                 f"{', '.join(shares[:-1])} and {shares[-1]} of the held-out excess")
+    else:
+        named = ""
+    if not outside_noise:
+        rest = "the rest is within noise"
+    else:
+        rest = f"{100 * remaining:.0f} % remains unexplained ({describe(sig)})"
+    return f"{named}; {rest}" if named else f"no candidate qualifies; {rest}"
