@@ -23,7 +23,7 @@ Subcommands
 ``smeha diagnose DATA.csv [--holdout RUN,...] [--json] [--report DIR]``
     What the paper's model gets wrong on measured runs, the cause, the
     extended model and its held-out gain (:mod:`smeha.diagnose`).
-``smeha build [--fmi 2|3|both] [--out DIR] [--no-validate] [--system ...]``
+``smeha build [--fmi 2|3|both] [--out DIR] [--no-validate] [--cross-check DIR] [--system ...]``
     Build the FMU(s) (:mod:`smeha.fmu.build`) into the source tree's ``dist/``,
     where ``simulate``, ``flow`` and ``sweep`` look for the FMU; ``--system`` also
     builds the hydraulic plant's and the drive's FMUs and writes the EHA system of
@@ -38,10 +38,11 @@ it to :data:`SUBCOMMANDS`. Build its options from the types of
 the command line is parsed; ``tests/test_cli_input.py`` drives every command
 with bad input on that basis.
 
-Exit status: 0 on success, 1 on a failure of the run (a missing component or
-data file of the installation, failed sweep points), 2 on bad input (the
-command line, :class:`gmt.ParameterError` and the other ``ValueError`` s of
-bad files), printed on stderr on one line without a traceback.
+Exit status: 0 on success, 1 on a failure of the run (:class:`smeha.errors.RunError`,
+a missing component or data file of the installation, failed sweep points), 2 on bad
+input (:class:`smeha.errors.InputError`: the command line, :class:`gmt.ParameterError`,
+bad files), 130 on Ctrl-C, printed on stderr on one line without a traceback. Any other
+exception is a bug and shows its traceback.
 
 Start-up: the heavy modules (numpy, scipy, python-control, fmpy, matplotlib)
 are imported by the command that needs them, so ``smeha --help`` answers at
@@ -56,11 +57,14 @@ import sys
 import gmt  # cheap: its names load on first use (gmt/__init__.py)
 
 from . import __version__
+from .errors import InputError, RunError
 from .cliargs import (Parser, UsageError, add_branch_rule, input_file,
                       join_negative_values, output_dir)
 from .studies.flowcommands import CIRCUITS, FREQUENCY, add_flow, add_simulate, add_sweep
 from .studies.positioncommands import add_position
 from .studies.timedomaincommands import add_timedomain
+
+__all__ = ["SUBCOMMANDS", "build_parser", "main"]
 
 
 def _add_paper(subparsers):
@@ -114,6 +118,10 @@ def _add_build(subparsers):
                         "missing)")
     p.add_argument("--no-validate", action="store_true",
                    help="skip fmpy's validation of the built FMU")
+    p.add_argument("--cross-check", metavar="DIR", type=output_dir,
+                   help="also write each transducer FMU built with the files of the FMI "
+                        "Cross-Check (input, reference result, options, README) under "
+                        "DIR/fmus/... (docs/FMU.md)")
     p.add_argument("--system", action="store_true",
                    help="also build the hydraulic plant's and the drive's FMUs and write the "
                         "EHA as an FMI system: SmehaEha.ssp (SSP 1.0: fmpy), "
@@ -133,6 +141,14 @@ def _run_build(args) -> int:
 
     out = args.out or fmu_build.DIST
     status = fmu_build.build_all(args.fmi, out, validate=not args.no_validate)
+    if args.cross_check and status == 0:
+        from .fmu import crosscheck
+        iface = fmu_build.iface
+        names = {"2": (iface.MODEL_NAME_FMI2,), "3": (iface.MODEL_NAME_FMI3,),
+                 "both": (iface.MODEL_NAME_FMI2, iface.MODEL_NAME_FMI3)}
+        for folder in crosscheck.write(args.cross_check,
+                                       [out / f"{n}.fmu" for n in names[args.fmi]]):
+            print(f"FMI Cross-Check files: {folder}")
     if not args.system:
         return status
     from .fmu import ssp
@@ -262,12 +278,18 @@ def main(argv=None) -> int:
         return exc.code if isinstance(exc.code, int) else 2
     try:
         return args.run(args)
-    except ValueError as exc:  # UsageError, gmt.ParameterError, a bad data file or spec
+    except InputError as exc:  # UsageError, gmt.ParameterError, a bad data file or spec
         print(f"smeha {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except RunError as exc:  # an integration, a coupling, a sweep that stopped
+        print(f"smeha {args.command}: error: the run stopped: {exc}", file=sys.stderr)
+        return 1
     except FileNotFoundError as exc:  # a file of the installation (the paper's data)
         print(f"smeha {args.command}: error: {exc}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:  # Ctrl-C: one line, the shell's 128 + SIGINT
+        print(f"\nsmeha {args.command}: interrupted", file=sys.stderr)
+        return 130
     except BrokenPipeError:  # stdout closed early, e.g. `smeha paper --json | head`
         sys.stdout = open(os.devnull, "w")
         return 1

@@ -21,6 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
+__all__ = ["DATA_DIR_ENV", "COLUMNS", "TABLE1_FILE", "TABLE3_FILE", "STATED_FILE",
+           "DataNotFoundError", "data_dir", "read_csv", "table1", "table3", "stated"]
+
 #: Environment variable that points to another data directory.
 DATA_DIR_ENV = "SMEHA_DATA_DIR"
 
@@ -53,7 +56,7 @@ def data_dir() -> Path:
 
     ``$SMEHA_DATA_DIR`` if set, else ``data/`` next to the ``smeha`` package
     (the repository root, which an editable install, ``pip install -e .``,
-    keeps in place).
+    keeps in place), else ``smeha/data/`` (a wheel carries data/ there).
 
     Raises
     ------
@@ -61,7 +64,10 @@ def data_dir() -> Path:
         When the directory does not exist.
     """
     env = os.environ.get(DATA_DIR_ENV)
-    path = Path(env) if env else Path(__file__).resolve().parent.parent / "data"
+    here = Path(__file__).resolve().parent
+    path = Path(env) if env else next(
+        (p for p in (here.parent / "data", here / "data") if (p / TABLE1_FILE).is_file()),
+        here.parent / "data")
     if not path.is_dir():
         raise DataNotFoundError(
             f"paper data directory {path} not found: smeha reads data/ from its source "

@@ -86,6 +86,11 @@ class DirectTransducer:
         out = self.model.step(control, step, 0.0)
         return out.current, out.magnetics.force
 
+    def outside_design_point(self) -> bool:
+        """Whether the coil current departs from the model's operating point now
+        (:class:`gmt.design_point.DriveMonitor`)."""
+        return bool(self.model.monitor.outside)
+
     def save(self):
         return self.model.get_state()
 
@@ -252,6 +257,10 @@ class FmuTransducer:
         self._check("fmi2DoStep", c["fmi2DoStep"](comp, time, step, self._true))
         self._check("fmi2GetReal", c["fmi2GetReal"](comp, self._drive_out_vr, 2, out))
         return out[0], out[1]
+
+    def outside_design_point(self) -> bool:
+        """The FMU's ``outside_design_point`` output now."""
+        return bool(self.fmu.getBoolean([self._vr["outside_design_point"]])[0])
 
     def save(self):
         comp = self.fmu.component

@@ -40,7 +40,8 @@ __version__ = "0.1.0"
 _EXPORTS = {
     "DEFAULT_CALIBRATION": "calibration", "TABLE_1": "calibration",
     "FluxDensityCalibration": "calibration",
-    "GmtError": "errors", "ParameterError": "errors",
+    "GmtError": "errors", "ParameterError": "errors", "InputError": "errors",
+    "RunError": "errors",
     "ForwardStepper": "forward", "OperatingPoint": "forward", "bias_displacement": "forward",
     "loop_metrics": "forward", "operating_point": "forward", "periodic_response": "forward",
     "simulate": "forward",

@@ -142,13 +142,14 @@ def waveform_rows(frequencies=(50.0, 100.0, 150.0, 200.0), bases=("peak", "rms")
                   backend="direct", workers=1, quiet=True) -> list[dict]:
     """The waveform study's co-simulations: one row a (basis, f, mode, waveform)."""
     cases = waveform_cases(frequencies, bases, backend)
-    rows = flow.run_cases([c for _, _, c in cases], workers=workers, quiet=quiet)
-    for (basis, a, case), row in zip(cases, rows):
+    flows = flow.run_cases([c for _, _, c in cases], workers=workers, quiet=quiet)
+    rows = []
+    for (basis, a, case), row in zip(cases, flows):
         current, saturated = _free_current(case.frequency, case.mode, case.waveform, a)
-        row.update(basis=basis, control_amplitude_V=a,
-                   current_peak_A=float(np.max(np.abs(current))),
-                   current_rms_A=float(np.sqrt(np.mean(current * current))),
-                   saturated_samples=saturated)
+        rows.append(dict(row, basis=basis, control_amplitude_V=a,
+                         current_peak_A=float(np.max(np.abs(current))),
+                         current_rms_A=float(np.sqrt(np.mean(current * current))),
+                         saturated_samples=saturated))
     return rows
 
 

@@ -9,6 +9,8 @@ import json
 
 from ..cliargs import count, number_list, output_file
 
+__all__ = ["STUDIES", "DEFAULT_FREQUENCIES", "add_timedomain"]
+
 STUDIES = ("compare", "waveforms", "gains")
 #: Frequencies of each study by default, [Hz].
 DEFAULT_FREQUENCIES = {"waveforms": [50.0, 100.0, 150.0, 200.0],

@@ -14,6 +14,8 @@ from matplotlib.lines import Line2D  # noqa: E402
 
 from .flowplots import MODE_COLOURS  # noqa: E402
 
+__all__ = ["STYLES", "BASES", "plot_waveforms"]
+
 #: Line style and marker of each waveform.
 STYLES = {"sine": ("-", "o"), "square": ("--", "s"), "trapezoid": (":", "^")}
 BASES = {"peak": "equal peak current (1 A)", "rms": "equal RMS current (0.707 A)"}
