@@ -159,6 +159,12 @@ class SlaveBase:
             return json.dumps({"invalid": f"not serialisable: {exc}"}).encode("utf-8")
 
 
+#: Log category of the word an FMI 2.0 slave gives the FMU's loader just before it raises in
+#: :func:`fail_step_fmi2`: the instance is still usable (``smeha_fmu_loader.c`` then returns
+#: fmi2Error for pythonfmu's fmi2Fatal and passes the word on to no host).
+RECOVERABLE_CATEGORY = "smehaRecoverable"
+
+
 def fail_step_fmi2(slave, message: str):
     """An FMI 2.0 (pythonfmu 0.7) slave's failed step: raise, so that the host gets fmi2Fatal.
 
@@ -181,4 +187,6 @@ def fail_step_fmi2(slave, message: str):
     incref.restype = None
     for obj in (type(slave), slave, slave.log_queue):
         incref(obj)
+    slave.log("the instance stays usable: terminate, reset or free it", slave.STATUS_ERROR,
+              RECOVERABLE_CATEGORY)
     raise RuntimeError(message)

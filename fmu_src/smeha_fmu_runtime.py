@@ -1,8 +1,10 @@
 """The FMU's Python run time: which interpreter it runs in and where its packages are.
 
-A pythonfmu FMU embeds no Python: its binary calls the CPython 3.11 of the host
-process, or, in a host that has none (a C or C++ tool), starts one from the
-``libpython`` the build made a needed library of the binary
+A pythonfmu FMU embeds no Python: its binary calls the CPython of the host process, or,
+in a host that has none (a C or C++ tool), the one the FMU's loader found and started
+(``smeha_fmu_loader.c``: ``SMEHA_FMU_PYTHON``, the build's Python, ``python3`` on
+``PATH``, the system's libpython). An FMU built without the loader (no C compiler) starts
+the ``libpython`` the build made a needed library of pythonfmu's binary
 (``smeha.fmu.build``). Each slave calls :func:`prepare` as its first statement,
 before pythonfmu, numpy or gmt are imported, because three things may need
 mending first, in this order:
@@ -162,14 +164,25 @@ def required_packages(record: dict) -> tuple:
     return tuple(name for name in record["required"] if name)
 
 
+def _same_minor_version(record: dict) -> bool:
+    """Whether this interpreter is the build's X.Y (whose compiled packages it can import);
+    True when the record states no version."""
+    recorded = (record.get("version") or [""])[0].split()
+    if not recorded:
+        return True
+    return recorded[0].split(".")[:2] == [str(v) for v in sys.version_info[:2]]
+
+
 def find_packages(record: dict, packages=REQUIRED_PACKAGES) -> list[str]:
     """Make ``packages`` importable; return those still missing.
 
     The host's own ``sys.path`` comes first; the build environment's
-    site-packages are appended only when a package is missing there.
+    site-packages are appended only when a package is missing there and this
+    interpreter is the build's X.Y (another version cannot import their compiled
+    modules: the FMU's loader then chose this Python for having the packages itself).
     """
     missing = _missing(packages)
-    if missing:
+    if missing and _same_minor_version(record):
         for path in record.get("site", []):
             if path not in sys.path:
                 sys.path.append(path)

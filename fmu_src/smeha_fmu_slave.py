@@ -186,11 +186,12 @@ class TransducerSlave(SlaveBase):
         try:
             if self._build(parameter_values(self)):
                 self._rest_outputs()
-                bundled = Path(self.resources or ".").resolve()
-                used = Path(self.PHYSICS.__file__).resolve()
-                if bundled not in used.parents:
-                    self._report(f"gmt is imported from {used.parent}, not from the FMU's "
-                                 f"resources: another FMU loaded smeha_fmu_gmt first",
+                used = Path(self.PHYSICS.__file__).resolve().parent
+                bundled = Path(self.resources or ".").resolve() / used.name
+                if used != bundled and not _same_sources(used, bundled):
+                    self._report(f"gmt is imported from {used}, not from the FMU's "
+                                 f"resources, and differs from this FMU's: another FMU "
+                                 f"(another smeha version) loaded {used.name} first",
                                  self.STATUS_WARNING)
         except Exception as exc:
             self._transducer = None
@@ -280,3 +281,14 @@ class TransducerSlave(SlaveBase):
         if "invalid" not in out:
             out["typed"] = False  # coerce each value again on restore
         return out
+
+
+def _same_sources(a, b) -> bool:
+    """Whether packages ``a`` and ``b`` (folders) hold the same Python sources: the same FMU
+    loaded twice (two extractions) shares its physics harmlessly."""
+    def sources(root):
+        return {p.relative_to(root): p.read_bytes() for p in sorted(root.rglob("*.py"))}
+    try:
+        return sources(a) == sources(b)
+    except OSError:
+        return False

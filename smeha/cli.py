@@ -23,7 +23,7 @@ Subcommands
 ``smeha diagnose DATA.csv [--holdout RUN,...] [--json] [--report DIR]``
     What the paper's model gets wrong on measured runs, the cause, the
     extended model and its held-out gain (:mod:`smeha.diagnose`).
-``smeha build [--fmi 2|3|both] [--out DIR] [--no-validate] [--system ...]``
+``smeha build [--fmi 2|3|both] [--out DIR] [--no-validate] [--cross-check DIR] [--system ...]``
     Build the FMU(s) (:mod:`smeha.fmu.build`) into the source tree's ``dist/``,
     where ``simulate``, ``flow`` and ``sweep`` look for the FMU; ``--system`` also
     builds the hydraulic plant's and the drive's FMUs and writes the EHA system of
@@ -117,6 +117,10 @@ def _add_build(subparsers):
                         "missing)")
     p.add_argument("--no-validate", action="store_true",
                    help="skip fmpy's validation of the built FMU")
+    p.add_argument("--cross-check", metavar="DIR", type=output_dir,
+                   help="also write each transducer FMU built with the files of the FMI "
+                        "Cross-Check (input, reference result, options, README) under "
+                        "DIR/fmus/... (docs/FMU.md)")
     p.add_argument("--system", action="store_true",
                    help="also build the hydraulic plant's and the drive's FMUs and write the "
                         "EHA as an FMI system: SmehaEha.ssp (SSP 1.0: fmpy), "
@@ -136,6 +140,14 @@ def _run_build(args) -> int:
 
     out = args.out or fmu_build.DIST
     status = fmu_build.build_all(args.fmi, out, validate=not args.no_validate)
+    if args.cross_check and status == 0:
+        from .fmu import crosscheck
+        iface = fmu_build.iface
+        names = {"2": (iface.MODEL_NAME_FMI2,), "3": (iface.MODEL_NAME_FMI3,),
+                 "both": (iface.MODEL_NAME_FMI2, iface.MODEL_NAME_FMI3)}
+        for folder in crosscheck.write(args.cross_check,
+                                       [out / f"{n}.fmu" for n in names[args.fmi]]):
+            print(f"FMI Cross-Check files: {folder}")
     if not args.system:
         return status
     from .fmu import ssp

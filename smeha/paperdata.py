@@ -56,7 +56,7 @@ def data_dir() -> Path:
 
     ``$SMEHA_DATA_DIR`` if set, else ``data/`` next to the ``smeha`` package
     (the repository root, which an editable install, ``pip install -e .``,
-    keeps in place).
+    keeps in place), else ``smeha/data/`` (a wheel carries data/ there).
 
     Raises
     ------
@@ -64,7 +64,10 @@ def data_dir() -> Path:
         When the directory does not exist.
     """
     env = os.environ.get(DATA_DIR_ENV)
-    path = Path(env) if env else Path(__file__).resolve().parent.parent / "data"
+    here = Path(__file__).resolve().parent
+    path = Path(env) if env else next(
+        (p for p in (here.parent / "data", here / "data") if (p / TABLE1_FILE).is_file()),
+        here.parent / "data")
     if not path.is_dir():
         raise DataNotFoundError(
             f"paper data directory {path} not found: smeha reads data/ from its source "

@@ -99,9 +99,27 @@ def test_dc_drive_is_flagged(params):
     assert not current.any()
     rise = y[-1] - gmt.bias_displacement(params)
     assert 12e-6 < rise < 14e-6
-    # judged on the first half period of the operating point (10 ms at 50 Hz)
-    assert flag[t >= 0.0101].all() and not flag[t < 0.0099].any()
+    # issue 20: flagged from the second sample (one cannot tell a still current from a
+    # sinusoid), not after the first half period of the operating point (10 ms at 50 Hz)
+    assert not flag[0] and flag[1:].all()
     assert REASONS[tr.monitor.reason] == "standing still"
+    assert tr.monitor.departures == 1
+
+
+@pytest.mark.parametrize("f", [50.0, 100.0])
+def test_a_sinusoid_starting_at_zero_is_not_taken_for_a_current_at_rest(f):
+    # the drive sin(2 pi f t) starts where u = 0 does: it moves by I_m w h per step there,
+    # four times the rest rule's bound I_m sin(pi f h)/2 (design_point's docstring)
+    tr, t, _, flag, _ = run(lambda t: math.sin(2 * math.pi * f * t), 0.1,
+                            excitation=gmt.Excitation(f, 1.0))
+    assert not flag.any() and tr.monitor.departures == 0
+
+
+def test_a_current_at_rest_is_judged_without_the_compensator_only():
+    # the compensator holds its current over its sample period (100 us = 10 FMU steps):
+    # equal samples there are no rest; its still demand is caught by the half-period rule
+    _, t, _, flag, _ = run(lambda t: 0.0, 0.04, drive=gmt.DriveParameters(compensated=True))
+    assert not flag[t < 0.0099].any() and flag[t >= 0.0101].all()
 
 
 def test_a_step_of_current_is_flagged_at_the_step(params):
@@ -109,7 +127,9 @@ def test_a_step_of_current_is_flagged_at_the_step(params):
     # quadrature from the direction of the step): flagged at the step, and while held
     tr, t, y, flag, _ = run(lambda t: 1.0 if t >= 5e-3 else 0.0, 0.04)
     k = int(round(5e-3 / H))
-    assert not flag[:k].any() and flag[k:].all()
+    # the current at rest at zero before the step is flagged from the second sample
+    assert not flag[0] and flag[1:].all()
+    assert tr.monitor.departures == 1  # outside once, and it stays
     # with the compensator (whose current jumps where Figure 9 switches branch, so jumps
     # are not judged), the held demand is caught as standing still
     tr, t, _, flag, _ = run(lambda t: 4.4 if t >= 5e-3 else 0.0, 0.04,

@@ -284,10 +284,12 @@ INPUT_CASES = ("u_nan", "u_inf", "u_nan_compensated", "force_nan_compensated",
 #: Bad parameters: case -> the parameter its message names (tests/fmu_runner.py).
 PARAMETER_CASES = {case: named for case, (_, named) in BAD_PARAMETERS.items()}
 DISCARD, ERROR, FATAL = 2, 3, 4
-#: What doStep of an unusable instance (bad parameter, missing package) returns: FMI 3.0
-#: Error (pythonfmu3 takes a do_step result's status); FMI 2.0 Fatal, the one status above
-#: Discard pythonfmu 0.7 can return (docs/FMU.md, "Errors").
-UNUSABLE = {"2": FATAL, "3": ERROR}
+#: What doStep of an unusable instance (bad parameter, missing package) returns: Error. FMI
+#: 3.0: pythonfmu3 takes a do_step result's status; FMI 2.0: pythonfmu 0.7 answers the slave's
+#: exception with Fatal, which the FMU's loader turns into Error for the slave's
+#: SmehaRecoverableError (docs/FMU.md, "Errors"; FMI 2.0.4 keeps Fatal for a model
+#: corrupted for all instances).
+UNUSABLE = {"2": ERROR, "3": ERROR}
 
 
 def check_bad_input(results, fmi):
@@ -333,3 +335,50 @@ def test_memory_is_flat_over_1e5_steps(fmu_dist, runner_dir):
     samples = res["samples"]
     growth = samples[-1][1] - samples[0][1]  # after 1e4 warm-up steps to 1e5 steps, [MB]
     assert growth < 2.0, samples
+
+
+# -- the documentation's fmpy example runs as shown ----------------------------------------------
+def test_the_docs_fmpy_example_runs_without_warnings(fmu_dist, tmp_path):
+    # issue 20 item 6: docs/FMU.md's simulate_fmu example printed fmpy's
+    # 'Warning: missing input for variable "external_force"'; run as written (a child: the
+    # pytest process has imported the repository's gmt), on this session's FMU
+    import re
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "FMU.md").read_text()
+    section = doc[doc.index("### fmpy"):]
+    code = re.search(r"```python\n(.+?)```", section, re.S).group(1)
+    assert "simulate_fmu(" in code and '"dist/SmehaGmt.fmu"' in code
+    code = code.replace('"dist/SmehaGmt.fmu"', repr(str(fmu_dist["2"])))
+    code += "\nprint('rows', len(res), 'max current', max(res['current']))\n"
+    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=child_env(),
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert "Warning" not in proc.stdout + proc.stderr, proc.stdout + proc.stderr
+    rows, peak = re.search(r"rows (\d+) max current (\S+)", proc.stdout).groups()
+    assert int(rows) == 10001 and abs(float(peak) - 1.0) < 1e-6  # the 50 Hz drive, 1 A
+
+
+_TWICE = """
+import sys
+from pathlib import Path
+from fmpy import extract, simulate_fmu
+fmu, tamper = sys.argv[1], sys.argv[2] == "tamper"
+for k in range(2):
+    folder = extract(fmu)
+    if tamper and k == 1:  # the second copy's physics differs from the one loaded first
+        init = Path(folder) / "resources" / "smeha_fmu_gmt" / "__init__.py"
+        init.write_text(init.read_text() + "# another version\\n")
+    simulate_fmu(folder, stop_time=1e-4, output_interval=1e-5, debug_logging=True)
+"""
+
+
+@pytest.mark.parametrize("tamper", [False, True])
+def test_loading_the_fmu_twice_warns_only_when_the_physics_differs(tamper, fmu_dist, tmp_path):
+    # issue 20 item 6: the same FMU loaded twice in one process (two extractions) shares its
+    # physics under one module name; that is no cause for a warning, a different copy is
+    proc = subprocess.run([sys.executable, "-c", _TWICE, str(fmu_dist["2"]),
+                           "tamper" if tamper else "same"], cwd=tmp_path, env=child_env(),
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    warned = "gmt is imported from" in proc.stdout + proc.stderr
+    assert warned == tamper, proc.stdout + proc.stderr

@@ -63,6 +63,12 @@ def test_packages_and_test_configuration():
     for package in setup["packages"]:
         # a subpackage (system_models.kernel) is listed too: setuptools takes no subpackages
         folder = ROOT / setup.get("package-dir", {}).get(package, package.replace(".", "/"))
+        if package in setup.get("package-data", {}) and not (folder / "__init__.py").is_file():
+            # files that travel in the wheel (fmu_src/ as smeha.fmu.sources, data/ as
+            # smeha.data): no package, but the folder holds files of its patterns
+            patterns = setup["package-data"][package] + ["*.py"]
+            assert any(any(folder.glob(p)) for p in patterns), package
+            continue
         assert (folder / "__init__.py").is_file(), package
     pytest_cfg = meta["tool"]["pytest"]["ini_options"]
     assert any(m.startswith("integration:") for m in pytest_cfg["markers"])
@@ -147,3 +153,23 @@ def test_the_repository_stands_alone():
                 if outside.search(line):
                     found.append(f"{name}:{k}: {line.strip()}")
     assert not found, "\n".join(found)
+
+
+def test_license_and_changelog():
+    # issue 20 item 6: pyproject says MIT; the LICENSE file says so too, and the changelog has
+    # an entry for the version pyproject gives
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert meta["project"]["license"] == {"text": "MIT"}
+    license_text = (ROOT / "LICENSE").read_text()
+    assert license_text.startswith("MIT License\n")
+    assert "Permission is hereby granted" in license_text
+    changelog = (ROOT / "CHANGELOG.md").read_text()
+    assert f"## {meta['project']['version']} " in changelog
+
+
+@pytest.mark.parametrize("doc", ["README.md", *sorted(
+    str(p.relative_to(ROOT)) for p in (ROOT / "docs").glob("*.md"))])
+def test_docs_hold_no_notes_to_the_lead(doc):
+    # issue 20 item 6: docs/MEASURED.md opened with "(README section, for the lead to merge.)"
+    text = (ROOT / doc).read_text()
+    assert not re.search(r"for the lead|to merge\.\)", text), doc

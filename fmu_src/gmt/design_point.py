@@ -31,7 +31,14 @@ from the operating point (f, I_m):
   than f;
 * **a step** (without the compensator; its current jumps where Figure 9 switches
   branch) -- a change between two samples more than three times the largest a sinusoid
-  at (f, I_m) makes over that step, I_m w h, plus I_m/20.
+  at (f, I_m) makes over that step, I_m w h, plus I_m/20;
+* **at rest near zero** (without the compensator, whose current is held over its own
+  sample period) -- two samples within I_m/4 of zero, a step of at most T/8 apart, that
+  differ by less than I_m sin(pi f h)/2: a sinusoid of amplitude I_m passing there moves
+  by at least 2 I_m sin(pi f h) cos(asin(1/4) + pi f h) >= 1.6 I_m sin(pi f h), over three
+  times that (only one of amplitude below I_m/4 stays under it, the bound of standing
+  still above). A current at rest from the start (u = 0) is so flagged from the second
+  sample, not after half a period (issue 20; one sample cannot tell it from a sinusoid).
 
 The verdict stays until a full period passes every check again. With ``follow`` the
 monitor instead asks its owner (:class:`gmt.Transducer`) to move the operating point to
@@ -177,8 +184,15 @@ class DriveMonitor:
         """
         i, t, i1 = current, self.time, self.i1
         retune = None
-        if self.steps and abs(i - i1) > self._jump * self.h1 + self._jump0:
-            self.depart(5)  # NaN before the first sample compares False
+        if self.steps:
+            change = abs(i - i1)  # NaN before the first sample: every comparison False
+            if change > self._jump * self.h1 + self._jump0:
+                self.depart(5)
+            elif (abs(i) < self._still and abs(i1) < self._still
+                  and self.h1 <= self._half / 4.0
+                  and change < 0.5 * self.model[1] * math.sin(math.pi * self.model[0]
+                                                               * self.h1)):
+                self.depart(4)
         # standing still: the range over every half period
         if i > self.w_high:
             self.w_high = i

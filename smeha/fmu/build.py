@@ -48,14 +48,19 @@ from dataclasses import dataclass
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
-from . import native
+from . import loader, native
 
-#: Repository root (the build needs the source tree: fmu_src/ is not installed).
+#: The folder holding the packages: the source tree's root in a checkout (also under
+#: ``pip install -e``), site-packages in an installed wheel.
 REPO = Path(__file__).resolve().parents[2]
-FMU_SRC = REPO / "fmu_src"
+#: Whether smeha runs from its source tree; an installed wheel carries the FMU sources as
+#: package data, ``smeha/fmu/sources/`` (pyproject's package-dir).
+IN_SOURCE_TREE = (REPO / "fmu_src" / "smeha_fmu_interface.py").is_file()
+FMU_SRC = REPO / "fmu_src" if IN_SOURCE_TREE else Path(__file__).resolve().parent / "sources"
 #: Where ``smeha build`` writes the FMUs and ``smeha simulate``/``flow``/``sweep`` look for
-#: ``SmehaGmt.fmu``: dist/ of the source tree, whatever the current folder.
-DIST = REPO / "dist"
+#: ``SmehaGmt.fmu``: dist/ of the source tree, whatever the current folder; installed from a
+#: wheel, ``dist/`` of the current folder.
+DIST = REPO / "dist" if IN_SOURCE_TREE else Path.cwd() / "dist"
 
 
 def _fmu_src_neighbours(module: str) -> list[str]:
@@ -117,7 +122,8 @@ COMMON_MODULES = (iface.RUNTIME_MODULE, iface.VARIABLES_MODULE, iface.BASE_MODUL
 #: format of the build environment record.
 runtime = _load_from_fmu_src(RUNTIME_MODULE)
 #: Source of each package an FMU may bundle (under a name of its own, :class:`FmuSpec`).
-PACKAGE_SOURCES = {"gmt": FMU_SRC / "gmt", "system_models": REPO / "system_models"}
+PACKAGE_SOURCES = {"gmt": FMU_SRC / "gmt" if IN_SOURCE_TREE else REPO / "gmt",
+                   "system_models": REPO / "system_models"}
 
 
 @dataclass(frozen=True)
@@ -312,11 +318,37 @@ def finish_model_description(xml: bytes, variables=None) -> bytes:
 LINUX_BINARIES = ("binaries/linux64/", "binaries/x86_64-linux/")
 
 
+def _linux_binaries(zin: zipfile.ZipFile, record: dict) -> dict:
+    """The FMU's Linux binary members: the loader (:mod:`smeha.fmu.loader`) as
+    ``<modelIdentifier>.so`` and pythonfmu's binary beside it, or, where the loader cannot be
+    compiled (the reason is printed), pythonfmu's binary linked to the libpython of the
+    environment record (:mod:`smeha.fmu.native`)."""
+    root = ET.fromstring(zin.read("modelDescription.xml"))
+    fmi = root.get("fmiVersion", "2")[0]
+    ident = root.find("CoSimulation").get("modelIdentifier")
+    out = {}
+    for name in zin.namelist():
+        if not (name.startswith(LINUX_BINARIES) and name == f"{name.rsplit('/', 1)[0]}/"
+                f"{ident}.so"):
+            continue
+        data = zin.read(name)
+        try:
+            out[name] = loader.compile_loader(fmi, ident, root.get("modelName", ident),
+                                              FMU_SRC / loader.SOURCE_NAME)
+            out[name[:-len(".so")] + loader.TARGET_SUFFIX] = data
+        except loader.LoaderError as exc:
+            print(f"smeha build: note: no loader for {ident} ({exc}): its binary runs with "
+                  "the build's Python only (docs/FMU.md)", file=sys.stderr)
+            out[name] = (native.link_libpython(data, record["libpython"][0])
+                         if record.get("libpython") else data)
+    return out
+
+
 def rewrite_fmu(raw: Path, dest: Path, variables=None, extra=None) -> Path:
     """Write ``dest``: ``raw`` with its model description finished (``variables`` as
     :func:`patch_fmi2`), the members ``extra`` (archive name -> bytes) added, its Linux binary
-    linked to the libpython of its environment record (:mod:`smeha.fmu.native`),
-    members sorted, timestamps fixed (SOURCE_DATE_EPOCH, else 1980-01-01)."""
+    the loader (:func:`_linux_binaries`), members sorted, timestamps fixed
+    (SOURCE_DATE_EPOCH, else 1980-01-01)."""
     stamp = _build_time().timetuple()[:6] if os.environ.get("SOURCE_DATE_EPOCH") \
         else (1980, 1, 1, 0, 0, 0)
     dest.parent.mkdir(parents=True, exist_ok=True)
@@ -326,13 +358,11 @@ def rewrite_fmu(raw: Path, dest: Path, variables=None, extra=None) -> Path:
             zin.read(f"resources/{runtime.ENVIRONMENT_FILE}").decode("utf-8"))
         members = {name: None for name in zin.namelist()}
         members.update(extra or {})
+        members.update(_linux_binaries(zin, record))
         for name in sorted(members):
             data = zin.read(name) if members[name] is None else members[name]
             if name == "modelDescription.xml":
                 data = finish_model_description(data, variables)
-            elif (name.startswith(LINUX_BINARIES) and name.endswith(".so")
-                  and record.get("libpython")):
-                data = native.link_libpython(data, record["libpython"][0])
             info = zipfile.ZipInfo(name, date_time=stamp)
             info.compress_type = zipfile.ZIP_DEFLATED
             info.external_attr = 0o644 << 16

@@ -1,5 +1,10 @@
 """What the FMU needs to run in a host that is not a Python program (issue 13 items 1-2).
 
+Since issue 20 the FMU's binary is a loader that finds a Python at run time
+(:mod:`smeha.fmu.loader`); the environment record below is still written (the loader reads
+its ``executable`` and ``required``), and linking libpython is the fallback of a build
+without a C compiler.
+
 pythonfmu's export library (the FMU's ``binaries/<platform>/<id>.so``) calls the
 Python C API but does not link libpython: it relies on a host that already has
 it, and a C host fails with ``undefined symbol: _Py_NoneStruct``. At build time
@@ -94,7 +99,10 @@ def environment_record(packages) -> dict:
     # Unix binary); a build elsewhere records none and leaves the binaries as they are
     libpython = [str(find_libpython())] if sys.platform.startswith("linux") else []
     # "required" lists the packages (an empty value: none beyond the standard library)
-    return {"version": [sys.version], "base_prefix": [sys.base_prefix],
+    # "executable": the Python the FMU's loader tries after SMEHA_FMU_PYTHON (a venv's own
+    # python, so that the loader starts it with the venv's site-packages)
+    return {"version": [sys.version], "executable": [sys.executable],
+            "base_prefix": [sys.base_prefix],
             "base_exec_prefix": [sys.base_exec_prefix], "libpython": libpython,
             "stdlib": stdlib, "site": sites, "required": list(packages) or [""]}
 
