@@ -17,7 +17,8 @@ extension ``smeha diagnose`` names) runs the transducer with that extension
 added -- through the FMU's ``model_variant`` and ``variant_parameters``, or
 ``gmt.Transducer(variant=...)`` in-process -- so the flow with the paper's
 model and with the extended model can be compared
-(:func:`smeha.studies.flowtables.format_comparison`, ``smeha flow --variant FILE``). The compensator stays the paper's inverse
+(:func:`smeha.studies.flowtables.format_comparison`, ``smeha flow --variant FILE``).
+The compensator stays the paper's inverse
 model in both.
 
 Results a reader could misread are flagged (:func:`flag_row`), in the table,

@@ -132,7 +132,8 @@ def _add_cosim_options(p):
 def _add_load(p):
     p.add_argument("--load", type=number(unit="N"), metavar="N",
                    help="load on the cylinder [N]: positive opposes the pumped direction "
-                        f"(oil into the big cavity), negative assists it (default {REALISTIC_LOAD:g} "
+                        "(oil into the big cavity), negative assists it (default "
+                        f"{REALISTIC_LOAD:g} "
                         "realistic, 0 ideal and differential)")
 
 

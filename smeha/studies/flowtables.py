@@ -109,7 +109,8 @@ def format_comparison(pairs, variant: gmt.ModelVariant, source: str = "") -> str
 
 def _comparison_notes(pairs) -> list[str]:
     """The reasons behind the comparison's (!) marks, each once with the rows it applies to:
-    the variant's (smeha.studies.variantcheck), then the variant rows' own flags (:func:`flag_row`)."""
+    the variant's (smeha.studies.variantcheck), then the variant rows' own flags
+    (:func:`smeha.studies.flow.flag_row`)."""
     grouped = {}
     for c in pairs:
         where = f"{c['frequency_Hz']:g} Hz {c['mode']}"

@@ -503,7 +503,8 @@ def plot_sweep(rows, path) -> Path:
     ok = [r for r in rows if r["status"] in FINISHED]
     fig, ax = plt.subplots(figsize=(6.5, 4.8))
     groups = sorted({(r["mode"], r["load_N"], r["circuit"]) for r in ok})
-    # colour = mode, as in every flow figure (smeha.studies.flowplots); marker and line = load, circuit
+    # colour = mode, as in every flow figure (smeha.studies.flowplots); marker and line =
+    # load, circuit
     cases = sorted({(load, circuit) for _, load, circuit in groups})
     for mode, load, circuit in groups:
         rs = sorted((r for r in ok if (r["mode"], r["load_N"], r["circuit"]) == (mode, load,
