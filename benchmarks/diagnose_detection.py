@@ -17,7 +17,8 @@ only its public API is used) or, with ``--generator synthetic``, from the projec
     python benchmarks/diagnose_detection.py [--generator labsim|synthetic] [--seeds 20]
         [--first-seed 0] [--rates 100,800,20000Hz] [--cases clean,singles,pairs]
         [--strengths 1] [--noises 0.05] [--workers 2] [--no-sense]
-        [--formulation default|alt] [--low-frequency-cycles 3] [--start-in-transient]
+        [--formulation default|alt] [--formulations EFFECT=NAME,...]
+        [--low-frequency-cycles 3] [--start-in-transient]
         [--json]
     python benchmarks/diagnose_detection.py --markdown STUDY.json[.gz]
 
@@ -68,8 +69,9 @@ def _runs(generator, effects, seed, rate, strength, noise, sense=True, options=(
         sys.path.insert(0, str(TESTS))
         from labsim_runs import runs
 
+        opts = {k: (dict(v) if k == "formulations" else v) for k, v in options}
         return runs({e: strength for e in effects} or None, seed=seed, noise_um=noise,
-                    sense_coil=sense, **dict(options), **_rate_kwargs(rate))
+                    sense_coil=sense, **opts, **_rate_kwargs(rate))
     if not sense or options:
         raise ValueError("--no-sense, --formulation and the record options are labsim's")
     from smeha.synthetic import generate_runs
@@ -225,6 +227,9 @@ def main(argv=None):
     ap.add_argument("--formulation", choices=("default", "alt"), default="default",
                     help="labsim's formulation of every effect: its first or its second "
                          "(tests/labsim/README.md, 'Second formulations')")
+    ap.add_argument("--formulations", default="", metavar="EFFECT=NAME,...",
+                    help="labsim's formulation of named effects (tests/labsim/README.md, "
+                         "e.g. rate_independent_hysteresis=general_preisach)")
     ap.add_argument("--low-frequency-cycles", type=int, default=None, metavar="N",
                     help="labsim records N cycles of the runs below 10 Hz (default: 6)")
     ap.add_argument("--start-in-transient", action="store_true",
@@ -251,6 +256,8 @@ def main(argv=None):
     noises = [float(s) for s in args.noises.split(",")]
     options = tuple((k, v) for k, v in (
         ("formulation", args.formulation if args.formulation != "default" else None),
+        ("formulations", tuple(tuple(kv.split("=", 1)) for kv in args.formulations.split(",")
+                               if kv) or None),
         ("low_frequency_cycles", args.low_frequency_cycles),
         ("start_in_transient", args.start_in_transient or None)) if v is not None)
     tasks = [(args.generator, case, seed, rate, strength if case else 1.0, noise,

@@ -36,6 +36,8 @@ BENCHMARKS = {
     "diagnose_detection": (["--seeds", "20"], ["--seeds", "1", "--rates", "100"]),
     "system_step": ([], ["--steps", "1e-5", "--frequencies", "100", "--cycles", "4"]),
     "compensator_convergence": ([], ["--no-cosim", "--periods", "1e-4,1e-5"]),
+    "position_realtime": ([], ["--repeats", "1", "--modes", "compensated"]),
+    "timedomain_step_cost": ([], ["--runs", "2", "--steps", "3000"]),
 }
 
 

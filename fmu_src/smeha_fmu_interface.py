@@ -80,6 +80,10 @@ MODEL_VARIANTS = ("paper", "rate_independent_hysteresis",
                   "mechanical_resonance", "mechanical_resonance:two_dof", "thermal_drift")
 #: Accepted values of the String parameter ``branch_rule`` (gmt.parameters.BRANCH_RULES).
 BRANCH_RULES = ("control", "demand")
+#: Accepted values of the String parameter ``magnetics`` (gmt.transducer.MAGNETICS).
+MAGNETICS = ("paper", "time_domain")
+#: Accepted values of ``inverse_model``: the inverse of the magnetics in use, or either.
+INVERSE_MODELS = ("same", *MAGNETICS)
 
 #: DefaultExperiment: five periods of the paper's 50 Hz case at a 10 us step.
 DEFAULT_EXPERIMENT = {"start_time": 0.0, "stop_time": 0.1, "step_size": 1e-5}
@@ -102,7 +106,7 @@ def _out(name, unit, description, kind="Real"):
                     description, None, "output")
 
 
-_T, _E, _D, _M = "transducer", "excitation", "drive", "model"
+_T, _E, _D, _M, _TD = "transducer", "excitation", "drive", "model", "timedomain"
 
 #: Every variable, in registration order (inputs, parameters, outputs).
 VARIABLES: tuple[Variable, ...] = (
@@ -186,6 +190,22 @@ VARIABLES: tuple[Variable, ...] = (
          "keyed as the candidate's \"parameters\" in smeha diagnose --json, e.g. "
          "{\"delay_s\": 0.0005}; {} for \"paper\"; for a combination, one such object "
          "per member keyed by the member's name", "{}", kind="String"),
+    _par(_M, "magnetics", None, "Magnetics of the transducer model: \"paper\" (the complex "
+         "permeability of eqs 3-20, defined for one sinusoid at (frequency, "
+         "current_amplitude)) or \"time_domain\" (the paper's loss separation as a field "
+         "separation, valid for any current: outside_design_point stays false; "
+         "model_variant \"paper\" only)", "paper", kind="String"),
+    _par(_M, "inverse_model", None, "Compensated drive: the model the compensator inverts, "
+         "\"same\" (that of magnetics), \"paper\" (Figure 9, eqs 31-37) or "
+         "\"time_domain\" (the explicit inverse for any demanded stroke)", "same",
+         kind="String"),
+    # -- TimeDomainParameters: what magnetics "time_domain" adds to Table 2 ---------
+    _par(_TD, "reversible_permeability", "1", "Time-domain magnetics: relative permeability "
+         "of the reversible curve about the bias (fitted to Table 1 at 5 Hz)", 12.08),
+    _par(_TD, "steinmetz_upper", "T", "Time-domain magnetics: largest flux-density half-swing "
+         "for which the hysteresis loss per cycle is K_h B_m^n (eq 7)", 0.2),
+    _par(_TD, "steinmetz_lower", "T", "Time-domain magnetics: half-swing below which the "
+         "hysteresis loss turns Rayleigh-like (dH/dB finite at reversals)", 2e-3),
     # -- calculated parameters: the mechanics the force drives, for a host that
     #    integrates the rod with its load (e.g. a pump chamber fed the output `force`)
     _calc("equivalent_mass", "kg", "Mass m of eq 27 in effect: Table 2's mass, the "
@@ -223,7 +243,8 @@ VARIABLES: tuple[Variable, ...] = (
          "sinusoid at (operating_frequency, operating_current_amplitude) the complex "
          "permeability is defined for (eqs 1-2, 31): frequency off by more than 5 %, "
          "amplitude or offset by more than 1 % of I_m (judged each period), standing still "
-         "(DC, a step's plateau) or stepping; a warning is logged the first time",
+         "(DC, a step's plateau) or stepping; a warning is logged the first time. Always "
+         "false with magnetics \"time_domain\" (every drive is inside that model)",
          kind="Boolean"),
     _out("operating_frequency", "Hz", "Frequency f of the operating point the model runs "
          "at: the frequency parameter, or with follow_drive the drive's last full period's"),
@@ -238,6 +259,7 @@ OUTPUTS = tuple(v.name for v in VARIABLES if v.causality == "output")
 TRANSDUCER_PARAMETERS = tuple(v.name for v in VARIABLES if v.group == _T)
 EXCITATION_PARAMETERS = tuple(v.name for v in VARIABLES if v.group == _E)
 DRIVE_PARAMETERS = tuple(v.name for v in VARIABLES if v.group == _D)
+TIME_DOMAIN_PARAMETERS = tuple(v.name for v in VARIABLES if v.group == _TD)
 #: Calculated parameters, in the order of :class:`gmt.RodMechanics`' fields.
 MECHANICS = tuple(v.name for v in VARIABLES if v.group == "mechanics")
 #: Real outputs, in :data:`OUTPUTS` order (``smeha_fmu_slave.output_values``).
@@ -269,7 +291,8 @@ def check_against_gmt() -> None:
 
     pairs = ((gmt.TransducerParameters, TRANSDUCER_PARAMETERS),
              (gmt.Excitation, EXCITATION_PARAMETERS),
-             (gmt.DriveParameters, DRIVE_PARAMETERS))
+             (gmt.DriveParameters, DRIVE_PARAMETERS),
+             (gmt.TimeDomainParameters, TIME_DOMAIN_PARAMETERS))
     problems = []
     for cls, names in pairs:
         fields = {f.name: f.default for f in dataclasses.fields(cls)}
@@ -285,6 +308,8 @@ def check_against_gmt() -> None:
                 problems.append(f"{name}: FMU start {start!r} != gmt default {default!r}")
     if tuple(BRANCH_RULES) != tuple(gmt.parameters.BRANCH_RULES):
         problems.append(f"branch rules {BRANCH_RULES} != gmt {gmt.parameters.BRANCH_RULES}")
+    if tuple(MAGNETICS) != tuple(gmt.transducer.MAGNETICS):
+        problems.append(f"magnetics {MAGNETICS} != gmt {gmt.transducer.MAGNETICS}")
     if tuple(MODEL_VARIANTS) != tuple(gmt.VARIANTS):
         problems.append(f"model variants {MODEL_VARIANTS} != gmt {gmt.VARIANTS}")
     if MECHANICS != ("equivalent_mass", "equivalent_damping", "equivalent_stiffness",

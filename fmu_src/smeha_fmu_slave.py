@@ -17,8 +17,9 @@ import operator
 
 import smeha_fmu_interface
 from smeha_fmu_base import SlaveBase
-from smeha_fmu_interface import (BY_NAME, DRIVE_PARAMETERS, EXCITATION_PARAMETERS, MECHANICS,
-                                 MODEL_VARIANTS, OUTPUTS, REAL_OUTPUTS, TRANSDUCER_PARAMETERS,
+from smeha_fmu_interface import (BY_NAME, DRIVE_PARAMETERS, EXCITATION_PARAMETERS,
+                                 INVERSE_MODELS, MECHANICS, MODEL_VARIANTS, OUTPUTS,
+                                 REAL_OUTPUTS, TIME_DOMAIN_PARAMETERS, TRANSDUCER_PARAMETERS,
                                  VARIABLE_NAMES, coerce, parameter_values, physics)
 
 #: One C-level getter of every variable's value, in VARIABLES order: a saved FMU state
@@ -46,7 +47,14 @@ def make_transducer(values: dict):
     params = gmt.TransducerParameters(**{n: values[n] for n in TRANSDUCER_PARAMETERS})
     excitation = gmt.Excitation(**{n: values[n] for n in EXCITATION_PARAMETERS})
     drive = gmt.DriveParameters(**{n: values[n] for n in DRIVE_PARAMETERS})
-    return gmt.Transducer(params, excitation, drive, variant=variant)
+    td = gmt.TimeDomainParameters(
+        **{n: values[n] for n in TIME_DOMAIN_PARAMETERS})
+    inverse = values["inverse_model"]
+    if inverse not in INVERSE_MODELS:
+        raise gmt.ParameterError(f"inverse_model = {inverse!r} is not one of {INVERSE_MODELS}")
+    return gmt.Transducer(params, excitation, drive, variant=variant,
+                          magnetics=values["magnetics"],
+                          inverse=None if inverse == "same" else inverse, time_domain=td)
 
 
 def model_variant(gmt, name: str, parameters: str):

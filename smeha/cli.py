@@ -38,10 +38,11 @@ it to :data:`SUBCOMMANDS`. Build its options from the types of
 the command line is parsed; ``tests/test_cli_input.py`` drives every command
 with bad input on that basis.
 
-Exit status: 0 on success, 1 on a failure of the run (a missing component or
-data file of the installation, failed sweep points), 2 on bad input (the
-command line, :class:`gmt.ParameterError` and the other ``ValueError`` s of
-bad files), printed on stderr on one line without a traceback.
+Exit status: 0 on success, 1 on a failure of the run (:class:`smeha.errors.RunError`,
+a missing component or data file of the installation, failed sweep points), 2 on bad
+input (:class:`smeha.errors.InputError`: the command line, :class:`gmt.ParameterError`,
+bad files), 130 on Ctrl-C, printed on stderr on one line without a traceback. Any other
+exception is a bug and shows its traceback.
 
 Start-up: the heavy modules (numpy, scipy, python-control, fmpy, matplotlib)
 are imported by the command that needs them, so ``smeha --help`` answers at
@@ -56,10 +57,14 @@ import sys
 import gmt  # cheap: its names load on first use (gmt/__init__.py)
 
 from . import __version__
+from .errors import InputError, RunError
 from .cliargs import (Parser, UsageError, add_branch_rule, input_file,
                       join_negative_values, output_dir)
 from .studies.flowcommands import CIRCUITS, FREQUENCY, add_flow, add_simulate, add_sweep
 from .studies.positioncommands import add_position
+from .studies.timedomaincommands import add_timedomain
+
+__all__ = ["SUBCOMMANDS", "build_parser", "main"]
 
 
 def _add_paper(subparsers):
@@ -234,8 +239,8 @@ def _run_diagnose(args) -> int:
 
 
 #: Registration functions of the subcommands, in the order ``--help`` lists them.
-SUBCOMMANDS = (_add_paper, add_simulate, add_flow, add_sweep, add_position, _add_identify,
-               _add_diagnose, _add_build)
+SUBCOMMANDS = (_add_paper, add_simulate, add_flow, add_sweep, add_position, add_timedomain,
+               _add_identify, _add_diagnose, _add_build)
 
 
 def build_parser() -> Parser:
@@ -273,12 +278,18 @@ def main(argv=None) -> int:
         return exc.code if isinstance(exc.code, int) else 2
     try:
         return args.run(args)
-    except ValueError as exc:  # UsageError, gmt.ParameterError, a bad data file or spec
+    except InputError as exc:  # UsageError, gmt.ParameterError, a bad data file or spec
         print(f"smeha {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except RunError as exc:  # an integration, a coupling, a sweep that stopped
+        print(f"smeha {args.command}: error: the run stopped: {exc}", file=sys.stderr)
+        return 1
     except FileNotFoundError as exc:  # a file of the installation (the paper's data)
         print(f"smeha {args.command}: error: {exc}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:  # Ctrl-C: one line, the shell's 128 + SIGINT
+        print(f"\nsmeha {args.command}: interrupted", file=sys.stderr)
+        return 130
     except BrokenPipeError:  # stdout closed early, e.g. `smeha paper --json | head`
         sys.stdout = open(os.devnull, "w")
         return 1

@@ -31,8 +31,14 @@ import sys
 import tempfile
 from pathlib import Path
 
+from gmt.errors import InputError  # cheap: the standard library only
 
-class UsageError(ValueError):
+__all__ = ["UsageError", "Parser", "join_negative_values", "input_file", "output_file",
+           "output_dir", "number", "number_list", "count", "scheduler_address", "add_branch_rule",
+           "warn"]
+
+
+class UsageError(InputError):
     """Bad input to a command that argparse cannot check (exit status 2)."""
 
 

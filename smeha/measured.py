@@ -46,6 +46,12 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from gmt.errors import InputError
+
+__all__ = ["COLUMNS", "REQUIRED", "DISPLACEMENT_COLUMNS", "OPTIONAL_COLUMNS",
+           "FREQUENCY_TOLERANCE", "MIN_SAMPLES", "DataError", "Run", "harmonic_basis",
+           "fundamental_frequency", "read_measurements", "write_measurements"]
+
 #: CSV column -> (attribute of :class:`Run`, factor to SI). Displacement may come
 #: in metres or micrometres.
 COLUMNS = {
@@ -69,7 +75,7 @@ FREQUENCY_TOLERANCE = 0.02
 MIN_SAMPLES = 8
 
 
-class DataError(ValueError):
+class DataError(InputError):
     """A measurement file that cannot be used; the message names file, run and row.
 
     Parameters

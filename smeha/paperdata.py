@@ -21,6 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
+__all__ = ["DATA_DIR_ENV", "COLUMNS", "TABLE1_FILE", "TABLE3_FILE", "STATED_FILE",
+           "DataNotFoundError", "data_dir", "read_csv", "table1", "table3", "stated"]
+
 #: Environment variable that points to another data directory.
 DATA_DIR_ENV = "SMEHA_DATA_DIR"
 

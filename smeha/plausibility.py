@@ -42,6 +42,8 @@ from gmt.extensions.steady import steady_state
 
 from .measured import DataError, Run, harmonic_basis
 
+__all__ = ["CURRENT_RANGE", "PERMEABILITY_RANGE", "DISPLACEMENT_RATIO_RANGE", "check_plausible"]
+
 #: Plausible amplitude of the current's fundamental, [A] (module docstring).
 CURRENT_RANGE = (1e-3, 20.0)
 #: Plausible |mu| = B_m / (mu_0 H_m) from the sense voltage, [-].

@@ -16,6 +16,8 @@ import multiprocessing
 import sys
 from typing import Callable
 
+__all__ = ["START_METHOD", "prepare", "run_jobs"]
+
 #: How worker processes start: forked from the prepared parent on Linux and the other
 #: POSIX systems that fork; spawned (a fresh interpreter: imports, kernel and FMU loaded
 #: again in each worker) on Windows, which cannot fork, and on macOS, whose system

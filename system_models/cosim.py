@@ -39,7 +39,7 @@ import gmt
 
 from .circuit import CircuitParameters
 from .controller import SampledValveController, dead_times
-from .defaults import (DEFAULT_COUPLING, DEFAULT_STEP, HYDRAULIC_STEP,
+from .defaults import (DEFAULT_COUPLING, DEFAULT_STEP, HYDRAULIC_STEP, MAXIMUM_DURATION,
                        VALVE_CONTROLLER_PERIOD)
 from .displacementport import CouplingError, run_displacement_port
 from .forceport import run_force_port
@@ -106,7 +106,8 @@ class CosimSettings:
     max_iterations: int = 25
 
     def __post_init__(self):
-        gmt.errors.check_range("duration", self.duration, 0.0, 1e4, unit="s")
+        gmt.errors.check_range("duration", self.duration, 0.0, MAXIMUM_DURATION, unit="s",
+                               high_open=False)
         gmt.errors.check_range("step", self.step, 0.0, 1.0, unit="s")
         gmt.errors.check_range("controller_period", self.controller_period, 0.0, 1.0, unit="s")
         if self.hydraulic_step is not None:

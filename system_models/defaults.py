@@ -28,3 +28,17 @@ DEFAULT_CYCLES = 8.0
 
 #: Coupling of the transducer to the plant (system_models.cosim): the force port.
 DEFAULT_COUPLING = "force"
+
+#: The longest co-simulation a run accepts, [s] (CosimSettings.duration): 1e4 s is 1e8
+#: communication steps at the default step, days of wall time.
+MAXIMUM_DURATION = 1e4
+
+#: Load of the realistic study, [N]: 150 N down-load, about 0.1 MPa of pressure rise the
+#: pump must deliver on top of the area-ratio pressure difference (a differential cylinder
+#: balances p_S A_S against p_B A_B). (system_models.presets.default_load)
+REALISTIC_LOAD = 150.0
+
+#: The flow check's compression strokes discarded at a run's start, and the fewest cycles a
+#: run needs (system_models.flowcheck: two skipped, two more averaged).
+SKIP_CYCLES = 2
+MINIMUM_CYCLES = SKIP_CYCLES + 2

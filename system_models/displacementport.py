@@ -32,6 +32,7 @@ from __future__ import annotations
 import math
 
 import gmt
+from gmt.errors import RunError
 
 from . import kernel
 from .circuit import initial_state
@@ -39,7 +40,7 @@ from .implicit import integration_failure
 from .record import circuit_columns
 
 
-class CouplingError(RuntimeError):
+class CouplingError(RunError):
     """The interface iteration did not converge in a step."""
 
 

@@ -18,7 +18,9 @@ DAC holds its current between samples, so its force is piecewise constant
 and held over each step (communication points fall on its samples); the
 uncompensated amplifier follows u continuously, so its force is smooth and
 taken linear between its values at the step's ends (the transducer is
-stepped one step ahead of the plant to have the end value).
+stepped one step ahead of the plant to have the end value). With the
+time-domain magnetics (:mod:`gmt.timedomain`) the force follows the flux
+density, which cannot jump, so it is taken linear in both modes.
 """
 from __future__ import annotations
 
@@ -49,7 +51,8 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
     out = 10 if rod.size == 2 else 12  # index of the chamber side's y in the state
     z = (plant_start(plant, backend.rod_state()[0]) if initial is None
          else np.array(initial, dtype=float))
-    linear = not drive.compensated  # a continuous drive: the force linear over a step
+    # a continuous drive, or the time-domain magnetics: the force linear over a step
+    linear = not drive.compensated or drive.continuous_force
     volume = compressed = 0.0
     substeps = kernel.new_control()  # the plant's substep length, carried across windows
     valves = 0 if settings.direction == "down" else 2  # V1 or V3: open while compressing
@@ -57,7 +60,12 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
     # the transducer's step from t = 0: (t, h, u, current, force)
     times = grid.points(0.0, 1)
     u0 = control(0.0)
-    pending = (u0,) + tuple(backend.drive_step(0.0, times[1], u0))
+    # the control the transducer holds over a step: u at its start, except for the
+    # time-domain magnetics driven continuously, whose B integrates the held current:
+    # u at mid-step then (a held u(t_k) would lag the drive by half a step)
+    mid = 0.5 if drive.continuous_force and not drive.compensated else 0.0
+    pending = (u0,) + tuple(backend.drive_step(0.0, times[1],
+                                               control(mid * times[1]) if mid else u0))
     t = 0.0
     previous = None  # the last row's valve phase (the final row repeats it)
     while grid.before_end(t):
@@ -71,8 +79,9 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
         for k in range(1, m + 1):
             if k < points.size - 1:
                 u[k] = control(points[k])
-                current[k], force[k] = backend.drive_step(points[k],
-                                                          points[k + 1] - points[k], u[k])
+                h = points[k + 1] - points[k]
+                current[k], force[k] = backend.drive_step(
+                    points[k], h, control(points[k] + mid * h) if mid else u[k])
             else:  # the run's end: the last step holds its force
                 u[k], current[k], force[k] = u[k - 1], current[k - 1], force[k - 1]
         pending = (u[m], current[m], force[m])

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from gmt.errors import RunError
+
 from .chamber import chamber_volume
 from .circuit import CircuitParameters, jacobian, rhs, valve_flows
 from .cylinder import cavity_volumes
@@ -35,7 +37,7 @@ def _norm(residual):
     return float(np.max(np.abs(residual) / RESIDUAL_SCALE))
 
 
-class IntegrationError(RuntimeError):
+class IntegrationError(RunError):
     """Newton's method did not converge within a substep."""
 
 

@@ -62,13 +62,9 @@ from __future__ import annotations
 from .accumulator import AccumulatorParameters
 from .circuit import CircuitParameters
 from .cylinder import CylinderParameters
+from .defaults import REALISTIC_LOAD  # its home: plain numbers, read by --help
 from .fluid import FluidParameters
 from .valves import ValveParameters
-
-#: Load of the realistic study, [N]: 150 N down-load, about 0.1 MPa of
-#: pressure rise the pump must deliver on top of the area-ratio pressure
-#: difference (a differential cylinder balances p_S A_S against p_B A_B).
-REALISTIC_LOAD = 150.0
 
 
 def _stiff_oil_fast_valves() -> dict:

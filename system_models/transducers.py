@@ -29,6 +29,9 @@ class Drive(NamedTuple):
 
     compensated: bool  #: the digital compensator drives the coil (force held between samples)
     sample_period: float  #: its sample period T_c, [s] (0: a sample every step)
+    #: the force is continuous whatever the current does (the time-domain magnetics: B, so
+    #: M and F, cannot jump): linear over a step even behind the compensator's held current
+    continuous_force: bool = False
 
 
 class TransducerBackend(Protocol):
@@ -60,14 +63,17 @@ class TransducerBackend(Protocol):
 class DirectTransducer:
     """:class:`gmt.Transducer` (optionally with a :class:`gmt.ModelVariant`) in-process."""
 
-    def __init__(self, params=None, excitation=None, drive=None, variant=None):
-        self.model = gmt.Transducer(params, excitation, drive, variant=variant)
+    def __init__(self, params=None, excitation=None, drive=None, variant=None,
+                 magnetics="paper", inverse=None):
+        self.model = gmt.Transducer(params, excitation, drive, variant=variant,
+                                    magnetics=magnetics, inverse=inverse)
 
     def rod_state(self):
         return self.model.forward.displacement, self.model.forward.velocity
 
     def drive(self):
-        return Drive(self.model.compensator is not None, self.model.sample_period)
+        return Drive(self.model.compensator is not None, self.model.sample_period,
+                     self.model.magnetics == "time_domain")
 
     def mechanics(self):
         return tuple(self.model.rod_mechanics())
@@ -79,6 +85,11 @@ class DirectTransducer:
     def drive_step(self, time, step, control):
         out = self.model.step(control, step, 0.0)
         return out.current, out.magnetics.force
+
+    def outside_design_point(self) -> bool:
+        """Whether the coil current departs from the model's operating point now
+        (:class:`gmt.design_point.DriveMonitor`)."""
+        return bool(self.model.monitor.outside)
 
     def save(self):
         return self.model.get_state()
@@ -205,8 +216,10 @@ class FmuTransducer:
 
     def drive(self):
         compensated = bool(self.fmu.getBoolean([self._vr["compensated"]])[0])
+        continuous = ("magnetics" in self._vr and self.fmu.getString(
+            [self._vr["magnetics"]])[0] in ("time_domain", b"time_domain"))
         return Drive(compensated, float(self.fmu.getReal([self._vr["compensator_period"]])[0])
-                     if compensated else 0.0)
+                     if compensated else 0.0, continuous)
 
     def mechanics(self):
         return tuple(self.fmu.getReal([self._vr[n] for n in FMU_MECHANICS]))
@@ -244,6 +257,10 @@ class FmuTransducer:
         self._check("fmi2DoStep", c["fmi2DoStep"](comp, time, step, self._true))
         self._check("fmi2GetReal", c["fmi2GetReal"](comp, self._drive_out_vr, 2, out))
         return out[0], out[1]
+
+    def outside_design_point(self) -> bool:
+        """The FMU's ``outside_design_point`` output now."""
+        return bool(self.fmu.getBoolean([self._vr["outside_design_point"]])[0])
 
     def save(self):
         comp = self.fmu.component

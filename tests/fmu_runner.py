@@ -86,6 +86,15 @@ BAD_PARAMETERS = {
     "flux_density_amplitude_too_large": ({"flux_density_amplitude": 3.0},
                                          "flux_density_amplitude"),
     "current_limit_zero": ({"current_limit": 0.0, "compensated": True}, "current_limit"),
+    "magnetics_unknown": ({"magnetics": "spice"}, "magnetics"),
+    "inverse_model_unknown": ({"inverse_model": "jiles", "compensated": True}, "inverse_model"),
+    "time_domain_with_a_variant": ({"magnetics": "time_domain",
+                                    "model_variant": "transport_delay",
+                                    "variant_parameters": '{"delay_s": 0.0005}'},
+                                   "model_variant"),
+    "reversible_permeability_below_one": ({"magnetics": "time_domain",
+                                           "reversible_permeability": 0.5},
+                                          "reversible_permeability"),
     "branch_rule_unknown": ({"branch_rule": "sideways"}, "branch_rule"),
     "model_variant_unknown": ({"model_variant": "maxwell"}, "model_variant"),
     "variant_parameters_not_json": ({"model_variant": "transport_delay",
@@ -150,14 +159,37 @@ def make_case(name: str):
             n, f, a, off = 1500, 50.0, 2.2, 2.2
             h = np.full(n, 1e-5)
             force = np.zeros(n)
+    elif name == "td_square":  # time-domain magnetics, 100 Hz square, random steps/forces
+        params = {"magnetics": "time_domain", "frequency": 100.0}
+        n, f, a, off = 1500, 100.0, 1.0, 0.0
+        rng = np.random.default_rng(5)
+        h = rng.uniform(2e-6, 4e-5, n)
+        force = rng.uniform(-20.0, 20.0, n)
+    elif name == "td_step":  # time-domain magnetics: 0 A, then a step to 1 A held (DC)
+        params = {"magnetics": "time_domain"}
+        n, f, a, off = 1500, 0.0, 0.0, 0.0
+        h = np.full(n, 2e-5)
+        force = np.zeros(n)
+    elif name == "td_comp":  # time-domain model and inverse, u = 1.5 + 1.5 cos(200 pi t)
+        params = {"magnetics": "time_domain", "compensated": True, "frequency": 100.0}
+        n, f, a, off = 1500, 100.0, 1.5, 1.5
+        h = np.full(n, 1e-5)
+        force = np.zeros(n)
     else:
         raise KeyError(name)
     t = np.concatenate(([0.0], np.cumsum(h)[:-1]))
     u = off + a * np.cos(2 * math.pi * f * t)
+    if name == "td_square":
+        u = np.where(np.sin(2 * math.pi * f * t) >= 0.0, 1.0, -1.0)
+    elif name == "td_step":
+        u = np.where(t < 0.01, 0.0, 1.0)
     return params, h.tolist(), u.tolist(), force.tolist()
 
 
 CASES = ("fixed50", "random100", "comp_control", "comp_demand") + tuple(VARIANTS)
+#: Cases with the time-domain magnetics (magnetics = "time_domain"): every drive inside.
+TIME_DOMAIN_CASES = ("td_square", "td_step", "td_comp")
+CASES = CASES + TIME_DOMAIN_CASES
 #: Variant cases whose FMU state is saved, replayed and moved (behaviour's vstate_<case>).
 STATEFUL_VARIANTS = ("v_delay", "v_hysteresis", "v_eddy", "v_slab", "v_two_dof")
 
@@ -183,7 +215,9 @@ def reference(out_path):
         tr = gmt.Transducer(gmt.TransducerParameters(**pick(gmt.TransducerParameters)),
                             gmt.Excitation(**pick(gmt.Excitation)),
                             gmt.DriveParameters(**pick(gmt.DriveParameters)),
-                            variant=variant)
+                            variant=variant, magnetics=params.get("magnetics", "paper"),
+                            time_domain=gmt.TimeDomainParameters(
+                                **pick(gmt.TimeDomainParameters)))
         rows = []
         for hk, uk, fk in zip(h, u, force):
             o = tr.step(uk, hk, fk)
@@ -343,6 +377,7 @@ def behaviour(out_path, fmu_path):
         res[f"init_{name}"] = fmu.init(params)
         rows, statuses, _ = run_case(fmu, name)
         res[f"solo_{name}"] = rows
+        res[f"outside_{name}"] = bool(fmu.s.getBoolean([fmu.vr["outside_design_point"]])[0])
         res[f"status_{name}"] = sorted(set(statuses))
         fmus[name] = fmu
     unzip = fmus["fixed50"].dir

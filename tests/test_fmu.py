@@ -105,8 +105,10 @@ def test_interface_names_causality_and_types(fmu_dist):
                 | {"frequency", "current_amplitude", "flux_density_amplitude", "follow_drive",
                    "amplifier_gain", "current_limit", "compensated", "displacement_per_volt",
                    "control_offset", "branch_rule", "compensator_period", "model_variant",
-                   "variant_parameters"})
+                   "variant_parameters", "magnetics", "inverse_model"}
+                | set(gmt.TimeDomainParameters.field_names()))  # issue 21
     assert params == expected
+    assert got["magnetics"][1] == got["inverse_model"][1] == "String"
     # the mechanics the force drives, for a host that integrates the rod (issue 12)
     assert {n for n, (c, _) in got.items() if c == "calculatedParameter"} == {
         "equivalent_mass", "equivalent_damping", "equivalent_stiffness", "output_mass",
@@ -204,6 +206,20 @@ def test_outputs_equal_gmt_time_stepping_model(behaviour, reference, case):
     assert res[f"status_{case}"] == [0]
     assert all(s == 0 for s in res[f"init_{case}"])
     assert max_relative_difference(res[f"solo_{case}"], reference[case]) <= RTOL
+
+
+@pytest.mark.parametrize("case", ("td_square", "td_step", "td_comp"))
+def test_time_domain_magnetics_in_the_fmu(behaviour, reference, case):
+    # magnetics = "time_domain" (gmt.timedomain): the FMU steps gmt's time-domain model, a
+    # square, a step held as DC and the compensated drive give finite outputs, and the
+    # design-point flag stays down (every drive is inside that model)
+    import numpy as np
+
+    res = behaviour("2")
+    assert res[f"status_{case}"] == [0]
+    assert max_relative_difference(res[f"solo_{case}"], reference[case]) <= RTOL
+    assert np.all(np.isfinite(np.array(res[f"solo_{case}"])))
+    assert res[f"outside_{case}"] is False
 
 
 def test_compensated_cases_exercise_saturation(reference):

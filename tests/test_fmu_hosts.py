@@ -266,6 +266,23 @@ def test_fmu_flags_a_drive_off_its_design_point_and_warns_once(fmi, fmu_dist, ru
 
 
 @pytest.mark.parametrize("fmi", ["2", "3"])
+def test_time_domain_magnetics_in_the_c_host_and_fmpy_flag_nothing(fmi, c_host, unzipped,
+                                                                   fmu_dist, runner_dir):
+    # magnetics = "time_domain": the drive that the paper's model flags above (100 Hz against
+    # the 50 Hz parameters), here with a 0.5 A DC offset, is inside the model: the flag stays
+    # down in fmpy, and the C host (no Python on its PATH) gives fmpy's numbers
+    drive = ("4000", "1e-5", "100", "1", "0.5")
+    ref = run_runner("drive", runner_dir / f"td{fmi}", fmu_dist[fmi], *drive,
+                     "magnetics=time_domain")
+    assert ref["statuses"] == [0] and not any(ref["outside_design_point"])
+    fmu = unzipped(fmi)
+    proc = fmu.run(c_host, drive=drive, settings=[fmu.setting("magnetics", "time_domain")])
+    assert proc.returncode == 0, proc.stderr
+    table = rows(proc.stdout)
+    assert len(table) == 4000 and max_relative_difference(table, ref["rows"]) <= 1e-12
+
+
+@pytest.mark.parametrize("fmi", ["2", "3"])
 def test_fmu_flags_a_drive_at_rest_from_the_start(fmi, fmu_dist, runner_dir):
     # issue 20 item 6: u = 0 from the start gave B = 0.027 T, M = 21 kA/m, F = 1.7 kN at zero
     # field with the flag down for half a period; now flagged from the second step

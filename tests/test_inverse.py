@@ -218,7 +218,9 @@ def _dy_compensated(run):
 
 def test_compensated_dy_exceeds_uncompensated(record_property):
     # Figure 9's own rule (branch_rule="control"; the default is "demand",
-    # gmt.parameters.BRANCH_RULE). Paper, Table 3 /
+    # gmt.parameters.BRANCH_RULE), at T_c = 0 with h = T/2000 (_run), where that rule has
+    # converged in its sample period (within 1 % from T_c <= 10 us; at the 100 us it would
+    # not be, gmt.inverse "Sampling"). Paper, Table 3 /
     # Figure 12: compensated dy (eq 41) exceeds uncompensated dy (eq 40) at every
     # frequency, and the gain grows with frequency (measured: 46/40.2 = 1.14 at
     # 50 Hz to 35.2/26.6 = 1.32 at 100 Hz).

@@ -15,7 +15,7 @@ import pytest
 
 import gmt
 from smeha import cli
-from smeha.studies import flow, position
+from smeha.studies import position
 from smeha.studies.position import PlantModel, PositionSettings, design, step_metrics
 
 #: Lines of the realistic circuit at 100 Hz, compensated, 150 N (identified, rounded).

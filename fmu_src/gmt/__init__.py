@@ -22,6 +22,8 @@ module                 equations
                        parameters) and the one registry
 ``variants``           the model variant: paper, or paper plus one or
                        more extensions, time-stepped
+``timedomain``         the loss separation as a field separation in
+                       the time domain (any drive), and its inverse
 =====================  ==============================================
 
 SI units throughout. This package imports no FMI, file or plotting code.
@@ -38,19 +40,21 @@ __version__ = "0.1.0"
 _EXPORTS = {
     "DEFAULT_CALIBRATION": "calibration", "TABLE_1": "calibration",
     "FluxDensityCalibration": "calibration",
-    "GmtError": "errors", "ParameterError": "errors",
+    "GmtError": "errors", "ParameterError": "errors", "InputError": "errors",
+    "RunError": "errors",
     "ForwardStepper": "forward", "OperatingPoint": "forward", "bias_displacement": "forward",
     "loop_metrics": "forward", "operating_point": "forward", "periodic_response": "forward",
     "simulate": "forward",
     "InverseCompensator": "inverse", "current_roots": "inverse",
     "DriveParameters": "parameters", "Excitation": "parameters",
     "TransducerParameters": "parameters",
+    "TimeDomainParameters": "timedomain.parameters",
     "Transducer": "transducer", "TransducerOutput": "transducer", "RodMechanics": "transducer",
     "VARIANTS": "variants", "ModelVariant": "variants",
 }
 _SUBMODULES = ("calibration", "constants", "errors", "extensions", "field", "forward",
                "inverse", "losses", "magnetostriction", "mechanics", "parameters",
-               "permeability", "sensing", "transducer", "variants")
+               "permeability", "sensing", "timedomain", "transducer", "variants")
 
 __all__ = [*_EXPORTS, "__version__"]
 

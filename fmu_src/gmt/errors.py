@@ -5,7 +5,17 @@ class GmtError(Exception):
     """Base class of every error raised by :mod:`gmt`."""
 
 
-class ParameterError(GmtError, ValueError):
+class InputError(ValueError):
+    """Bad input: a usage, data or parameter error the user can mend (the package's
+    family, :mod:`smeha.errors`; the command line answers it with exit status 2)."""
+
+
+class RunError(RuntimeError):
+    """A run that stopped: an integration, a coupling, a sweep or a build that failed on
+    good input (the package's family, :mod:`smeha.errors`; exit status 1)."""
+
+
+class ParameterError(GmtError, InputError):
     """A parameter or input is outside the range the model is defined for.
 
     The message names the parameter, the value received and the allowed range,

@@ -18,6 +18,12 @@ at every sample the step reaches) and its DAC holds the current until the
 next sample; a step that crosses a sample instant is split there. The
 uncompensated amplifier follows u continuously: i = K_a u over each step.
 
+With ``magnetics="time_domain"`` the transducer is the time-domain model of
+:mod:`gmt.timedomain` instead (the paper's loss separation as a field
+separation, valid for any current), and its compensator that model's explicit
+inverse (``inverse="paper"`` keeps Figure 9's compensator in front of it).
+Every drive is then inside the model: the monitor below stays quiet.
+
 A :class:`gmt.design_point.DriveMonitor` watches the coil current the model
 sees: ``outside_design_point`` in the output says when it departs from the
 sinusoid at (f, I_m) the complex permeability is defined for, and with
@@ -37,6 +43,11 @@ from .forward import ForwardStepper, Magnetics, operating_point
 from .inverse import InverseCompensator
 from .parameters import DriveParameters, Excitation, TransducerParameters
 from .variants import ModelVariant, make_stepper
+
+#: The transducer models :class:`Transducer` runs (``magnetics``) and the inverses its
+#: compensator can use (``inverse``): the paper's complex permeability (eqs 1-37), or the
+#: time-domain field separation (:mod:`gmt.timedomain`).
+MAGNETICS = ("paper", "time_domain")
 
 
 class TransducerOutput(NamedTuple):
@@ -88,13 +99,21 @@ class Transducer:
     variant : ModelVariant, optional
         The paper's model (default) or the paper's plus one extension
         (:mod:`gmt.variants`).
+    magnetics : {"paper", "time_domain"}
+        The transducer model: the paper's (default) or the time-domain one
+        (:mod:`gmt.timedomain`; the paper's model variant only).
+    inverse : {"paper", "time_domain"}, optional
+        The model the compensator inverts; default: ``magnetics``.
+    time_domain : gmt.timedomain.parameters.TimeDomainParameters, optional
+        The time-domain model's parameters beyond Table 2 (default: their defaults).
     """
 
     def __init__(self, params: TransducerParameters | None = None,
                  excitation: Excitation | None = None,
                  drive: DriveParameters | None = None,
                  calibration=DEFAULT_CALIBRATION,
-                 variant: ModelVariant | None = None):
+                 variant: ModelVariant | None = None, magnetics: str = "paper",
+                 inverse: str | None = None, time_domain=None):
         self.params = params or TransducerParameters()
         self.excitation = excitation or Excitation()
         self.drive = drive or DriveParameters()
@@ -104,16 +123,37 @@ class Transducer:
         if self.excitation.follow_drive and not self.variant.is_paper:
             raise ParameterError("follow_drive = True needs the paper's model (model_variant "
                                  f"'paper'), not {self.variant.name!r}")
+        inverse = magnetics if inverse is None else inverse
+        for name, value in (("magnetics", magnetics), ("inverse", inverse)):
+            if value not in MAGNETICS:
+                raise ParameterError(f"{name} = {value!r} is not one of {MAGNETICS}")
+        self.magnetics, self.inverse = magnetics, inverse
         self.calibration = calibration
         self.point = operating_point(self.params, self.excitation, calibration)
         self.design_point = self.point
-        self.forward = make_stepper(self.params, self.point, self.variant)
-        self.compensator = (InverseCompensator(self.params, self.point, self.drive)
-                            if self.drive.compensated else None)
+        if magnetics == "paper":
+            self.forward = make_stepper(self.params, self.point, self.variant)
+        else:
+            from .timedomain.transducer import time_domain_stepper
+            self.forward = time_domain_stepper(self.params, self.excitation, self.variant,
+                                               time_domain)
+        if not self.drive.compensated:
+            self.compensator = None
+        elif inverse == "paper":
+            self.compensator = InverseCompensator(self.params, self.point, self.drive)
+        else:
+            from .timedomain.transducer import time_domain_compensator
+            self.compensator = time_domain_compensator(self.params, self.point, self.drive,
+                                                       time_domain)
         # sizes of the fixed parts of the flat state (the paper stepper's values, the
-        # compensator's), taken once: set_state runs at every retried co-simulation step
-        self._nf = len(ForwardStepper.get_state(self.forward))
-        self._nc = len(self.compensator.get_state()) if self.compensator is not None else 0
+        # compensator's), taken once: set_state runs at every retried co-simulation step.
+        # The time-domain model's and inverse's memories vary in length: they go last,
+        # after the forward part's length
+        self._nf = len(ForwardStepper.get_state(self.forward)) if magnetics == "paper" else 0
+        self._nc = (len(self.compensator.get_state())
+                    if self.compensator is not None and inverse == "paper" else 0)
+        self._tails = magnetics != "paper" or (self.compensator is not None
+                                               and inverse != "paper")
         #: sample period of the compensator, [s]; 0: a sample at every step
         self.sample_period = (self.drive.compensator_period if self.compensator is not None
                               else 0.0)
@@ -152,7 +192,12 @@ class Transducer:
         self.forward.point = self.point
 
     def _observe(self, current: float, duration: float) -> None:
-        """Show the monitor the current held over ``duration``; follow the drive if asked."""
+        """Show the monitor the current held over ``duration``; follow the drive if asked.
+
+        The time-domain model holds for any current: nothing to watch.
+        """
+        if self.magnetics != "paper":
+            return
         model = self.monitor.observe(current, duration)
         if model is not None:
             try:
@@ -173,16 +218,30 @@ class Transducer:
         """
         comp = self.compensator.get_state() if self.compensator is not None else ()
         forward = self.forward.get_state()
-        nf = self._nf
+        nf, nc = self._nf, self._nc
         sampler = (self._to_sample,) + self._held if self._ns else ()
-        return (forward[:nf] + comp + (float(self.saturation_count), self.previous_step)
-                + sampler + self.monitor.get_state() + forward[nf:])
+        fixed = (forward[:nf] + comp[:nc] + (float(self.saturation_count), self.previous_step)
+                 + sampler + self.monitor.get_state())
+        if self._tails:  # variable lengths: the forward tail's length, both tails
+            return fixed + (float(len(forward) - nf),) + forward[nf:] + comp[nc:]
+        return fixed + forward[nf:]
 
     def set_state(self, state) -> None:
         """Restore a state from :meth:`get_state`."""
         state = tuple(map(float, state))
         nf, nc, ns, nm = self._nf, self._nc, self._ns, DriveMonitor.STATE_SIZE
         fixed = nf + nc + 2 + ns + nm
+        if self._tails:
+            k = int(state[fixed]) if len(state) > fixed else -1
+            if not 0 <= k <= len(state) - fixed - 1:
+                raise ParameterError(f"state has {len(state)} values; this transducer needs "
+                                     f"more than {fixed}, with a valid length at {fixed}")
+            tail = state[fixed + 1:]
+            self.forward.set_state(state[:nf] + tail[:k])
+            if self.compensator is not None:
+                self.compensator.set_state(state[nf:nf + nc] + tail[k:])
+            self._restore_counters(state, nf, nc, ns, fixed, nm)
+            return
         if self.variant.is_paper:
             bad, need = len(state) != fixed, f"{fixed}"
         else:  # the variant's elapsed time and sensed displacement, then its memory
@@ -193,6 +252,10 @@ class Transducer:
         self.forward.set_state(state[:nf] + state[fixed:])
         if self.compensator is not None:
             self.compensator.set_state(state[nf:nf + nc])
+        self._restore_counters(state, nf, nc, ns, fixed, nm)
+
+    def _restore_counters(self, state, nf, nc, ns, fixed, nm) -> None:
+        """The counters, the sampler and the monitor of a flat state (:meth:`set_state`)."""
         self.saturation_count = int(state[nf + nc])
         self.previous_step = state[nf + nc + 1]
         if ns:

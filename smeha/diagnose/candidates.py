@@ -193,14 +193,15 @@ class Evaluator:
         self.k = np.arange(1, harmonics + 1)
         self.context = {"params": params, "field_max": self.field_max}
 
-    def predict(self, batch: Batch, base, cand: Candidate = PAPER, x=(), flux=None):
+    def predict(self, batch: Batch, base, cand: Candidate = PAPER, x=(), flux=None,
+                components=None):
         """(Y_k [m], B_k [T], offset slope [m/s], Y_1 slope [m/s]) of the model, per run.
 
         ``base`` is (K_h, n, K_e, K_ex[, s]) (module docstring; s = 1 if absent):
         the force, and so y, scales with s (eqs 25, 28).
         """
         loss, scale = tuple(base[:4]), (base[4] if len(base) > 4 else 1.0)
-        comps = cand.components(x, self.context)
+        comps = cand.components(x, self.context) if components is None else components
         bm = batch.flux_density_amplitude if flux is None else np.asarray(flux, float)
 
         def evaluate(bm):
@@ -236,13 +237,13 @@ class Evaluator:
                     y[j] = y[j] * gain
         return y, b, s_off, s_y1
 
-    def residuals(self, batch: Batch, base, cand: Candidate = PAPER, x=()):
+    def residuals(self, batch: Batch, base, cand: Candidate = PAPER, x=(), components=None):
         """Model minus data over each feature's standard deviation, all runs, flat.
 
         y's harmonics (real, imaginary), B's for the runs that have them, then
         the three drift features of each run.
         """
-        y, b, s_off, s_y1 = self.predict(batch, base, cand, x)
+        y, b, s_off, s_y1 = self.predict(batch, base, cand, x, components=components)
         dy = (y - batch.y) / batch.y_sd
         parts = [dy.real.ravel(), dy.imag.ravel()]
         if batch.has_b.any():

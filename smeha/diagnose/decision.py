@@ -51,6 +51,8 @@ MAX_CAUSES = 3
 #: saturation + re-identified mechanics + thermal drift): a second cause is identifiable
 #: from y alone only where it carries a share of y's discrepancy of its own.
 MIN_SHARE = 0.1
+#: The exchange step tries the best-ranked this many single candidates outside the model.
+SWAP_CANDIDATES = 3
 
 
 def channels(member) -> tuple:
@@ -144,15 +146,25 @@ def _joined(ev, train, held, current: Fit, keep, single: Fit, fit_scale):
 def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, fit_scale):
     """Stepwise selection's exchange step (Efroymson's stepwise regression; Miller, *Subset
     Selection in Regression*, 2nd ed., 2002, sec. 3.4): with two or more causes, each member
-    in turn is replaced by every other single candidate that explains the data on its own
-    (passes the rule against the paper's model), the others refitted with it; the best-ranked
+    in turn is replaced by the best form of each of the :data:`SWAP_CANDIDATES` best-ranked
+    other causes that explain the data on their own (pass the rule against the paper's
+    model), the others refitted with it; the best-ranked
     exchange is kept when it ranks better than the model it replaces. The first cause is
     chosen alone, before any other is there to share the misfit, and a cause that only
     imitates the first's share (a re-identified mechanics for an eddy lag plus a delay) is
     otherwise kept for good."""
     if len(current.causes) < 2:
         return current, order
-    useful = [s for s in singles if passes(paper, s)]
+    # the exchange candidates: the best-ranked form of each cause outside the model whose
+    # single explains the data on its own (passes the rule against the paper), the best
+    # SWAP_CANDIDATES of them
+    inside = set(current.causes)
+    best = {}
+    for s in singles:
+        if s.cause not in inside and passes(paper, s) and (
+                s.cause not in best or s.total_score < best[s.cause].total_score):
+            best[s.cause] = s
+    useful = sorted(best.values(), key=lambda f: f.total_score)[:SWAP_CANDIDATES]
     swaps = []
     for out in current.candidate.members:
         keep = tuple(m for m in current.candidate.members if m is not out)

@@ -35,12 +35,14 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import nnls
 
-from .candidates import Batch, Candidate, Evaluator
+from .candidates import Batch, Candidate, Evaluator  # noqa: F401 (Batch: the stacked runs)
 
 #: Penalty weights tried, times trace(J^T J) / trace(D^T D).
 PENALTY_GRID = (1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2)
-#: Rounds of the alternation at most, and the relative change of chi^2 that ends it.
+#: Rounds of the alternation at most, and the relative change of chi^2 that ends it; a
+#: combination starts from its members' fitted values and takes fewer.
 ROUNDS, SETTLED = 8, 1e-4
+COMBINATION_ROUNDS = 4
 #: Finite-difference step of the weights' Jacobian, [A/m].
 WEIGHT_STEP = 50.0
 #: Function evaluations of one refit of the nonlinear unknowns within a round: each round
@@ -95,12 +97,39 @@ class _Problem:
         return self.ev.residuals(self.train, base, self.cand, self.x_of(w, other))
 
     def jacobian(self, base, w, other, r0):
-        jac = np.empty((r0.size, w.size))
-        for j in range(w.size):
-            ww = w.copy()
-            ww[j] += WEIGHT_STEP
-            jac[:, j] = (self.residuals(base, ww, other) - r0) / WEIGHT_STEP
-        return jac
+        """d r / d w by finite differences, every column in one evaluation: the training
+        runs stacked once per weight, each copy with that weight stepped (the density's
+        weights may be given per run, PreisachForm.periodic_output)."""
+        runs, nw = self.train.runs, w.size
+        stacked = Batch(runs * nw)
+        comps = list(self.cand.components(self.x_of(w, other), self.ev.context))
+        lin = [k for k, (cls, _) in enumerate(comps) if getattr(cls, "linear", False)][0]
+        cls, values = comps[lin]
+        rows = np.repeat(np.eye(nw) * WEIGHT_STEP + w, len(runs), axis=0)
+        comps[lin] = (cls, dict(values, weights_A_per_m=rows))
+        r = self.ev.residuals(stacked, base, self.cand, (), components=tuple(comps))
+        return ((self._per_copy(r, nw) - r0[None, :]) / WEIGHT_STEP).T
+
+    def _per_copy(self, r, copies):
+        """Split stacked residuals (y's, B's, drift blocks over all rows) into one
+        residual vector per copy of the training runs, ordered as :meth:`residuals`."""
+        n = len(self.train.runs)
+        k = self.train.y.shape[1]
+        nb = int(self.train.has_b.sum())
+        out, pos = [], 0
+        ny = copies * n * k
+        yr, yi = r[:ny].reshape(copies, n * k), r[ny:2 * ny].reshape(copies, n * k)
+        pos = 2 * ny
+        parts = [yr, yi]
+        if nb:
+            nbb = copies * nb * k
+            parts += [r[pos:pos + nbb].reshape(copies, nb * k),
+                      r[pos + nbb:pos + 2 * nbb].reshape(copies, nb * k)]
+            pos += 2 * nbb
+        for _ in range(3):
+            parts.append(r[pos:pos + copies * n].reshape(copies, n))
+            pos += copies * n
+        return np.hstack(parts)
 
     def solve(self, jac, r0, w, lam):
         """The penalised NNLS weights for the linearisation (module docstring, step 2)."""
@@ -123,8 +152,9 @@ def fit_linear(ev: Evaluator, train: Batch, cand: Candidate, base0, fit_candidat
     prob = _Problem(ev, train, cand, lin)
     starts = [np.asarray(s, float) for s in ([start] if start is not None else cand.starts())]
     best = None
+    rounds = ROUNDS if start is None else COMBINATION_ROUNDS
     for x0 in starts:
-        out = _alternate(ev, train, prob, base0, x0, fit_candidate, fit_scale)
+        out = _alternate(ev, train, prob, base0, x0, fit_candidate, fit_scale, rounds)
         if best is None or out[2] < best[2]:
             best = out
     base, w, chi2, other, lam = best
@@ -136,7 +166,7 @@ def fit_linear(ev: Evaluator, train: Batch, cand: Candidate, base0, fit_candidat
     return base, prob.x_of(w, other), float(r0 @ r0), int(r0.size), cov, k
 
 
-def _alternate(ev, train, prob, base0, x0, fit_candidate, fit_scale):
+def _alternate(ev, train, prob, base0, x0, fit_candidate, fit_scale, rounds=ROUNDS):
     """The alternation of the module docstring from ``x0``: (base, w, chi^2, other, lambda)."""
     w = np.maximum(x0[prob.lin_idx], 0.0)
     other = x0[prob.other_idx]
@@ -145,7 +175,7 @@ def _alternate(ev, train, prob, base0, x0, fit_candidate, fit_scale):
     lam = None
     chi2_prev = np.inf
     jac = None
-    for _ in range(ROUNDS):
+    for _ in range(rounds):
         # step 3: the nonlinear unknowns with the weights held
         held.w = w
         base, other, _, _, _ = fit_candidate(ev, train, held.unknowns(), base,

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 import gmt
+from gmt.errors import InputError
 
 from ..measured import DataError
 from ..plausibility import check_plausible
@@ -116,7 +117,7 @@ def default_holdout(runs) -> list[str]:
     elif n >= 3:
         chosen = {freqs[(n - 1) // 2]}
     else:
-        raise ValueError(f"{n} distinct frequencies: the default hold-out needs at "
+        raise InputError(f"{n} distinct frequencies: the default hold-out needs at "
                          "least 3; name the held-out runs (holdout=...)")
     return [r.name for r in runs if float(r.frequency) in chosen]
 
@@ -173,14 +174,14 @@ def _check_arguments(runs, holdout, causes):
     """ValueError for names that are not unique, unknown causes, unknown held-out runs."""
     names = [r.name for r in runs]
     if len(set(names)) != len(names):
-        raise ValueError("run names must be unique")
+        raise InputError("run names must be unique")
     unknown_c = [c for c in causes if c not in CAUSES]
     if unknown_c:
-        raise ValueError(f"unknown cause(s) {unknown_c}; choose from {CAUSES}")
+        raise InputError(f"unknown cause(s) {unknown_c}; choose from {CAUSES}")
     if holdout:
         unknown = [h for h in holdout if h not in names]
         if unknown:
-            raise ValueError(f"held-out run(s) {', '.join(map(repr, unknown))} not in the "
+            raise InputError(f"held-out run(s) {', '.join(map(repr, unknown))} not in the "
                              f"data (runs: {', '.join(names)})")
 
 
@@ -203,14 +204,14 @@ def _heldout_and_training(runs, feats, skipped, holdout):
     if holdout:
         gone = [h for h in holdout if h in reasons]
         if gone:
-            raise ValueError("held-out run(s) cannot be used: " + "; ".join(
+            raise InputError("held-out run(s) cannot be used: " + "; ".join(
                 f"{h!r} ({reasons[h]})" for h in gone))
         holdout = list(holdout)
     else:
         holdout = default_holdout(usable)
     train_runs = [r for r in usable if r.name not in holdout]
     if len(train_runs) < 4:
-        raise ValueError(f"{len(train_runs)} training run(s); the four loss coefficients of "
+        raise InputError(f"{len(train_runs)} training run(s); the four loss coefficients of "
                          "eq 16 need at least 4 (hold out fewer runs)")
     return holdout, train_runs
 

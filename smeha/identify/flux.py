@@ -18,6 +18,9 @@ from gmt.sensing import flux_density_amplitude_from_voltage
 
 from ..measured import Run, harmonic_basis
 
+__all__ = ["HARMONICS", "SOURCES", "flux_density_from_sense_voltage", "current_phasor",
+           "flux_density_from_displacement"]
+
 #: Harmonics (besides the offset) in the least-squares fits of a fundamental.
 HARMONICS = 3
 #: Where B_m came from (:attr:`RunIdentification.flux_density_source`), as the reports name it.

@@ -16,6 +16,8 @@ from .flux import (SOURCES, current_phasor, flux_density_from_displacement,
                    flux_density_from_sense_voltage)
 from .results import RunIdentification
 
+__all__ = ["SCAN_RANGE", "SCAN_POINTS", "identify_run"]
+
 #: The paper's scan range of mu'' ("varying its value from 0 to 10").
 SCAN_RANGE = (0.0, 10.0)
 #: Points of the scan over SCAN_RANGE (the paper does not say; 0.2 apart).

@@ -16,6 +16,8 @@ from gmt.parameters import STEINMETZ_RANGE
 from .flags import loss_law_flags
 from .results import LOSS_COEFFICIENTS, LossFit
 
+__all__ = ["MIN_RUNS_FOR_UNCERTAINTY", "RESIDUAL_VARIANCE_TAIL", "fit_losses", "physical_flags"]
+
 #: Fewest runs for the loss-coefficient uncertainties (4 parameters + 1 dof).
 MIN_RUNS_FOR_UNCERTAINTY = 5
 #: Probability of a residual variance above the flag's limit when the per-run errors are

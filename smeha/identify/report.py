@@ -5,6 +5,8 @@ import math
 
 from .results import LOSS_COEFFICIENTS, Identification
 
+__all__ = ["format_identification"]
+
 
 def _pm(value, err, digits=4):
     if err is None or not math.isfinite(err):

@@ -8,6 +8,8 @@ from dataclasses import asdict, dataclass
 import gmt
 from gmt.constants import MU_0
 
+__all__ = ["LOSS_COEFFICIENTS", "RunIdentification", "LossFit", "Identification"]
+
 #: Names, symbols and units of the loss coefficients (eqs 7, 9, 11).
 LOSS_COEFFICIENTS = (
     ("K_h", "hysteresis_coefficient", "W s/(m^3 T^n)"),

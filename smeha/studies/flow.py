@@ -16,8 +16,9 @@ Model variants: a case with ``variant`` (a :class:`gmt.ModelVariant`, e.g. the
 extension ``smeha diagnose`` names) runs the transducer with that extension
 added -- through the FMU's ``model_variant`` and ``variant_parameters``, or
 ``gmt.Transducer(variant=...)`` in-process -- so the flow with the paper's
-model and with the extended model can be compared (:func:`format_comparison`,
-``smeha flow --variant FILE``). The compensator stays the paper's inverse
+model and with the extended model can be compared
+(:func:`smeha.studies.flowtables.format_comparison`, ``smeha flow --variant FILE``).
+The compensator stays the paper's inverse
 model in both.
 
 Results a reader could misread are flagged (:func:`flag_row`), in the table,
@@ -43,7 +44,7 @@ import gmt
 from gmt.parameters import BRANCH_RULE, COMPENSATOR_PERIOD
 from system_models import presets
 from system_models.controller import dead_times
-from system_models.cosim import (COUPLINGS, CosimSettings, DirectTransducer, FmuTransducer,
+from system_models.cosim import (CosimSettings, DirectTransducer, FmuTransducer,
                                  cosimulate, volume_balance)
 from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_STEP,
                                     HYDRAULIC_STEP, VALVE_CONTROLLER_PERIOD)
@@ -51,6 +52,13 @@ from system_models.flowcheck import flow_check
 from system_models.fluid import MINIMUM_PRESSURE
 
 from .. import paperdata
+from .flowrow import FlowRow
+
+__all__ = ["MODES", "CIRCUITS", "CURRENT_AMPLITUDE", "paper_control_amplitudes", "paper_dy",
+           "control_amplitude", "Sinusoid", "control_signal", "Case", "variant_start_values",
+           "default_fmu_path", "ensure_fmu", "FREE_SAMPLES_PER_CYCLE", "free_dy",
+           "rod_lag_degrees", "WATCHED_PRESSURES", "lowest_pressure", "flag_row", "run_case",
+           "run_cases", "compare_variant", "FlowRow"]
 
 MODES = ("uncompensated", "compensated")
 #: The named circuits (system_models.presets).
@@ -118,13 +126,25 @@ class Sinusoid:
         return self.offset + self.amplitude * math.cos(self.angular_frequency * t)
 
 
-def control_signal(mode: str, frequency: float, amplitude: float | None = None):
-    """u(t) [V] for a mode (a :class:`Sinusoid`); returns (u, a or None)."""
+def control_signal(mode: str, frequency: float, amplitude: float | None = None,
+                   waveform: str = "sine"):
+    """u(t) [V] for a mode; returns (u, a or None).
+
+    ``amplitude`` a [V]: uncompensated u = a s(f t) (default I_m / K_a), compensated
+    u = a + a s(f t) (default :func:`control_amplitude`); s the ``waveform``'s shape
+    (:mod:`smeha.studies.waveforms`; a :class:`Sinusoid` for the paper's ``"sine"``).
+    """
+    from .waveforms import Waveform
     if mode == "uncompensated":
-        return Sinusoid(0.0, CURRENT_AMPLITUDE, frequency), None
+        a = CURRENT_AMPLITUDE if amplitude is None else amplitude
+        if waveform == "sine":
+            return Sinusoid(0.0, a, frequency), amplitude
+        return Waveform(0.0, a, frequency, waveform), amplitude
     if mode == "compensated":
         a = control_amplitude(frequency) if amplitude is None else amplitude
-        return Sinusoid(a, a, frequency), a
+        if waveform == "sine":
+            return Sinusoid(a, a, frequency), a
+        return Waveform(a, a, frequency, waveform), a
     raise gmt.ParameterError(f"mode = {mode!r} is not one of {MODES}")
 
 
@@ -148,6 +168,14 @@ class Case:
     hydraulic_step: float | None = HYDRAULIC_STEP
     #: the digital compensator's sample period [s] (gmt.DriveParameters.compensator_period)
     compensator_period: float = COMPENSATOR_PERIOD
+    #: the transducer's magnetics (gmt.transducer.MAGNETICS): the paper's or the time domain's
+    magnetics: str = "paper"
+    #: the model the compensator inverts; None: that of ``magnetics``
+    inverse: str | None = None
+    #: the control signal's shape (smeha.studies.waveforms.WAVEFORMS)
+    waveform: str = "sine"
+    #: the control signal's amplitude a [V] (control_signal); None: the study's default
+    amplitude: float | None = None
 
     def __post_init__(self):
         from system_models.flowcheck import MINIMUM_CYCLES
@@ -168,18 +196,31 @@ class Case:
         if self.backend not in ("fmu", "direct"):
             raise gmt.ParameterError(
                 f"backend = {self.backend!r} is not one of ('fmu', 'direct')")
-        if self.coupling not in COUPLINGS:
-            raise gmt.ParameterError(f"coupling = {self.coupling!r} is not one of {COUPLINGS}")
-        check_range = gmt.errors.check_range
-        check_range("step", self.step, 0.0, 1.0, unit="s", high_open=False)
-        check_range("controller_period", self.controller_period, 0.0, 1.0, unit="s",
-                    high_open=False)
-        if self.hydraulic_step is not None:
-            check_range("hydraulic_step", self.hydraulic_step, 0.0, 1.0, unit="s",
-                        high_open=False)
         if self.load is not None:
-            check_range("load", self.load, -1e7, 1e7, unit="N")
-        self.drive()  # the drive's checks (compensator_period, branch_rule) before any run
+            gmt.errors.check_range("load", self.load, -1e7, 1e7, unit="N")
+        from gmt.transducer import MAGNETICS
+
+        from .waveforms import WAVEFORMS
+        if self.magnetics not in MAGNETICS:
+            raise gmt.ParameterError(f"magnetics = {self.magnetics!r} is not one of {MAGNETICS}")
+        if self.inverse is not None and self.inverse not in MAGNETICS:
+            raise gmt.ParameterError(f"inverse = {self.inverse!r} is not one of {MAGNETICS}")
+        if self.waveform not in WAVEFORMS:
+            raise gmt.ParameterError(f"waveform = {self.waveform!r} is not one of {WAVEFORMS}")
+        if self.amplitude is not None:
+            gmt.errors.check_range("amplitude", self.amplitude, 0.0, 1000.0, unit="V")
+        # the co-simulation's and the drive's settings, checked once, by their own classes
+        # (step, coupling, controller_period, hydraulic_step, duration; compensator_period,
+        # branch_rule), before any run
+        self.cosim_settings()
+        self.drive()
+
+    def cosim_settings(self) -> CosimSettings:
+        """The co-simulation's settings of this case (the one place they are checked)."""
+        return CosimSettings(duration=self.cycles / self.frequency, step=self.step,
+                             coupling=self.coupling, load_force=self.load_force,
+                             controller_period=self.controller_period,
+                             hydraulic_step=self.hydraulic_step)
 
     @classmethod
     def field_names(cls) -> tuple[str, ...]:
@@ -209,10 +250,15 @@ class Case:
         """The transducer FMU's parameter values of this case (those that differ from its
         start values may be among them)."""
         drive = self.drive()
-        return {"frequency": self.frequency, "current_amplitude": CURRENT_AMPLITUDE,
-                "compensated": drive.compensated, "branch_rule": drive.branch_rule,
-                "compensator_period": drive.compensator_period,
-                **variant_start_values(self.variant)}
+        values = {"frequency": self.frequency, "current_amplitude": CURRENT_AMPLITUDE,
+                  "compensated": drive.compensated, "branch_rule": drive.branch_rule,
+                  "compensator_period": drive.compensator_period,
+                  **variant_start_values(self.variant)}
+        if self.magnetics != "paper":
+            values["magnetics"] = self.magnetics
+        if self.inverse is not None:
+            values["inverse_model"] = self.inverse
+        return values
 
 
 def variant_start_values(variant: gmt.ModelVariant | None) -> dict:
@@ -250,7 +296,9 @@ FREE_SAMPLES_PER_CYCLE = 1000
 def free_dy(frequency: float, mode: str, branch_rule: str = BRANCH_RULE,
             variant: gmt.ModelVariant | None = None,
             compensator_period: float = COMPENSATOR_PERIOD,
-            cycles: float = DEFAULT_CYCLES) -> float:
+            cycles: float = DEFAULT_CYCLES, magnetics: str = "paper",
+            inverse: str | None = None, waveform: str = "sine",
+            amplitude: float | None = None) -> float:
     """dy of the transducer alone (no oil, no force) between the same instants, [m].
 
     Cached: a load line or a sweep asks for it once per case at the same
@@ -268,32 +316,42 @@ def free_dy(frequency: float, mode: str, branch_rule: str = BRANCH_RULE,
     averages (:mod:`system_models.flowcheck`): a compensator sampling at a
     rate the pump frequency does not divide (10 kHz against 70 Hz) samples
     each cycle at other phases, and a drifting variant has no steady state.
+    The time-domain magnetics, another waveform or amplitude are time-stepped too;
+    a waveform's window is the valve controller's
+    (:func:`smeha.studies.waveforms.compression_window`).
     """
     from system_models.flowcheck import SKIP_CYCLES
+
+    from .waveforms import compression_window
     params = gmt.TransducerParameters()
-    if mode == "uncompensated" and (variant is None or variant.is_paper):
+    if (mode == "uncompensated" and (variant is None or variant.is_paper)
+            and magnetics == "paper" and waveform == "sine" and amplitude is None):
         point = gmt.operating_point(params, gmt.Excitation(frequency, CURRENT_AMPLITUDE))
         return gmt.loop_metrics(params, point)["dy"]
     drive = gmt.DriveParameters(compensated=mode == "compensated", branch_rule=branch_rule,
                                 compensator_period=compensator_period)
     unit = gmt.Transducer(params, gmt.Excitation(frequency, CURRENT_AMPLITUDE), drive,
-                          variant=variant)
-    control, _ = control_signal(mode, frequency)
+                          variant=variant, magnetics=magnetics, inverse=inverse)
+    control, _ = control_signal(mode, frequency, amplitude, waveform)
     h = 1.0 / (frequency * FREE_SAMPLES_PER_CYCLE)
     period = unit.sample_period
     if period > 0.0:  # a step that divides T_c: every sample sees u at its own instant
         h = period / math.ceil(period / h - 1e-9)
+    start, end = compression_window(waveform)
     whole = max(int(cycles), SKIP_CYCLES + 2)
-    n = int(math.ceil(whole / (frequency * h)))
+    n = int(math.ceil((whole + end - 1.0) / (frequency * h)))
     y = np.empty(n + 1)
     y[0] = unit.forward.displacement
+    # the time-domain magnetics driven continuously hold u at each step's middle, as the
+    # force port does (system_models.forceport): a held u(t_k) would lag by half a step
+    mid = 0.5 if magnetics == "time_domain" and mode == "uncompensated" else 0.0
     for k in range(n):
-        y[k + 1] = unit.step(control(k * h), h).displacement
-    # u is at its maximum at each cycle's start and at its minimum half way: compression
-    # window k runs from (k + 1/2) T to (k + 1) T (the samples nearest those instants)
+        y[k + 1] = unit.step(control((k + mid) * h), h).displacement
+    # compression window k runs from (k + start) T to (k + end) T (the samples nearest those
+    # instants); for the paper's cosine from its minimum, (k + 1/2) T, to its maximum
     k = np.arange(SKIP_CYCLES, whole - 1)
-    lows = np.rint((k + 0.5) / (frequency * h)).astype(int)
-    highs = np.rint((k + 1.0) / (frequency * h)).astype(int)
+    lows = np.rint((k + start) / (frequency * h)).astype(int)
+    highs = np.rint((k + end) / (frequency * h)).astype(int)
     return float(np.mean(y[highs] - y[lows]))
 
 
@@ -356,36 +414,42 @@ def flag_row(row: dict, rod_lag_deg: float | None = None, dead_time: float = 0.0
 
 
 def _reversed_note(row, rod_lag_deg, dead_time) -> str:
-    """Why a row's flow runs backwards (:func:`flag_row`)."""
-    if row["dy_um"] < 0.0:
-        timing = dead_time * row["frequency_Hz"] * 360.0
+    """Why a row's flow runs backwards (:func:`flag_row`): the rod's lag past a quarter
+    period after the valves' timing, or else the load past the stall point (which can
+    drive the rod back between the switches too, dy < 0)."""
+    timing = dead_time * row["frequency_Hz"] * 360.0
+    lagging = rod_lag_deg is not None and abs(rod_lag_deg) + timing > 90.0
+    if row["dy_um"] < 0.0 and (lagging or rod_lag_deg is None):
         lag = "" if rod_lag_deg is None else (
             f": the rod lags the control signal by {rod_lag_deg:.0f} deg")
         return (f"flow reversed{lag}, the valves act {timing:.0f} deg after its "
                 f"extremes (dead time): past a quarter period the rod moves backwards "
                 f"between the valve switches (dy {row['dy_um']:.1f} um < 0), so the "
                 f"pump empties the big cavity instead of filling it")
+    back = (" and pushes the rod back between the valve switches" if row["dy_um"] < 0.0
+            else "")
+    lag = "" if rod_lag_deg is None else (
+        f"; the rod's lag ({abs(rod_lag_deg):.0f} deg, {timing:.0f} deg of valve dead time) "
+        "is within a quarter period")
     return (f"flow reversed: the load needs p_B - p_S = "
             f"{row['load_pressure_Pa'] / 1e6:.2f} MPa, more than the pump holds "
             f"at this stroke (dy {row['dy_um']:.1f} um): the load drives the "
-            f"cylinder back (past the stall point of its load line)")
+            f"cylinder back{back} (past the stall point of its load line){lag}")
 
 
 def run_case(case: Case, fmu_path: Path | None = None, progress=None):
-    """Run one case; return (record, FlowCheck, row dict)."""
+    """Run one case; return (record, FlowCheck, :class:`~smeha.studies.flowrow.FlowRow`)."""
     params = gmt.TransducerParameters()
     drive = case.drive()
-    control, a = control_signal(case.mode, case.frequency)
+    control, a = control_signal(case.mode, case.frequency, case.amplitude, case.waveform)
     circuit = presets.circuit(case.circuit)
-    settings = CosimSettings(duration=case.cycles / case.frequency, step=case.step,
-                             coupling=case.coupling, load_force=case.load_force,
-                             controller_period=case.controller_period,
-                             hydraulic_step=case.hydraulic_step)
+    settings = case.cosim_settings()
     if case.backend == "fmu":
         backend = FmuTransducer(fmu_path or default_fmu_path(), case.fmu_start_values())
     else:
         backend = DirectTransducer(params, gmt.Excitation(case.frequency, CURRENT_AMPLITUDE),
-                                   drive, case.variant)
+                                   drive, case.variant, magnetics=case.magnetics,
+                                   inverse=case.inverse)
     wall = time.perf_counter()
     try:
         record = cosimulate(backend, control, circuit, settings, progress=progress)
@@ -395,11 +459,14 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
     check = flow_check(record, case.frequency, circuit.chamber.piston_area)
     imbalance, pumped = volume_balance(record, circuit)
     half = len(record) // 2
-    paper = paper_dy(case.frequency, case.mode)
+    # Table 3 was measured with the paper's sinusoidal drives only
+    paper = (paper_dy(case.frequency, case.mode)
+             if case.waveform == "sine" and case.amplitude is None else None)
     area = circuit.chamber.piston_area
     p_min, p_min_volume = lowest_pressure(record)
     dy_free = free_dy(case.frequency, case.mode, case.branch_rule, case.variant,
-                      case.compensator_period, case.cycles)
+                      case.compensator_period, case.cycles, case.magnetics, case.inverse,
+                      case.waveform, case.amplitude)
     row = {
         "frequency_Hz": case.frequency, "mode": case.mode, "model": case.model,
         "circuit": case.circuit, "load_N": case.load_force,
@@ -417,14 +484,16 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
         "p_pump_max_Pa": float(record["p_pump"][half:].max()),
         "p_min_Pa": p_min, "p_min_volume": p_min_volume,
         "volume_imbalance_m3": imbalance, "volume_pumped_m3": pumped,
-        "cycles_averaged": check.cycles, "step_s": case.step, "coupling": case.coupling,
+        "cycles_averaged": check.cycles, "flow_drift_per_cycle": check.drift,
+        "settled": check.settled, "step_s": case.step, "coupling": case.coupling,
         "backend": case.backend, "wall_s": wall,
+        "magnetics": case.magnetics, "waveform": case.waveform,
     }
     window = slice(half, None)
     lag = rod_lag_degrees(record["time"][window], record["control"][window],
                           record["rod_displacement"][window], case.frequency)
     flag_row(row, lag, max(dead_times(circuit.valves)))
-    return record, check, row
+    return record, check, FlowRow(**row)
 
 
 def _run_one(case, fmu_path):
@@ -442,59 +511,6 @@ def run_cases(cases, fmu_path=None, workers: int = 1, quiet: bool = False) -> li
                  None if quiet else (lambda m: print(m, file=sys.stderr, flush=True)))
     return pool.run_jobs(_run_one, [(c, fmu_path) for c in cases], workers,
                          desc="co-simulations", unit="run", quiet=quiet)
-
-
-def _mark(row) -> str:
-    """The table's mark of a flagged row (:func:`flag_row`; its note follows the table)."""
-    return "  (!)" if row.get("flow_reversed") or row.get("cavitation") else ""
-
-
-def format_table(rows) -> str:
-    """The flow table for the terminal."""
-    head = (f"{'f [Hz]':>6}  {'mode':<13}  {'circuit':<9}  {'load [N]':>8}  {'q sim [m3/s]':>12}  "
-            f"{'q eq40/41':>10}  {'sim/eq':>6}  {'dy [um]':>7}  {'q paper':>10}  "
-            f"{'dy paper':>8}  {'dy free':>7}  {'q/q free':>8}  {'q [L/min]':>9}")
-    lines = ["Cylinder flow: co-simulation against eqs 40/41 and the paper's Table 3",
-             "(dy: the rod between the valve switching instants of this run; q paper: f A_d dy "
-             "that the paper computes with eqs 40/41 from Table 3's measured dy (dy paper), not "
-             "a measured flow; dy free: the transducer alone, no oil; q/q free: delivered flow "
-             "over f A_d dy free, the flow eqs 40/41 give for the free transducer, as the paper "
-             "computes them)", head]
-    for r in rows:
-        paper = "-" if r["flow_paper_m3_s"] is None else f"{r['flow_paper_m3_s']:.3e}"
-        dyp = "-" if r["dy_paper_um"] is None else f"{r['dy_paper_um']:.1f}"
-        lines.append(f"{r['frequency_Hz']:>6g}  {r['mode']:<13}  {r['circuit']:<9}  "
-                     f"{r['load_N']:>8g}  {r['flow_sim_m3_s']:>12.4e}  {r['flow_eq_m3_s']:>10.4e}  "
-                     f"{r['flow_ratio']:>6.3f}  {r['dy_um']:>7.2f}  {paper:>10}  {dyp:>8}  "
-                     f"{r['dy_free_um']:>7.2f}  {r['delivered_fraction']:>8.3f}  "
-                     f"{r['flow_sim_L_min']:>9.4f}{_mark(r)}")
-    by = {(r["frequency_Hz"], r["mode"]): r for r in rows}
-    gains = [f"{f:g} Hz: {by[(f, MODES[1])]['flow_sim_m3_s'] / q:.3f}"
-             for f in sorted({r["frequency_Hz"] for r in rows})
-             if (f, MODES[1]) in by and (f, MODES[0]) in by
-             and (q := by[(f, MODES[0])]["flow_sim_m3_s"]) != 0]
-    if gains:
-        lines.append("compensated / uncompensated flow: " + ", ".join(gains))
-    for r in rows:
-        if r.get("note"):
-            lines.append(f"(!) {r['frequency_Hz']:g} Hz {r['mode']}: {r['note']}")
-    return "\n".join(lines)
-
-
-def format_load_lines(rows) -> str:
-    """Flow against load pressure (p_B - p_S) for each frequency and mode."""
-    lines = ["Load lines: mean cylinder flow against load pressure p_B - p_S",
-             f"{'f [Hz]':>6}  {'mode':<13}  {'load [N]':>8}  {'p_B - p_S [MPa]':>15}  "
-             f"{'q sim [m3/s]':>12}  {'q [L/min]':>9}"]
-    for r in sorted(rows, key=lambda r: (r["frequency_Hz"], r["mode"], r["load_N"])):
-        lines.append(f"{r['frequency_Hz']:>6g}  {r['mode']:<13}  {r['load_N']:>8g}  "
-                     f"{r['load_pressure_Pa'] / 1e6:>15.3f}  {r['flow_sim_m3_s']:>12.4e}  "
-                     f"{r['flow_sim_L_min']:>9.4f}{_mark(r)}")
-    for r in rows:
-        if r.get("note"):
-            lines.append(f"(!) {r['frequency_Hz']:g} Hz {r['mode']}, {r['load_N']:g} N: "
-                         f"{r['note']}")
-    return "\n".join(lines)
 
 
 def compare_variant(rows) -> list[dict]:
@@ -532,40 +548,3 @@ def compare_variant(rows) -> list[dict]:
                     "variant_marks": list(r.get("variant_marks") or []),
                     **{k: r[k] for k in ("variant_note", "note") if r.get(k)}})
     return out
-
-
-def format_comparison(pairs, variant: gmt.ModelVariant, source: str = "") -> str:
-    """The flow with the paper's model and with the variant, side by side."""
-    where = f" (from {source})" if source else ""
-    lines = [f"Cylinder flow: the paper's model against the variant {variant.describe()}"
-             f"{where}",
-             "(co-simulation, same circuit and drive; the compensator is the paper's inverse "
-             "model in both; dy: the rod between the valve switching instants; dy free "
-             "variant: the variant's transducer alone, no oil; (!): see the notes below)",
-             f"{'f [Hz]':>6}  {'mode':<13}  {'circuit':<9}  {'load [N]':>8}  "
-             f"{'q paper [m3/s]':>14}  {'q variant [m3/s]':>16}  {'variant/paper':>13}  "
-             f"{'dy paper [um]':>13}  {'dy variant [um]':>15}  {'dy free variant':>15}"]
-    for c in pairs:
-        ratio = "-" if c["flow_ratio_variant_to_paper"] is None else \
-            f"{c['flow_ratio_variant_to_paper']:.4f}"
-        lines.append(f"{c['frequency_Hz']:>6g}  {c['mode']:<13}  {c['circuit']:<9}  "
-                     f"{c['load_N']:>8g}  {c['flow_paper_model_m3_s']:>14.4e}  "
-                     f"{c['flow_variant_m3_s']:>16.4e}  {ratio:>13}  "
-                     f"{c['dy_paper_model_um']:>13.2f}  {c['dy_variant_um']:>15.2f}  "
-                     f"{c['dy_free_variant_um']:>15.2f}"
-                     f"{'  (!)' if c.get('variant_marks') or c.get('note') else ''}")
-    lines += _comparison_notes(pairs)
-    return "\n".join(lines)
-
-
-def _comparison_notes(pairs) -> list[str]:
-    """The reasons behind the comparison's (!) marks, each once with the rows it applies to:
-    the variant's (smeha.studies.variantcheck), then the variant rows' own flags (:func:`flag_row`)."""
-    grouped = {}
-    for c in pairs:
-        where = f"{c['frequency_Hz']:g} Hz {c['mode']}"
-        for reason in c.get("variant_marks") or ():
-            grouped.setdefault(f"variant: {reason}", []).append(where)
-        if c.get("note"):
-            grouped.setdefault(f"variant row: {c['note']}", []).append(where)
-    return [f"(!) {', '.join(rows)}: {reason}" for reason, rows in grouped.items()]

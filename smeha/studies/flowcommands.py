@@ -18,10 +18,14 @@ from pathlib import Path
 import gmt  # cheap: its names load on first use
 from gmt.parameters import COMPENSATOR_PERIOD
 from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_STEP,
-                                    HYDRAULIC_STEP, VALVE_CONTROLLER_PERIOD)
+                                    HYDRAULIC_STEP, MAXIMUM_DURATION, MINIMUM_CYCLES,
+                                    REALISTIC_LOAD, SKIP_CYCLES, VALVE_CONTROLLER_PERIOD)
 
 from ..cliargs import (UsageError, add_branch_rule, count, input_file, number, number_list,
                       output_file, scheduler_address, warn)
+
+__all__ = ["FREQUENCY", "CONVERGED_STEPS_PER_CYCLE", "CIRCUITS", "MODE_HELP", "add_simulate",
+           "WORKERS_HELP", "add_flow", "FAST_RETIRED", "add_sweep", "default_sweep_table"]
 
 #: Frequencies the study accepts, (0, 1000] Hz (gmt.Excitation's range).
 FREQUENCY = number(0.0, 1000.0, unit="Hz")
@@ -33,11 +37,20 @@ CONVERGED_STEPS_PER_CYCLE = {"force": 100, "displacement": 250}
 #: The named circuits (system_models.presets.CIRCUITS, typed here so that --help loads no
 #: solver; tests/test_kernel.py checks the two agree).
 CIRCUITS = ("realistic", "ideal", "differential")
+#: --magnetics (gmt.transducer.MAGNETICS) and --waveform (smeha.studies.waveforms.WAVEFORMS),
+#: typed here for --help; tests/test_timedomain_study.py checks they agree.
+MAGNETICS = ("paper", "time_domain")
+WAVEFORMS = ("sine", "square", "trapezoid")
 
 
-def _check_step(command, step, frequency, coupling) -> None:
-    """Warn (stderr) when the communication step is coarser than any measured to converge."""
+def _check_step(command, step, frequency, coupling, sample_period=0.0) -> None:
+    """Warn (stderr) when the communication step is coarser than any measured to converge.
+
+    ``sample_period``: the digital compensator's T_c (0 uncompensated); the master cuts
+    every step at its samples, so a step longer than T_c runs as T_c (no warning then)."""
     need = CONVERGED_STEPS_PER_CYCLE[coupling]
+    if sample_period > 0.0:
+        step = min(step, sample_period)
     per_cycle = 1.0 / (frequency * step)
     if per_cycle < need * (1.0 - 1e-9):
         warn(command, f"--step {step:g} s is {per_cycle:.0f} steps a cycle at {frequency:g} Hz; "
@@ -46,9 +59,16 @@ def _check_step(command, step, frequency, coupling) -> None:
                       "expect a larger error")
 
 
+def _averaged(cycles=DEFAULT_CYCLES) -> float:
+    """Whole cycles the flow check averages in a run of ``cycles``: its compression strokes
+    start at the drive's minima, (k + 1/2) T, and the averaged cycles lie between the
+    strokes after the skipped ones."""
+    import math
+    return max(math.ceil(cycles - 0.5) - SKIP_CYCLES - 1, 0)
+
+
 def _cycles(text):
     """--cycles: at least system_models.flowcheck.MINIMUM_CYCLES (the flow check's need)."""
-    from system_models.flowcheck import MINIMUM_CYCLES
     return number(MINIMUM_CYCLES, low_open=False, unit="cycles")(text)
 
 
@@ -57,12 +77,13 @@ _cycles.numeric = True
 def _add_cosim_options(p):
     p.add_argument("--circuit", choices=CIRCUITS,
                    help="realistic (default: 0.5 %% air in the oil, 0.2 ms valve dead time, "
-                        "differential cylinder, 150 N load); ideal: the limit in which eqs "
+                        f"differential cylinder, {REALISTIC_LOAD:g} N load); ideal: the limit "
+                        "in which eqs "
                         "40/41 hold (the chamber pressure constant: equal-area cylinder, "
                         "stiff oil, instant valves, no load); differential: ideal oil and "
                         "valves on the differential cylinder, whose rebound adds stroke")
     p.add_argument("--ideal", action="store_true", help="the same as --circuit ideal")
-    p.add_argument("--step", type=number(0.0, 1.0, unit="s"), metavar="S",
+    p.add_argument("--step", type=number(0.0, 1.0, high_open=True, unit="s"), metavar="S",
                    help=f"communication step [s] (default {DEFAULT_STEP:g}; a warning below "
                         f"{CONVERGED_STEPS_PER_CYCLE['force']} steps a cycle); steps are also "
                         "cut at the compensator's samples and the valve actions")
@@ -72,24 +93,38 @@ def _add_cosim_options(p):
                         "the FMU integrates the rod, the chamber force iterated through its "
                         "state save/restore (the cross-check; needs smaller steps)")
     p.add_argument("--cycles", type=_cycles, metavar="N",
-                   help=f"simulated pumping cycles, at least 4: the flow check discards the "
-                        f"first 2 and averages the rest (default {DEFAULT_CYCLES:g})")
+                   help=f"simulated pumping cycles, at least {MINIMUM_CYCLES}: the flow check "
+                        f"discards the first {SKIP_CYCLES} compression strokes and averages "
+                        f"the whole cycles between the strokes that follow ({_averaged():g} "
+                        f"at the default {DEFAULT_CYCLES:g})")
     p.add_argument("--backend", choices=("fmu", "direct"),
                    help="transducer through the FMU and fmpy (default) or gmt in-process")
     p.add_argument("--fmu", metavar="FILE", type=input_file,
                    help="transducer FMU (default dist/SmehaGmt.fmu of the source tree, built "
                         "if missing or out of date; see 'smeha build')")
     add_branch_rule(p)
+    p.add_argument("--magnetics", choices=MAGNETICS,
+                   help="the transducer's magnetics: paper (default: the complex permeability "
+                        "of eqs 3-20, defined for one sinusoid) or time_domain (the paper's loss "
+                        "separation as a field separation, valid for any drive; compensated, "
+                        "its own explicit inverse; docs/TIMEDOMAIN.md)")
+    p.add_argument("--waveform", choices=WAVEFORMS,
+                   help="shape of the control signal: sine (default, the paper's), square or "
+                        "trapezoid (ramps of 0.15 of the period); uncompensated the coil "
+                        "current's, compensated the demanded stroke's; the valves switch where "
+                        "u starts to rise and to fall")
     p.add_argument("--compensator-period", type=number(0.0, 1.0, low_open=False, unit="s"),
                    metavar="S",
                    help=f"sample period of the digital compensator [s] (default "
                         f"{COMPENSATOR_PERIOD:g}: 10 kHz); its current is held between "
                         f"samples; 0: a sample every step")
-    p.add_argument("--controller-period", type=number(0.0, 1.0, unit="s"), metavar="S",
+    p.add_argument("--controller-period", type=number(0.0, 1.0, high_open=True, unit="s"),
+                   metavar="S",
                    help=f"sample period of the valve controller [s] (default "
                         f"{VALVE_CONTROLLER_PERIOD:g}); the valves act after their exact dead "
                         f"times, at communication points")
-    p.add_argument("--hydraulic-step", type=number(0.0, 1.0, unit="s"), metavar="S",
+    p.add_argument("--hydraulic-step", type=number(0.0, 1.0, high_open=True, unit="s"),
+                   metavar="S",
                    help=f"longest hydraulic substep [s] (default {HYDRAULIC_STEP:g}; after "
                         f"each valve action the substeps start at 1 us and grow fourfold)")
 
@@ -97,7 +132,8 @@ def _add_cosim_options(p):
 def _add_load(p):
     p.add_argument("--load", type=number(unit="N"), metavar="N",
                    help="load on the cylinder [N]: positive opposes the pumped direction "
-                        "(oil into the big cavity), negative assists it (default 150 "
+                        "(oil into the big cavity), negative assists it (default "
+                        f"{REALISTIC_LOAD:g} "
                         "realistic, 0 ideal and differential)")
 
 
@@ -117,15 +153,24 @@ def add_simulate(subparsers):
                    help="pumping frequency [Hz], in (0, 1000]")
     p.add_argument("--mode", choices=("uncompensated", "compensated"), required=True,
                    help=MODE_HELP)
-    p.add_argument("--duration", type=number(0.0, unit="s"), metavar="S",
-                   help="simulated time [s], at least 4 cycles (default: --cycles pumping "
-                        "cycles)")
+    p.add_argument("--duration", type=number(0.0, MAXIMUM_DURATION, unit="s"), metavar="S",
+                   help=f"simulated time [s], at least {MINIMUM_CYCLES} cycles and at most "
+                        f"{MAXIMUM_DURATION:g} s (default: --cycles pumping cycles)")
     _add_load(p)
     _add_cosim_options(p)
     p.add_argument("--csv", metavar="FILE", type=output_file,
-                   help="write the time series as CSV, SI units in the column names "
-                        "(time_s, rod_displacement_m, p_pump_Pa, ...), as the measurement "
-                        "files of 'smeha identify' name theirs")
+                   help="write the whole record as CSV, SI units in the column names "
+                        "(time_s, rod_displacement_m, p_pump_Pa, ...); for a file 'smeha "
+                        "identify' and 'smeha diagnose' read, use --measurement")
+    p.add_argument("--variant", metavar="FILE", type=input_file,
+                   help="the transducer with a model variant: FILE is 'smeha diagnose --json' "
+                        "output or {\"cause\": ..., \"parameters\": {...}} (e.g. "
+                        "data/paper_variant.json); with --measurement, a data set to diagnose")
+    p.add_argument("--measurement", metavar="FILE", type=output_file,
+                   help="add the run to FILE in the measurement format (docs/MEASURED.md: "
+                        "run, frequency_Hz, time_s, current_A, displacement_um, control_V), "
+                        "as run '<mode>_<f>Hz'; a run of that name already there is replaced, "
+                        "others kept, so runs at several frequencies make one data set")
     p.add_argument("--plot", metavar="FILE", type=output_file, help="write a PNG of the run")
     p.add_argument("--json", action="store_true", help="print only a JSON object")
     p.set_defaults(run=_run_simulate)
@@ -140,7 +185,8 @@ def _case_from(args, frequency, mode, load=None, variant=None):
                 "step": args.step, "circuit": "ideal" if args.ideal else args.circuit,
                 "compensator_period": args.compensator_period,
                 "controller_period": args.controller_period,
-                "hydraulic_step": args.hydraulic_step}
+                "hydraulic_step": args.hydraulic_step, "magnetics": args.magnetics,
+                "waveform": args.waveform}
     return Case(frequency=frequency, mode=mode, load=load, branch_rule=args.branch_rule,
                 variant=variant, **{k: v for k, v in optional.items() if v is not None})
 
@@ -148,6 +194,10 @@ def _case_from(args, frequency, mode, load=None, variant=None):
 def _check_circuit(args) -> None:
     if args.ideal and args.circuit not in (None, "ideal"):
         raise UsageError(f"--ideal is --circuit ideal; it contradicts --circuit {args.circuit}")
+    if args.waveform not in (None, "sine") and args.magnetics in (None, "paper"):
+        warn(args.command, f"--waveform {args.waveform} drives the paper's model, which is "
+                           "defined for a sinusoid (its outside_design_point rises): "
+                           "--magnetics time_domain holds for any drive")
 
 
 def _fmu_for(args, cases):
@@ -177,7 +227,6 @@ def _progress_bar(total_steps, label, quiet):
 
 def _check_simulate(args) -> None:
     """The cross-option rules of simulate, in the options' own terms (before any work)."""
-    from system_models.flowcheck import MINIMUM_CYCLES
     if args.duration is not None:
         if args.cycles is not None:
             raise UsageError(f"give --duration or --cycles, not both (--duration "
@@ -186,12 +235,16 @@ def _check_simulate(args) -> None:
         if args.duration * args.frequency < MINIMUM_CYCLES:
             raise UsageError(
                 f"--duration {args.duration:g} s is {args.duration * args.frequency:.3g} "
-                f"cycles at {args.frequency:g} Hz; the flow check discards the first 2 cycles "
-                f"and averages at least 2 more: give --duration "
+                f"cycles at {args.frequency:g} Hz; the flow check discards the first "
+                f"{SKIP_CYCLES} cycles "
+                f"and averages at least {MINIMUM_CYCLES - SKIP_CYCLES} more: give --duration "
                 f">= {MINIMUM_CYCLES / args.frequency:g} s")
     _check_circuit(args)
+    compensated = args.mode == "compensated"
+    period = (COMPENSATOR_PERIOD if args.compensator_period is None
+              else args.compensator_period) if compensated else 0.0
     _check_step("simulate", args.step or DEFAULT_STEP, args.frequency,
-                args.coupling or DEFAULT_COUPLING)
+                args.coupling or DEFAULT_COUPLING, period)
 
 
 def _run_failures() -> tuple:
@@ -217,10 +270,25 @@ def _write_record_csv(record, path) -> None:
                delimiter=",", header=",".join(names), comments="")
 
 
+def _add_measurement(record, case, path) -> None:
+    """The run as a measured one (smeha.measured.Run: coil current, the rod's displacement,
+    the control signal at the communication points), added to the measurement file."""
+    from pathlib import Path
+
+    from .. import measured
+    name = f"{case.mode}_{case.frequency:g}Hz"
+    run = measured.Run(name, case.frequency, record["time"].copy(), record["current"].copy(),
+                       record["rod_displacement"].copy(), control=record["control"].copy())
+    runs = measured.read_measurements(path) if Path(path).is_file() else []
+    measured.write_measurements(path, [r for r in runs if r.name != name] + [run])
+
+
 def _run_simulate(args) -> int:
     from . import flow
     _check_simulate(args)
-    case = _case_from(args, args.frequency, args.mode, args.load)
+    variant = _read_variant(args.variant)[0] if args.variant else None
+    case = _case_from(args, args.frequency, args.mode, args.load,
+                      None if variant is None or variant.is_paper else variant)
     fmu = _fmu_for(args, [case])
     from system_models import kernel
     kernel.ensure_compiled(None if args.json else (lambda m: print(m, file=sys.stderr,
@@ -235,14 +303,17 @@ def _run_simulate(args) -> int:
     bar.close()
     if args.csv:
         _write_record_csv(record, args.csv)
+    if args.measurement:
+        _add_measurement(record, case, args.measurement)
     if args.plot:
         from .flowplots import plot_run
         plot_run(record, row, args.plot)
     if args.json:
-        print(json.dumps(row))
+        print(json.dumps(row.as_dict()))
         return 0
     print(f"{row['mode']} at {row['frequency_Hz']:g} Hz, {row['circuit']} circuit, load "
-          f"{row['load_N']:g} N, step {row['step_s']:g} s, backend {row['backend']}")
+          f"{row['load_N']:g} N, step {row['step_s']:g} s, backend {row['backend']}, "
+          f"{row['magnetics']} magnetics, {row['waveform']} drive")
     eq = "eq 41" if case.mode == "compensated" else "eq 40"
     print(f"  mean cylinder flow   {row['flow_sim_m3_s']:.4e} m^3/s ({row['flow_sim_L_min']:.4f} L/min)")
     print(f"  {eq} flow f A_d dy   {row['flow_eq_m3_s']:.4e} m^3/s (ratio {row['flow_ratio']:.4f})")
@@ -252,9 +323,13 @@ def _run_simulate(args) -> int:
               f"from its measured dy {row['dy_paper_um']:g} um (eqs 40/41)")
     print(f"  volume balance       {row['volume_imbalance_m3']:.2e} m^3 of "
           f"{row['volume_pumped_m3']:.2e} m^3 pumped; wall {row['wall_s']:.1f} s")
+    if not row["settled"]:
+        print(f"  not settled          the cycles' flows change by "
+              f"{100 * row['flow_drift_per_cycle']:+.3f} % a cycle (the circuit follows the "
+              f"piston: cavities, accumulator); the mean depends on the run's length")
     if row.get("note"):  # a reversed flow, cavitation (smeha.studies.flow.flag_row)
         print(f"  (!) {row['note']}")
-    for path in (args.csv, args.plot):
+    for path in (args.csv, args.measurement, args.plot):
         if path:
             print(f"wrote {path}")
     return 0
@@ -362,7 +437,7 @@ def _run_flow(args) -> int:
         return _failed("flow", exc)
     if check is not None:
         from .variantcheck import mark_rows
-        mark_rows(rows, check)
+        rows = mark_rows(rows, check)
     paper_rows = [r for r in rows if r["model"] == "paper"]
     table = [r for r in paper_rows if r["load_N"] == cases[0].load_force]
     pairs = flow.compare_variant(rows) if variant is not None else None
@@ -370,7 +445,7 @@ def _run_flow(args) -> int:
         from .flowplots import plot_flow
         plot_flow(rows, args.plot)
     if args.json:
-        out = {"rows": rows}
+        out = {"rows": [r.as_dict() for r in rows]}
         if variant is not None:
             out["variant"] = {**variant.as_dict(), "source": str(args.variant),
                               "check": check.as_dict(args.frequencies)}
@@ -380,13 +455,14 @@ def _run_flow(args) -> int:
             out["comparison"] = []
         print(json.dumps(out))
         return 0
-    print(flow.format_table(table))
+    from . import flowtables
+    print(flowtables.format_table(table))
     if args.loads:
         print()
-        print(flow.format_load_lines(paper_rows))
+        print(flowtables.format_load_lines(paper_rows))
     if variant is not None:
         print()
-        print(flow.format_comparison(pairs, variant, str(args.variant)))
+        print(flowtables.format_comparison(pairs, variant, str(args.variant)))
     if no_extension:
         print(f"\n{note}")
     if args.plot:

@@ -16,6 +16,8 @@ import numpy as np  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
+__all__ = ["MODE_COLOURS", "MARKERS", "run_figure", "plot_run", "flow_figure", "plot_flow"]
+
 #: Colour of each drive mode, the same in every panel.
 MODE_COLOURS = {"uncompensated": "tab:blue", "compensated": "tab:red"}
 #: Markers for the curves a colour does not tell apart (frequencies of the load lines,
@@ -63,6 +65,16 @@ def run_figure(record, row, skip_cycles: int | None = None):
     low, high = float(np.min(record["control"])), float(np.max(record["control"]))
     twin.set_ylim(low - 0.05 * (high - low), high + 0.3 * (high - low))  # room for the legend
     shaded = Patch(color="0.92", label=_SKIPPED)
+    # the axis spans the averaged cycles, with room above them for the legend: the run's
+    # start (the free rod meeting the chamber's pressure, ~100 um) stays off scale, said
+    ys = (y - bottom)[steady] if steady.any() else y - bottom
+    span = float(np.ptp(ys)) or 1.0
+    top = float(np.max(ys)) + 0.45 * span
+    ax.set_ylim(float(np.min(ys)) - 0.05 * span, top)
+    if float(np.max(y - bottom)) > top:
+        ax.set_title(ax.get_title(loc="left") + f"\nthe start is off scale (up to "
+                     f"{float(np.max(y - bottom)):.0f} um: the free rod meeting the chamber's "
+                     "pressure, within the discarded cycles)", fontsize=8, loc="left")
     ax.legend(handles=[rod, control, shaded], loc="upper right", fontsize=7, ncol=3,
               framealpha=0.9)
     ax.set_zorder(twin.get_zorder() + 1)  # the rod's line above the control trace
@@ -83,6 +95,12 @@ def run_figure(record, row, skip_cycles: int | None = None):
                    label="0 absolute: oil cavitates below ~1 kPa (not modelled)")
         low, high = ax.get_ylim()
         ax.set_ylim(low - 0.4 * (high - low), high)  # room for the legend below the traces
+    pressures = np.concatenate([record[k][steady] if steady.any() else record[k]
+                                for k in ("p_big", "p_small", "p_accumulator", "p_pump")]) / 1e6
+    low, high = float(np.min(pressures)), float(np.max(pressures))
+    span = (high - low) or 0.1
+    if not row.get("cavitation"):  # the averaged cycles, room below for the legend
+        ax.set_ylim(low - 0.45 * span, high + 0.05 * span)
     ax.set_ylabel("pressure [MPa]")
     ax.legend(loc="lower right", fontsize=7, ncol=4, framealpha=0.9)
 
@@ -97,11 +115,20 @@ def run_figure(record, row, skip_cycles: int | None = None):
             label="net volume into the big cavity (V1 - V2)")
     ax.set_ylabel("volume [mm^3]")
     ax.set_xlabel("time [ms]")
-    ax.legend(loc="upper left", fontsize=7)
+    ax.legend(loc="best", fontsize=7)
+    flagged = []
+    if row.get("flow_reversed"):
+        flagged.append("flow reversed: " + ("the load past its stall point"
+                                            if "stall" in row.get("note", "")
+                                            else "the rod lags past a quarter period"))
+    if row.get("cavitation"):
+        flagged.append("cavitation: the oil held below what it can")
+    mark = f"\n(!) {'; '.join(flagged)} (smeha simulate prints why)" if flagged else ""
     fig.suptitle(f"{row['mode']}, {row['frequency_Hz']:g} Hz, {row['circuit']} circuit, "
                  f"load {row['load_N']:g} N: q = {row['flow_sim_m3_s']:.3e} m^3/s, "
                  f"f A_d dy ({_eq(row['mode'])}) = {row['flow_eq_m3_s']:.3e} m^3/s, "
-                 f"dy = {row['dy_um']:.1f} um", fontsize=10)
+                 f"dy = {row['dy_um']:.1f} um{mark}", fontsize=10,
+                 color="tab:red" if flagged else "black")
     fig.tight_layout()
     return fig
 

@@ -29,6 +29,11 @@ from gmt.sensing import flux_density_amplitude_from_voltage
 
 from .. import paperdata
 
+__all__ = ["SAMPLES_PER_CYCLE", "CYCLES", "LOOP_SAMPLES", "normalise", "linearity",
+           "uncompensated_cycle", "paper_rows", "ROW_KEYS", "CompensatedRun", "compensated_run",
+           "compensated_runs", "compensated_rows", "COMPENSATED_KEYS", "paper_report",
+           "ROW_COLUMNS", "LOSS_COLUMNS", "COMPENSATED_COLUMNS", "format_table", "format_report"]
+
 #: Samples per cycle and cycles of the compensated time-stepping run; the
 #: last cycle is the steady state (the mechanics settle in < 1 ms).
 SAMPLES_PER_CYCLE = 2000

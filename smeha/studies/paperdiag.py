@@ -33,6 +33,9 @@ from gmt.extensions.steady import steady_state
 
 from .. import diagnose, paperdata
 
+__all__ = ["READING_UNCERTAINTY_UM", "TRAIN", "HELDOUT", "paper_data_diagnosis",
+           "format_paper_diagnosis"]
+
 #: Standard uncertainty of a displacement read off the paper's figures, [um].
 READING_UNCERTAINTY_UM = 0.5
 TRAIN = (50.0, 100.0)

@@ -21,6 +21,9 @@ import gmt  # noqa: E402
 
 from . import paper  # noqa: E402
 
+__all__ = ["LOOPS_FILE", "LOSSES_FILE", "LINEARITY_FILE", "LOSS_FREQUENCIES", "loops_figure",
+           "losses_figure", "linearity_figure", "write_all"]
+
 LOOPS_FILE = "loops.png"
 LOSSES_FILE = "losses.png"
 LINEARITY_FILE = "linearity.png"

@@ -10,14 +10,19 @@ import math
 import sys
 
 from ..cliargs import UsageError, input_file, number, number_list, output_file
+from system_models.defaults import REALISTIC_LOAD
+
 from .flowcommands import CIRCUITS, FREQUENCY
 
 __all__ = ["add_position"]
 
 #: --mode's choices: each drive mode, or both (the default).
 MODES = ("compensated", "uncompensated", "both")
-#: The step's distance, [mm] (smeha.studies.position.TARGET; typed here for --help).
+#: The study's defaults (plain numbers, read by --help and by smeha.studies.position):
+#: the step's distance [mm], the pump frequency [Hz], the load step [N].
 TARGET_MM = 5.0
+FREQUENCY_HZ = 100.0
+LOAD_STEP_N = 50.0
 TARGET_LIMIT_MM = 20.0
 DURATION_LIMIT = 60.0
 
@@ -39,11 +44,11 @@ def add_position(subparsers):
                    default=TARGET_MM, metavar="MM",
                    help=f"the step, [mm] in [-{TARGET_LIMIT_MM:g}, {TARGET_LIMIT_MM:g}], not 0; "
                         f"> 0 moves down (oil into the big cavity) (default {TARGET_MM:g})")
-    p.add_argument("--frequency", type=FREQUENCY, default=100.0, metavar="HZ",
-                   help="pump frequency [Hz], in (0, 1000] (default 100)")
+    p.add_argument("--frequency", type=FREQUENCY, default=FREQUENCY_HZ, metavar="HZ",
+                   help=f"pump frequency [Hz], in (0, 1000] (default {FREQUENCY_HZ:g})")
     p.add_argument("--load", type=number(-1e4, 1e4, unit="N"), metavar="N",
                    help="load on the cylinder, opposing down, [N] in (-1e4, 1e4) (default: "
-                        "the circuit's, 150 N realistic, 0 otherwise)")
+                        f"the circuit's, {REALISTIC_LOAD:g} N realistic, 0 otherwise)")
     p.add_argument("--duration", type=number(0.0, DURATION_LIMIT, high_open=False, unit="s"),
                    metavar="S",
                    help=f"simulated time of the step [s], in (0, {DURATION_LIMIT:g}] (default: "
@@ -57,9 +62,10 @@ def add_position(subparsers):
                    type=_sine_frequencies,
                    help="also track sines (0.1 mm) at these frequencies (default: around the "
                         "predicted bandwidth) and measure the closed-loop -3 dB bandwidth")
-    p.add_argument("--load-step", type=number(-1e4, 1e4, unit="N"), nargs="?", const=50.0,
-                   metavar="N", help="also step the load by N (default 50) while holding "
-                                     "the position: deflection, stiffness, recovery")
+    p.add_argument("--load-step", type=number(-1e4, 1e4, unit="N"), nargs="?",
+                   const=LOAD_STEP_N, metavar="N",
+                   help=f"also step the load by N (default {LOAD_STEP_N:g}) while holding "
+                        "the position: deflection, stiffness, recovery")
     p.add_argument("--backend", choices=("fmu", "direct"), default="fmu",
                    help="the transducer: its FMU through fmpy (default) or gmt in-process")
     p.add_argument("--json", action="store_true", help="print only a JSON object")
@@ -76,7 +82,7 @@ def _settings(args, mode):
     from .flowcommands import _read_variant
     if args.target_mm == 0.0:
         raise UsageError("--target-mm 0: a step needs a distance")
-    variant = _read_variant(args.variant) if args.variant else None
+    variant = _read_variant(args.variant)[0] if args.variant else None
     return position.PositionSettings(
         mode=mode, target=args.target_mm * 1e-3, frequency=args.frequency, load=args.load,
         duration=args.duration, circuit=args.circuit, variant=variant, backend=args.backend,

@@ -87,7 +87,9 @@ class LoopRecord:
     (absolute time), plus ``direction`` (+1 down, -1 up), ``amplitude`` and ``load`` of
     the period. ``periods``: a structured array, one row a period: ``time`` at its
     start, ``position`` and ``command`` there [m], ``direction``, ``amplitude``,
-    ``saturated`` (the controller at its limit), ``load`` [N]. ``wall_s``: the
+    ``saturated`` (the controller at its limit), ``load`` [N], ``outside`` (1: the coil
+    current outside the model's design point at the period's end,
+    :class:`gmt.design_point.DriveMonitor`). ``wall_s``: the
     co-simulation's wall time, controller included.
     """
 
@@ -95,9 +97,11 @@ class LoopRecord:
     periods: np.ndarray
     wall_s: float
     frequency: float
+    cpu_s: float = float("nan")  #: the process's CPU time over the run (FMU in-process)
 
 
-PERIOD_FIELDS = ("time", "position", "command", "direction", "amplitude", "saturated", "load")
+PERIOD_FIELDS = ("time", "position", "command", "direction", "amplitude", "saturated", "load",
+                 "outside")
 
 
 def run_loop(backend, mode: str, circuit, frequency: float, periods: int,
@@ -139,14 +143,15 @@ def run_loop(backend, mode: str, circuit, frequency: float, periods: int,
     in_force = None
     blocks, table = [], np.zeros(periods, dtype=[(n, float) for n in PERIOD_FIELDS])
     x = float(z[4])  # the piston's position (system_models.circuit.STATE_NAMES)
-    wall = _time.perf_counter()
+    watch = hasattr(backend, "outside_design_point")
+    wall, cpu = _time.perf_counter(), _time.process_time()
     for k in range(periods):
         t0 = k * period
         shifted.start = t0
         decision = decide(k, t0, x)
         force = float(load(t0))
         table[k] = (t0, x, command(t0), 1.0 if decision.direction == "down" else -1.0,
-                    decision.amplitude, float(decision.saturated), force)
+                    decision.amplitude, float(decision.saturated), force, 0.0)
         control = period_signal(mode, decision.amplitude, frequency)
         chunk = CosimSettings(duration=period, step=settings.step, coupling="force",
                               direction=decision.direction, load_force=force,
@@ -169,7 +174,9 @@ def run_loop(backend, mode: str, circuit, frequency: float, periods: int,
         keep = slice(None) if k == periods - 1 else slice(None, -1)  # the end is the next start
         blocks.append((rows[keep], extra[keep]))
         x = float(rows["piston_position"][-1])
-    wall = _time.perf_counter() - wall
+        if watch:
+            table[k]["outside"] = float(backend.outside_design_point())
+    wall, cpu = _time.perf_counter() - wall, _time.process_time() - cpu
     rows = np.concatenate([b[0] for b in blocks])
     extra = np.concatenate([b[1] for b in blocks])
     merged = np.zeros(len(rows), dtype=rows.dtype.descr + extra.dtype.descr)
@@ -177,4 +184,4 @@ def run_loop(backend, mode: str, circuit, frequency: float, periods: int,
         merged[name] = rows[name]
     for name in extra.dtype.names:
         merged[name] = extra[name]
-    return LoopRecord(merged, table, wall, frequency)
+    return LoopRecord(merged, table, wall, frequency, cpu)

@@ -16,7 +16,9 @@ Every point of the cartesian product of the grid is one
 :class:`smeha.studies.flow.Case` (the grid keys and settings are its fields, with
 its defaults), run by :func:`smeha.studies.flow.run_case`. The
 results form one table, one row per point (:data:`COLUMNS`), written as CSV.
-A point that fails is recorded with ``status = "failed"`` and its error; the
+A point whose flow runs backwards or whose oil cavitates is recorded with
+``status = "flagged"`` (finished, its reason from ``smeha simulate``); a point that
+fails is recorded with ``status = "failed"`` and its error; the
 others go on. A rerun onto the same table runs only the points that are
 missing or failed there (points are keyed by their grid values and settings).
 
@@ -40,8 +42,15 @@ from dataclasses import fields as dataclass_fields
 from pathlib import Path
 
 import gmt
+from gmt.errors import InputError, RunError
 
 from . import flow
+
+__all__ = ["GRID_KEYS", "SETTINGS_DEFAULTS", "OPTIONAL_SETTINGS", "RESULT_FIELDS", "FLAG_FIELDS",
+           "KEY_COLUMNS", "COLUMNS", "TEXT_COLUMNS", "SpecError", "SweepError", "Point",
+           "SweepResult", "parse_spec", "read_spec", "write_table", "read_table", "row_key",
+           "FINISHED", "run_point", "run_point_shipped", "run_sweep", "format_summary",
+           "plot_sweep"]
 
 #: Grid keys: Case fields that take a list of values.
 GRID_KEYS = ("frequency", "mode", "load", "circuit")
@@ -51,6 +60,10 @@ SETTINGS_DEFAULTS = {f.name: f.default for f in dataclass_fields(flow.Case)
 #: Settings a table written before they existed has no column for (read as empty: such
 #: rows keep their own keys and never match a point of this version).
 OPTIONAL_SETTINGS = ("controller_period", "hydraulic_step", "coupling", "compensator_period")
+#: Settings whose every run before they existed had their present default (the paper's
+#: magnetics and sinusoid, issue 21): a table without their column is read with it, so its
+#: finished points still match.
+DEFAULTED_SETTINGS = ("magnetics", "inverse", "waveform", "amplitude")
 
 #: Result fields copied from flow.run_case's row dict, SI with unit suffixes.
 RESULT_FIELDS = ("load_N", "flow_sim_m3_s", "flow_eq_m3_s", "flow_ratio", "dy_um",
@@ -66,14 +79,14 @@ KEY_COLUMNS = GRID_KEYS + tuple(SETTINGS_DEFAULTS)
 COLUMNS = KEY_COLUMNS + ("status", "error") + RESULT_FIELDS
 #: Text columns (the others are numbers, or empty).
 TEXT_COLUMNS = ("mode", "circuit", "backend", "branch_rule", "coupling", "status", "error",
-                "p_min_volume")
+                "p_min_volume", "magnetics", "inverse", "waveform")
 
 
-class SpecError(ValueError):
+class SpecError(InputError):
     """A sweep spec or sweep table that cannot be used (exit status 2 on the command line)."""
 
 
-class SweepError(RuntimeError):
+class SweepError(RunError):
     """The sweep cannot run at all, e.g. no scheduler at the address (exit status 1)."""
 
 
@@ -186,7 +199,7 @@ def parse_spec(spec: dict) -> list[Point]:
     _reject_unknown("settings", settings, tuple(SETTINGS_DEFAULTS))
     values = {}
     for key, value in settings.items():
-        if isinstance(SETTINGS_DEFAULTS[key], str):
+        if isinstance(SETTINGS_DEFAULTS[key], str) or key in TEXT_COLUMNS:
             if not isinstance(value, str):
                 raise SpecError(f"settings.{key} = {value!r}: must be a string")
         elif not _is_number(value):
@@ -267,7 +280,7 @@ def read_table(path) -> list[dict]:
         names = reader.fieldnames or []
         legacy = "circuit" not in names and "ideal" in names  # tables before named circuits
         missing = [c for c in KEY_COLUMNS + ("status",)
-                   if c not in names and c not in OPTIONAL_SETTINGS
+                   if c not in names and c not in OPTIONAL_SETTINGS + DEFAULTED_SETTINGS
                    and not (legacy and c == "circuit")]
         if missing:
             raise SpecError(f"{path}: not a sweep table (no column(s) {missing}); "
@@ -276,6 +289,9 @@ def read_table(path) -> list[dict]:
         for n, raw in enumerate(reader, start=2):
             if legacy:
                 raw["circuit"] = "ideal" if raw.get("ideal", "").lower() == "true" else "realistic"
+            for c in DEFAULTED_SETTINGS:
+                if c not in names and SETTINGS_DEFAULTS[c] is not None:
+                    raw[c] = str(SETTINGS_DEFAULTS[c])
             try:
                 rows.append({c: _parse_cell(c, raw.get(c) or "") for c in COLUMNS})
             except ValueError as exc:
@@ -291,9 +307,20 @@ def row_key(row: dict) -> tuple:
 # --------------------------------------------------------------------------- tasks
 
 
+#: Status of a finished point: "ok", or "flagged" when its flow ran backwards or its oil
+#: went below what oil holds (smeha.studies.flow.flag_row); both are kept on a rerun.
+FINISHED = ("ok", "flagged")
+
+
+def _status(row: dict | None, error: str | None) -> str:
+    if error is not None:
+        return "failed"
+    return "flagged" if any(row.get(f) for f in FLAG_FIELDS) else "ok"
+
+
 def _result_row(point: Point, row: dict | None, error: str | None) -> dict:
     out = point.columns()
-    out["status"] = "ok" if error is None else "failed"
+    out["status"] = _status(row, error)
     out["error"] = "" if error is None else error
     for name in RESULT_FIELDS:
         value = None if row is None else row.get(name)
@@ -416,7 +443,7 @@ def run_sweep(points, out, fmu_path=None, workers: int = 2, scheduler: str | Non
     interrupted sweep keeps what it had finished and a rerun picks up from there.
     """
     existing = read_table(out)
-    done = {row_key(r): r for r in existing if r["status"] == "ok"}
+    done = {row_key(r): r for r in existing if r["status"] in FINISHED}
     keys = {p.key for p in points}
     kept = [r for r in existing if row_key(r) not in keys]
     todo = [p for p in points if p.key not in done]
@@ -434,22 +461,32 @@ def run_sweep(points, out, fmu_path=None, workers: int = 2, scheduler: str | Non
     rows = [done[p.key] if p.key in done else fresh[p.key] for p in points]
     write_table(rows + kept, out)
     return SweepResult(rows=rows, skipped=len(points) - len(todo),
-                       failed=sum(r["status"] != "ok" for r in rows), ran=len(todo), kept=kept)
+                       failed=sum(r["status"] == "failed" for r in rows), ran=len(todo),
+                       kept=kept)
 
 
 def format_summary(result: SweepResult, out) -> str:
     """A short table of the sweep for the terminal."""
-    lines = [f"{'f [Hz]':>7}  {'mode':<13}  {'load [N]':>8}  {'circuit':<12}  {'status':<6}  "
+    lines = [f"{'f [Hz]':>7}  {'mode':<13}  {'load [N]':>8}  {'circuit':<12}  {'status':<7}  "
              f"{'q sim [m3/s]':>12}  {'sim/eq':>6}  {'dy [um]':>7}  {'wall [s]':>8}"]
+    notes = []
     for r in result.rows:
-        if r["status"] == "ok":
+        if r["status"] in FINISHED:
             tail = (f"{r['flow_sim_m3_s']:>12.4e}  {r['flow_ratio']:>6.3f}  {r['dy_um']:>7.2f}  "
-                    f"{r['wall_s']:>8.1f}")
+                    f"{r['wall_s']:>8.3f}")
         else:
             tail = r["error"]
         load = "-" if r["load"] is None else f"{r['load']:g}"
+        flags = [name for name, field in (("flow reversed", "flow_reversed"),
+                                          ("cavitation", "cavitation")) if r.get(field)]
+        mark = "  (!) " + ", ".join(flags) if flags else ""
         lines.append(f"{r['frequency']:>7g}  {r['mode']:<13}  {load:>8}  "
-                     f"{r['circuit']:<12}  {r['status']:<6}  {tail}")
+                     f"{r['circuit']:<12}  {r['status']:<7}  {tail}{mark}")
+        if flags:
+            notes.append(f"{r['frequency']:g} Hz {r['mode']} {load} N")
+    if notes:
+        lines.append(f"(!) flagged: {'; '.join(notes)}: 'smeha simulate' on a point prints "
+                     "the reason (the rod's lag or the load past its stall point, cavitation)")
     lines.append(f"{len(result.rows)} points: {result.ran} run, {result.skipped} skipped "
                  f"(finished earlier), {result.failed} failed; table {out}")
     return "\n".join(lines)
@@ -463,10 +500,11 @@ def plot_sweep(rows, path) -> Path:
 
     from .flowplots import MARKERS, MODE_COLOURS
 
-    ok = [r for r in rows if r["status"] == "ok"]
+    ok = [r for r in rows if r["status"] in FINISHED]
     fig, ax = plt.subplots(figsize=(6.5, 4.8))
     groups = sorted({(r["mode"], r["load_N"], r["circuit"]) for r in ok})
-    # colour = mode, as in every flow figure (smeha.studies.flowplots); marker and line = load, circuit
+    # colour = mode, as in every flow figure (smeha.studies.flowplots); marker and line =
+    # load, circuit
     cases = sorted({(load, circuit) for _, load, circuit in groups})
     for mode, load, circuit in groups:
         rs = sorted((r for r in ok if (r["mode"], r["load_N"], r["circuit"]) == (mode, load,
@@ -476,6 +514,12 @@ def plot_sweep(rows, path) -> Path:
         ax.plot([r["frequency"] for r in rs], [r["flow_sim_m3_s"] * 1e6 for r in rs],
                 color=MODE_COLOURS[mode], marker=MARKERS[k % len(MARKERS)],
                 ls=("-", "--", "-.", ":")[k % 4], label=f"{mode}, {load:g} N, {circuit}")
+    flagged = [r for r in ok if r["status"] == "flagged"]
+    if flagged:  # a reversed flow or cavitation, marked as in every flow figure
+        ax.scatter([r["frequency"] for r in flagged], [r["flow_sim_m3_s"] * 1e6 for r in flagged],
+                   s=140, facecolors="none", edgecolors="black", lw=1.4, zorder=5,
+                   label="(!) flow reversed or cavitation")
+        ax.axhline(0.0, color="grey", lw=0.6)
     ax.set_xlabel("pumping frequency f [Hz]")
     ax.set_ylabel("mean cylinder flow [cm^3/s]")
     ax.set_title("Sweep: flow against frequency")

@@ -334,22 +334,34 @@ def check_variant(variant: gmt.ModelVariant, circuit="realistic",
 
 
 def mark_rows(rows, check: VariantCheck) -> list:
-    """Add ``variant_marks`` (the reasons, a list) and, when marked, ``variant_note`` (one
-    sentence) to each of the variant's rows of a flow study (in place); returns ``rows``."""
+    """Each of the variant's rows of a flow study with ``variant_marks`` (the reasons) and,
+    when marked, ``variant_note`` (one sentence): a new list (typed rows,
+    :class:`~smeha.studies.flowrow.FlowRow`, are frozen; plain dicts are marked in place)."""
+    from dataclasses import replace
+    from .flowrow import FlowRow
+
     def key(r):
         return (r["frequency_Hz"], r["mode"], r["load_N"])
 
     paper = {key(r): r["dy_free_um"] * 1e-6 for r in rows
              if r.get("model", "paper") == "paper"}
+    out = []
     for row in rows:
         if row.get("model", "paper") == "paper":
+            out.append(row)
             continue
         free = row["dy_free_um"] * 1e-6
-        row["variant_marks"] = check.reasons(row["frequency_Hz"], (
-            row["load_N"], free, paper.get(key(row), free)))
-        if row["variant_marks"]:
-            row["variant_note"] = "; ".join(row["variant_marks"])
-    return rows
+        marks = list(check.reasons(row["frequency_Hz"], (
+            row["load_N"], free, paper.get(key(row), free))))
+        note = "; ".join(marks) if marks else None
+        if isinstance(row, FlowRow):
+            row = replace(row, variant_marks=tuple(marks), variant_note=note)
+        else:
+            row["variant_marks"] = marks
+            if note:
+                row["variant_note"] = note
+        out.append(row)
+    return out
 
 
 def _compliance(rod) -> float:

@@ -119,31 +119,50 @@ class ConductingHousing:
 
 
 @dataclass(frozen=True)
-class MagnetizationDiffusion:
-    """Eddy currents diffusing into the rod, acting on the magnetisation: the rod's M (the
-    paper's) is filtered by the mean-flux transfer of a lamination (slab, tanh(q)/q) or of
-    the solid rod (cylinder, 2 I_1(q)/(q I_0(q))); the applied field H, and with it the
-    hysteresis input and B's mu_0 H term, are not."""
+class Diffusion:
+    """Eddy currents diffusing into the rod, by default acting on the magnetisation: the
+    rod's M (the paper's) is filtered by the mean-flux transfer of a lamination (slab,
+    tanh(q)/q) or of the solid rod (cylinder, 2 I_1(q)/(q I_0(q))); the applied field H, and
+    with it the hysteresis input and B's mu_0 H term, are not. ``acts_on="field"`` filters
+    H instead, as the first formulation does (so M and B follow)."""
 
     diffusion_time: float  # tau: slab mu sigma d^2 / 4, cylinder mu sigma a^2, [s]
     geometry: str = "slab"  # "slab" or "cylinder"
+    acts_on: str = "magnetization"  # or "field"
 
-    acts_on = "magnetization"
+    def __post_init__(self) -> None:
+        if self.geometry not in ("slab", "cylinder") or self.acts_on not in ("magnetization",
+                                                                             "field"):
+            raise LabsimError(f"eddy diffusion: geometry = {self.geometry!r}, acts_on = "
+                              f"{self.acts_on!r}; must be 'slab' or 'cylinder', "
+                              "'magnetization' or 'field'")
 
     @staticmethod
-    def slab(strength: float) -> "MagnetizationDiffusion":
+    def slab(strength: float) -> "Diffusion":
         # tau = 0.5 ms at strength 1 (lag omega tau / 3 = 5.5 deg at 100 Hz): plates 5 mm
         # thick (two across the 10-mm rod) of Terfenol-D (sigma ~ 1.7 MS/m) give
         # 13 us x mu_r, so 0.5 ms needs mu_r ~ 37; with the paper's |mu| ~ 3-4 they give
         # ~0.05 ms (strength ~0.1): strength 1 stands for a slower flux path, as for the
         # first formulation
-        return MagnetizationDiffusion(0.5e-3 * strength, "slab")
+        return Diffusion(0.5e-3 * strength, "slab")
 
     @staticmethod
-    def cylinder(strength: float) -> "MagnetizationDiffusion":
+    def cylinder(strength: float) -> "Diffusion":
         # the first formulation's solid rod, tau = mu sigma a^2 = 1 ms at strength 1 (lag
         # omega tau / 8), acting on M only
-        return MagnetizationDiffusion(1.0e-3 * strength, "cylinder")
+        return Diffusion(1.0e-3 * strength, "cylinder")
+
+    @staticmethod
+    def random(strength: float, seed: int | None = None) -> "Diffusion":
+        """Geometry (slab or cylinder) and target (M or H) drawn per seed, tau the
+        geometry's strength-1 value times exp(N(0, 0.3))."""
+        rng = np.random.default_rng(np.random.SeedSequence(0 if seed is None else seed,
+                                                           spawn_key=(1803,)))
+        geometry = ("slab", "cylinder")[int(rng.integers(2))]
+        acts_on = ("magnetization", "field")[int(rng.integers(2))]
+        base = 0.5e-3 if geometry == "slab" else 1.0e-3
+        tau = base * strength * float(np.exp(0.3 * rng.standard_normal()))
+        return Diffusion(tau, geometry, acts_on)
 
     def transfer(self) -> lti.Modal:
         if self.geometry == "slab":

@@ -186,8 +186,9 @@ FORMULATIONS = {
     "eddy_current_diffusion": {
         "solid_rod": EddyDiffusion.at,
         "conducting_housing": alternatives.ConductingHousing.at,
-        "slab_magnetization": alternatives.MagnetizationDiffusion.slab,
-        "solid_rod_magnetization": alternatives.MagnetizationDiffusion.cylinder,
+        "slab_magnetization": alternatives.Diffusion.slab,
+        "solid_rod_magnetization": alternatives.Diffusion.cylinder,
+        "diffusion_random": alternatives.Diffusion.random,
     },
     "transport_delay": {"pure_delay": Delay.at, "bessel_sensor": alternatives.BesselSensor.at},
     "mechanical_resonance": {"two_mass": Resonance.at,

@@ -105,7 +105,7 @@ def simulate(
     slowest = math.inf
     if effects.eddy is not None:
         eddy = effects.eddy.transfer()
-        if getattr(effects.eddy, "acts_on", "field") == "field":  # H, so M and B follow
+        if getattr(effects.eddy, "acts_on", "field") == "field":  # H: M and B follow
             field = respond(eddy, field)
         magnetization = respond(eddy, magnetization)
         slowest = eddy.slowest_rate

@@ -299,7 +299,9 @@ class PreisachForm(MagnetizationStage, Extension):
         hu = tuple(float(v) for v in values["interaction_fields_A_per_m"])
         hms = np.atleast_1d(np.asarray(field_amplitudes, float))
         g = np.broadcast_to(cls.rate_factor(values, frequencies), hms.shape)
-        coeff = g[:, None] * np.einsum("n,rnk->rk", w, _runs_harmonics(hc, hu, tuple(hms)))
+        # weights of one density, or one row per run (the fit's stacked Jacobian)
+        coeff = g[:, None] * np.einsum("n,rnk->rk" if w.ndim == 1 else "rn,rnk->rk", w,
+                                       _runs_harmonics(hc, hu, tuple(hms)))
         return np.real(coeff[:, 1:] @ _synthesis(tuple(np.asarray(theta, float)))) \
             + 0.5 * np.real(coeff[:, :1])
 

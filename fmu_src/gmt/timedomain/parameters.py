@@ -1,0 +1,67 @@
+"""Parameters of the time-domain magnetics beyond Table 2.
+
+The loss coefficients K_h, n, K_e, K_ex stay Table 2's
+(:class:`gmt.TransducerParameters`); the time-domain form needs three more
+numbers, a frozen dataclass validated on construction.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+
+from ..constants import MU_0
+from ..errors import check_range
+
+__all__ = ["TimeDomainParameters", "REVERSIBLE_PERMEABILITY"]
+
+#: Relative permeability of the reversible curve, [-]: the least-squares fit of the
+#: time-domain model to the paper's Table 1 at 5 Hz (0.5 A: 0.0300 T, 0.7 A: 0.0530 T)
+#: under a sinusoidal current, with the other defaults below
+#: (``gmt.timedomain.fit.fit_reversible_permeability``; docs/TIMEDOMAIN.md).
+REVERSIBLE_PERMEABILITY = 12.08
+
+
+@dataclass(frozen=True)
+class TimeDomainParameters:
+    """What the field separation needs besides Table 2 (:mod:`gmt.timedomain`).
+
+    Attributes
+    ----------
+    reversible_permeability : float
+        mu_rev of the reversible curve H_rev = B / (mu_0 mu_rev) about the bias,
+        [-], in (1, 1e4]. Default fitted to Table 1's 5 Hz points.
+    steinmetz_upper : float
+        r_max, [T], in (0, 2]: the largest flux-density half-swing for which the
+        hysteresis loss per cycle is K_h B_m^n (eq 7); above it the loss grows
+        linearly with the swing. The default, 0.2 T, is twice the largest
+        amplitude a 1 A drive reaches (~0.1 T at DC).
+    steinmetz_lower : float
+        r_0, [T], in (0, steinmetz_upper): below this half-swing the loss law
+        turns from K_h B_m^n into that of one stop (a Rayleigh-like region), so
+        that dH/dB stays finite at reversals. Default 2 mT.
+    """
+
+    reversible_permeability: float = REVERSIBLE_PERMEABILITY
+    steinmetz_upper: float = 0.2
+    steinmetz_lower: float = 2e-3
+
+    def __post_init__(self):
+        check_range("reversible_permeability", self.reversible_permeability, 1.0, 1e4,
+                    unit="-", high_open=False)
+        check_range("steinmetz_upper", self.steinmetz_upper, 0.0, 2.0, unit="T",
+                    high_open=False)
+        check_range("steinmetz_lower", self.steinmetz_lower, 0.0, self.steinmetz_upper,
+                    unit="T")
+
+    def replace(self, **changes) -> "TimeDomainParameters":
+        """Copy with some fields changed (validated again)."""
+        return replace(self, **changes)
+
+    @classmethod
+    def field_names(cls) -> tuple[str, ...]:
+        """Names of the fields, in declaration order."""
+        return tuple(f.name for f in fields(cls))
+
+    @property
+    def reversible_field_per_tesla(self) -> float:
+        """1 / (mu_0 mu_rev), [A/(m T)]."""
+        return 1.0 / (MU_0 * self.reversible_permeability)
