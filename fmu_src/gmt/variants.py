@@ -391,12 +391,8 @@ class Chain:
         w = point.angular_frequency
         cls, values = field[0] if field else (None, None)
         gain = complex(np.ravel(cls.field_gain(values, w))[0]) if cls else 1.0
-        # a diffusion whose coil sees unshielded vacuum flux: the paper part's gain is the
-        # section mean <g>, the vacuum share adds to B (MagnetizationDiffusionForm)
-        vacuum = 0.0
-        if cls is not None and hasattr(cls, "vacuum_share"):
-            gain = complex(np.ravel(cls.diffusion_of(values).transfer(w))[0])
-            vacuum = complex(np.ravel(cls.vacuum_share(values, w))[0])
+        # unshielded vacuum flux the coil sees adds to B (MagnetizationDiffusionForm)
+        vacuum = complex(np.ravel(cls.vacuum_share(values, w))[0]) if cls else 0.0
         factor = float(np.ravel(cls.loss_flux_factor(values, w))[0]) if cls else 1.0
         loss = (params.hysteresis_coefficient, params.steinmetz_exponent,
                 params.eddy_coefficient, params.excess_coefficient)
@@ -405,14 +401,9 @@ class Chain:
                         np.array([point.current_amplitude]), np.array([hm]),
                         np.array([point.flux_density_amplitude]), loss)
         modulus = point.flux_density_amplitude / (MU_0 * hm)
-        adder = stage_adder(magnetic, steady)
-        if vacuum:
-            inner = adder
-
-            def adder(m1):
-                return vacuum + (0.0 if inner is None else inner(m1))
         mu = complex(np.ravel(paper_permeability(loss, point.frequency, hm, modulus, gain,
-                                                 adder, factor))[0])
+                                                 stage_adder(magnetic, steady), factor,
+                                                 vacuum))[0])
         if not -mu.imag < 0.999 * abs(mu):
             raise ParameterError(
                 f"{' + '.join(variant_name(c.cause, c.form) for c, _ in components)}: mu'' of "

@@ -136,7 +136,7 @@ def describe(sig) -> str:
     return ", ".join(words) or "no dominant pattern"
 
 
-def summary(d, fractions, remaining, sig, outside_noise) -> str:
+def summary(fractions, remaining, sig, outside_noise) -> str:
     """The one line of the text report (module docstring)."""
     names = list(fractions)
     shares = [f"{100 * v:.0f} %" for v in fractions.values()]

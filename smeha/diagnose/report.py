@@ -340,7 +340,7 @@ def remainder_report(d) -> dict | None:
     return {"explained_fraction": fractions,
             "unexplained_fraction": remaining if outside else 0.0,
             "signature": sig,
-            "summary": remainder.summary(d, fractions, remaining, sig, outside)}
+            "summary": remainder.summary(fractions, remaining, sig, outside)}
 
 
 def format_diagnosis(d, path: str = "") -> str:

@@ -310,6 +310,12 @@ class Extension:
         return np.ones(np.shape(angular_frequencies))
 
     @classmethod
+    def vacuum_share(cls, values, angular_frequency):
+        """Field stage: the vacuum field per H_m the coil sees outside the rod's lag, in
+        B_1 / mu_0, [-] (0: the coil sees the field stage's mean field whole)."""
+        return 0.0
+
+    @classmethod
     def field_gain(cls, values, angular_frequency) -> complex:
         """Mean field in the rod per applied field at the fundamental, [-] (1 without eddies)."""
         return 1.0

@@ -419,25 +419,15 @@ class EddyDiffusionForm(FilterBankState, Extension):
         w, hm = steady.angular_frequency, steady.field_amplitude
         g1 = dif.transfer(w)
         g_sq = dif.mean_squares(w)[0]
-        extra = cls.vacuum_share(values, w)
-        if not np.any(extra):
-            with_vacuum = adder
-        else:  # the unshielded vacuum flux adds to B_1 (MagnetizationDiffusionForm)
-            def with_vacuum(m1):
-                return extra + (0.0 if adder is None else adder(m1))
+        extra = cls.vacuum_share(values, w)  # unshielded vacuum flux in B_1 (0 here)
         mu = paper_permeability(steady.loss, steady.frequency, hm,
-                                steady.flux_density_amplitude / (MU_0 * hm), g1, with_vacuum)
+                                steady.flux_density_amplitude / (MU_0 * hm), g1, adder,
+                                vacuum=extra)
         ms = (mu - 1.0) * hm
         c = force_gain(steady.params)
         return FieldState(ms * g1, MU_0 * hm * (mu * g1 + extra),
                           2.0 * c * steady.params.bias_magnetization * ms * g1,
                           0.5 * c * ms * ms * g_sq)
-
-    @classmethod
-    def vacuum_share(cls, values, angular_frequency):
-        """The unshielded vacuum field per H_m in B_1 / mu_0, [-]: none here (the coil sees
-        the diffused field whole; :class:`MagnetizationDiffusionForm` has a share)."""
-        return 0.0
 
     # time-stepped form
     def __init__(self, values, params, point, upstream=None):
@@ -524,24 +514,14 @@ class MagnetizationDiffusionForm(EddyDiffusionForm):
         g1 = cls.diffusion_of(values).transfer(angular_frequency)
         return values["unshielded_share"] * (1.0 - g1)
 
-    @classmethod
-    def field_gain(cls, values, angular_frequency):
-        # the vacuum part of B_1 per H_m: <g> + kappa (1 - <g>) (flux_density_from_ratio)
-        g1 = cls.diffusion_of(values).transfer(angular_frequency)
-        return g1 + values["unshielded_share"] * (1.0 - g1)
-
     def magnetics(self, current, quadrature, step, time):
         mag = super().magnetics(current, quadrature, step, time)
         if not self.bank.size:
             return mag
         h = self.params.field_per_ampere * current
-        mean_in = float(self.bank.weights @ self.bank_input_mean())
+        mean_in = float(self.bank.weights @ self._held_field)  # the modes' held field
         return mag._replace(flux_density=mag.flux_density + MU_0 * self.values[
             "unshielded_share"] * (h - mean_in))
-
-    def bank_input_mean(self):
-        """The modes' held field, per mode, [A/m] (the last step's)."""
-        return self._held_field
 
 
 class SlabMagnetizationForm(MagnetizationDiffusionForm):

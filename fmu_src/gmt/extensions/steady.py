@@ -79,7 +79,7 @@ def force_gain(params):
 
 
 def paper_permeability(loss, frequency, field_amplitude, modulus, gain=1.0, adder=None,
-                       loss_flux_factor=1.0):
+                       loss_flux_factor=1.0, vacuum=0.0):
     """mu_p = mu' - j mu'' of the paper's part of the magnetisation, [-] (arrays allowed).
 
     The coil measures |B_1| = mu_0 H_m |mu_p g + p| = mu_0 H_m ``modulus`` (eq 22),
@@ -92,7 +92,8 @@ def paper_permeability(loss, frequency, field_amplitude, modulus, gain=1.0, adde
     is |mu_p| = modulus / |g| in closed form (the paper's eqs 16, 20 for g = 1);
     otherwise |mu_p| = a is the root of |mu_p(a) g + p| - modulus, found by the
     secant method from a fixed-point step off the closed form (a few
-    iterations: p changes slowly with a against mu_p g).
+    iterations: p changes slowly with a against mu_p g). ``vacuum`` is the unshielded vacuum field per H_m the coil sees outside the
+    field stage's lag (:meth:`gmt.extensions.Extension.vacuum_share`), added to p.
     """
     g = np.asarray(gain, dtype=complex)
     hm = np.asarray(field_amplitude, dtype=float)
@@ -103,6 +104,11 @@ def paper_permeability(loss, frequency, field_amplitude, modulus, gain=1.0, adde
         return np.sqrt(a * a - mu_i * mu_i) - 1j * mu_i
 
     a = modulus / np.abs(g)
+    if np.any(vacuum):  # unshielded vacuum flux the coil sees adds a constant to p
+        inner = adder
+
+        def adder(m1):
+            return vacuum + (0.0 if inner is None else inner(m1))
     if adder is not None:
         # secant iteration on e(a) = |mu_p(a) g + p(a)| - modulus from the closed form
         def err(a):
@@ -335,6 +341,6 @@ def flux_density_from_ratio(params, frequency, current_amplitude, magnetization_
         elif cls.stage == "sensor":
             path = path * cls.steady_sensor(values, w)
         elif cls.stage == "field":
-            gin = cls.field_gain(values, w) * np.ones_like(g0)
+            gin = (cls.field_gain(values, w) + cls.vacuum_share(values, w)) * np.ones_like(g0)
     out = MU_0 * hm * np.abs(np.asarray(magnetization_ratio) / path + gin)
     return out if np.ndim(frequency) else float(np.ravel(out)[0])
