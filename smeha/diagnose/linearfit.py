@@ -35,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import nnls
 
-from .candidates import Batch, Candidate, Evaluator  # noqa: F401 (Batch: the stacked runs)
+from .candidates import Batch, Candidate, Evaluator
 
 #: Penalty weights tried, times trace(J^T J) / trace(D^T D).
 PENALTY_GRID = (1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2)
@@ -116,7 +116,6 @@ class _Problem:
         n = len(self.train.runs)
         k = self.train.y.shape[1]
         nb = int(self.train.has_b.sum())
-        out, pos = [], 0
         ny = copies * n * k
         yr, yi = r[:ny].reshape(copies, n * k), r[ny:2 * ny].reshape(copies, n * k)
         pos = 2 * ny
@@ -270,6 +269,7 @@ class _HeldWeights:
     def __init__(self, prob: _Problem):
         self.prob, self.w = prob, None
         cand = prob.cand
+        self.label = cand.label  # for fit_candidate's messages
         self.lower = tuple(np.asarray(cand.lower, float)[prob.other_idx])
         self.upper = tuple(np.asarray(cand.upper, float)[prob.other_idx])
 

@@ -262,8 +262,14 @@ def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
     # y alone cannot tell the strain scale from B_m: fitted only with sense voltages
     fit_scale = bool(train.has_b.any())
     paper = fit_and_score(ev, train, held, PAPER, base0, fit_scale=fit_scale)
-    fits = [fit_and_score(ev, train, held, cand, paper.base, fit_scale=fit_scale)
-            for cand in candidates()[1:] if cand.cause in causes]
+    fits, unfitted = [], []
+    for cand in candidates()[1:]:
+        if cand.cause not in causes:
+            continue
+        try:
+            fits.append(fit_and_score(ev, train, held, cand, paper.base, fit_scale=fit_scale))
+        except ValueError as exc:  # a candidate that cannot be fitted is left out, said so
+            unfitted.append(str(exc))
     cause, chosen, combos, order = select(ev, train, held, paper, fits, fit_scale)
     character = characterise(ev, list(feats.values()), paper.base)
     noise = float(np.median([rf.noise_y for rf in feats.values()])) * 1e6
@@ -273,5 +279,6 @@ def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
                      characterisation=character, context=context,
                      also_consistent=also_consistent(paper, fits, chosen, cause),
                      combinations=combos, skipped=skipped, order=order)
-    diag.evidence = evidence(diag)
+    diag.evidence = evidence(diag) + [f"candidate not fitted, left out: {why}"
+                                       for why in unfitted]
     return diag
