@@ -233,9 +233,9 @@ def test_the_flow_study_returns_a_typed_row():
 def test_simulate_writes_a_measurement_file_identify_reads(tmp_path, capsys):
     # simulate --csv claimed the measurement files' columns but identify could not read it;
     # --measurement writes that format, one run a simulation (replaced by name, others
-    # kept). Round trip: identify fits eq 30 to the co-simulated rod (ideal circuit: the
-    # free rod shifted by A_d p / K) and recovers the model's own mu'' at (f, 1 A) within
-    # 0.2 % (measured 1.451 against 1.450 at 50 Hz, 1.521 against 1.520 at 100 Hz)
+    # kept). Round trip: identify fits eq 30 to the co-simulated transducer (its own rod,
+    # free of the chamber's force, 0.05 um of sensor noise) and recovers the model's own
+    # mu'' at (f, 1 A) within 0.2 % (tests/test_roundtrip.py: the diagnosis)
     import gmt
     from smeha import measured
     from smeha.identify import identify_run
