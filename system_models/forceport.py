@@ -39,13 +39,16 @@ from .rod import RodParameters
 
 
 def run_force_port(backend, control, circuit, settings, drive, controller, grid, writer,
-                   progress, n_steps, initial=None):
+                   progress, n_steps, initial=None, substeps=None):
     """The force port's run (module docstring): the transducer one step ahead, the plant
     a window at a time, rows into ``writer`` at ``grid``'s points.
 
     ``initial``: the plant's state to start from (a previous run's return value, to
     continue it: the closed-loop position study runs one pump period at a time); None
-    starts at rest. Returns the plant's state at the run's end."""
+    starts at rest. ``substeps``: the plant's substep control (:func:`kernel.new_control`)
+    to carry on with, updated in place (with ``initial``, the continued run steps on as
+    one run would, not from a short substep); None starts short. Returns the plant's
+    state at the run's end."""
     rod = RodParameters.of(backend.mechanics())
     plant = PlantParameters(circuit, rod)
     packed = plant.packed
@@ -56,7 +59,8 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
     # a continuous drive, or the time-domain magnetics: the force linear over a step
     linear = not drive.compensated or drive.continuous_force
     volume = compressed = 0.0
-    substeps = kernel.new_control()  # the plant's substep length, carried across windows
+    if substeps is None:  # the plant's substep length, carried across windows
+        substeps = kernel.new_control()
     valves = 0 if settings.direction == "down" else 2  # V1 or V3: open while compressing
     first = circuit_columns(z[:10], z[out:out + 2], packed)
     # the transducer's step from t = 0: (t, h, u, current, force)
