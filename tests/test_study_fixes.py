@@ -197,7 +197,8 @@ def test_one_settings_object_checks_the_case():
 
 def test_public_modules_declare_all():
     # every public module of the studies, the command line's helpers, the measurement
-    # files and the identification names what it exports, and each name exists
+    # files, the identification, the diagnosis, the generator and the FMU tooling names
+    # what it exports, and each name exists
     import importlib
     import pkgutil
     from pathlib import Path
@@ -206,7 +207,7 @@ def test_public_modules_declare_all():
     root = Path(smeha.__file__).parent
     names = [f"smeha.{m.name}" for m in pkgutil.iter_modules([str(root)])
              if not m.ispkg and not m.name.startswith("_")]
-    for package in ("studies", "identify"):
+    for package in ("studies", "identify", "diagnose", "synthetic", "fmu"):
         names += [f"smeha.{package}.{m.name}"
                   for m in pkgutil.iter_modules([str(root / package)])
                   if not m.name.startswith("_")]

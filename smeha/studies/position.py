@@ -2,8 +2,8 @@
 
 The pump runs at a fixed frequency f. A position controller, sampled once a pump period
 T = 1/f (:mod:`smeha.studies.positionloop`) or every N-th one (``controller_rate`` = f/N:
-its decision then holds N periods, and the design's T is N/f), sets the cylinder's direction (Figure 2's
-stages 1-2 or 3-4) and the drive amplitude (the current amplitude uncompensated, the
+its decision then holds N periods, and the design's T is N/f), sets the cylinder's
+direction (Figure 2's stages 1-2 or 3-4) and the drive amplitude (the current amplitude uncompensated, the
 demanded stroke compensated) from the position error, up to an amplitude limit (the
 paper's drive: I_m = 1 A uncompensated, the Figure 10 control amplitude compensated), so
 that a long step runs at the flow table's point.
