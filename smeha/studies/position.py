@@ -52,7 +52,9 @@ from .positioncommands import FREQUENCY_HZ, LOAD_STEP_N, TARGET_MM
 from .positionloop import Decision, LoopRecord, run_loop
 
 __all__ = ["PositionSettings", "PlantModel", "Design", "PositionResult", "identify", "design",
-           "run_study", "step_metrics", "MODES", "SCENARIOS"]
+           "run_study", "step_metrics", "MODES", "SCENARIOS", "open_backend", "Controller",
+           "run_step", "run_sine", "run_load_step", "default_sine_frequencies",
+           "flow_table_velocity", "format_report"]
 
 MODES = flow.MODES
 SCENARIOS = ("step", "sine", "load")
