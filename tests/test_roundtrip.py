@@ -95,3 +95,17 @@ def test_measurement_options_need_the_file_and_the_force_port(capsys):
     assert cli.main(["simulate", "--frequency", "50", "--mode", "uncompensated",
                      "--coupling", "displacement", "--measurement", "x.csv"]) == 2
     assert "--coupling force" in capsys.readouterr().err
+
+
+def test_the_operating_point_follows_a_sinusoidal_current_amplitude():
+    # the paper's permeability is that of the drive's own (f, I_m) (eqs 16-20): with
+    # --amplitude the uncompensated current's I_m = K_a a (K_a = 1 A/V, the paper's);
+    # the compensated current is the compensator's, another waveform has no operating
+    # point of its own: the study's 1 A stays
+    from smeha.studies import flow
+    case = flow.Case(50.0, "uncompensated", amplitude=0.6)
+    assert case.fmu_start_values()["current_amplitude"] == pytest.approx(0.6)
+    assert flow.Case(50.0, "uncompensated").current_amplitude == flow.CURRENT_AMPLITUDE
+    assert flow.Case(50.0, "compensated", amplitude=2.0).current_amplitude == 1.0
+    assert flow.Case(50.0, "uncompensated", amplitude=0.6, waveform="square",
+                     magnetics="time_domain").current_amplitude == 1.0
