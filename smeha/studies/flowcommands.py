@@ -259,6 +259,13 @@ def _check_simulate(args) -> None:
     if args.measurement is None and (args.noise_um is not None or args.seed is not None):
         raise UsageError("--noise-um and --seed set the noise of --measurement's file; "
                          "give --measurement FILE")
+    if args.measurement is not None and (args.mode == "compensated"
+                                         or args.waveform not in (None, "sine")):
+        warn("simulate", "--measurement: the identification and the diagnosis model a "
+                         "sinusoidal coil current (the paper's uncompensated drive); this "
+                         "run's current is not one (the compensator's, or another waveform), "
+                         "so the paper's model will not describe it (measured: 'unexplained' "
+                         "for the paper's own model, compensated)")
     if args.measurement is not None and args.coupling == "displacement":
         raise UsageError("--measurement records the transducer's own rod, which the "
                          "displacement port loads with the chamber's force: use --coupling "
