@@ -12,7 +12,9 @@
   Then every extension that can join it is fitted together with it (all
   unknowns and the loss coefficients refitted), and the best-ranked such
   combination is kept when it passes the same rule against the model before
-  it and, without a sense voltage, removes a significant share of the paper's
+  it (its share of the excess counted in the channels the added cause acts on:
+  a sensor's delay cannot remove what the first cause's form leaves in B) and,
+  without a sense voltage, removes a significant share of the paper's
   excess in the channels it acts on (:func:`significant`); and so on, up to :data:`MAX_CAUSES` causes,
   while the model is still outside noise on the held-out runs; after each added cause, an exchange step
   (:func:`_swap`) may replace a member by another cause that ranks better with the rest;
@@ -74,15 +76,20 @@ def significant(paper: Fit, before: Fit, after: Fit, member) -> bool:
     return (before.heldout_excess_in(chans) - after.heldout_excess_in(chans)) >= MIN_SHARE * total
 
 
-def explained(base: Fit, new: Fit) -> float:
-    """Fraction of ``base``'s held-out excess chi^2 that ``new`` removes."""
-    return 1.0 - max(new.heldout_excess, 0.0) / max(base.heldout_excess, 1e-12)
+def explained(base: Fit, new: Fit, chans=None) -> float:
+    """Fraction of ``base``'s held-out excess chi^2 that ``new`` removes, over the
+    channels ``chans`` (default all: y, B and the drift)."""
+    if chans is None:
+        return 1.0 - max(new.heldout_excess, 0.0) / max(base.heldout_excess, 1e-12)
+    return (1.0 - max(new.heldout_excess_in(chans), 0.0)
+            / max(base.heldout_excess_in(chans), 1e-12))
 
 
-def passes(base: Fit, new: Fit) -> bool:
-    """The rule of the module docstring, ``new`` against ``base``."""
+def passes(base: Fit, new: Fit, chans=None) -> bool:
+    """The rule of the module docstring, ``new`` against ``base``; ``chans``: the channels
+    whose excess the added cause must explain (default all)."""
     return (base.score - new.score > MIN_BIC_DROP
-            and explained(base, new) >= MIN_EXPLAINED)
+            and explained(base, new, chans) >= MIN_EXPLAINED)
 
 
 def within_noise(fit: Fit, train_dof_lost: int = 5) -> bool:
@@ -116,8 +123,8 @@ def select(ev, train, held, paper: Fit, singles: list, fit_scale=True, workers=N
             break
         nxt = min(round_fits, key=lambda f: f.total_score)
         added = [m for m in nxt.candidate.members if m not in current.candidate.members][0]
-        if not passes(current, nxt) or (not fit_scale
-                                        and not significant(paper, current, nxt, added)):
+        if not passes(current, nxt, channels(added)) or (
+                not fit_scale and not significant(paper, current, nxt, added)):
             break
         order += [c for c in nxt.causes if c not in order]
         current = nxt
