@@ -120,3 +120,21 @@ def test_a_measurement_of_a_non_sinusoidal_current_is_warned(monkeypatch, capsys
     assert cli.main(["simulate", "--frequency", "50", "--mode", "compensated", "--backend",
                      "direct", "--measurement", "x.csv"]) == 130
     assert "sinusoidal coil current" in capsys.readouterr().err
+
+
+def test_the_correction_reaches_the_reading_through_the_variants_sensor():
+    # a transport-delay variant's sensor reads y(t - tau) (gmt.extensions.delay): the
+    # writer's correction goes through the same delay line, so a ramp comes out tau late;
+    # the paper's model and a resonance have no sensor of their own
+    import gmt
+    variant = gmt.ModelVariant.from_dict({"cause": "transport_delay",
+                                          "parameters": {"delay_s": 5e-5}})
+    sensor = simmeasure.variant_sensor(variant)
+    t = np.arange(1, 200) * 1e-5
+    out = np.array([sensor.sensed(1e3 * x, x) for x in t])
+    assert np.allclose(out[10:], 1e3 * (t[10:] - 5e-5), atol=1e-12)
+    assert simmeasure.variant_sensor(None) is None
+    from smeha.diagnose.variant import read_variant_json
+    resonance = read_variant_json(Path(VARIANT).read_text())
+    assert resonance.name.startswith("mechanical_resonance")
+    assert simmeasure.variant_sensor(resonance) is None

@@ -310,7 +310,8 @@ def _add_measurement(record, case, args) -> None:
     scale = 1.0 if args.noise_um is None else args.noise_um * 1e-6 / simmeasure.DISPLACEMENT_NOISE
     run = simmeasure.measurement_run(
         record, name, case.frequency, case.step, simmeasure.DISPLACEMENT_NOISE * scale,
-        simmeasure.VOLTAGE_NOISE * scale, args.seed or 0, case.held_force_mechanics())
+        simmeasure.VOLTAGE_NOISE * scale, args.seed or 0, case.held_force_mechanics(),
+        simmeasure.variant_sensor(case.variant))
     runs = measured.read_measurements(path) if Path(path).is_file() else []
     measured.write_measurements(path, [r for r in runs if r.name != name] + [run])
 
