@@ -138,3 +138,11 @@ def test_the_correction_reaches_the_reading_through_the_variants_sensor():
     resonance = read_variant_json(Path(VARIANT).read_text())
     assert resonance.name.startswith("mechanical_resonance")
     assert simmeasure.variant_sensor(resonance) is None
+
+
+def test_valve_actions_between_the_steps_are_counted():
+    # the record's points off the sample clock (valve actions) but its end
+    t = np.array([0.0, 1e-4, 1.3e-4, 2e-4, 3e-4, 3.05e-4])
+    record = np.zeros(t.size, dtype=[("time", float)])
+    record["time"] = t
+    assert simmeasure.uneven_steps(record, 1e-4) == 1

@@ -31,7 +31,7 @@ import gmt
 from .. import measured
 
 __all__ = ["DISPLACEMENT_NOISE", "VOLTAGE_NOISE", "run_name", "sense_voltage",
-           "hold_correction", "variant_sensor", "measurement_run"]
+           "hold_correction", "uneven_steps", "variant_sensor", "measurement_run"]
 
 #: Default sensor noise (standard deviation) on the displacement, [m], and on the sensing
 #: coil's voltage, [V]: those of the independent generator's lab (tests/labsim/acquisition.py).
@@ -115,6 +115,23 @@ def hold_correction(time, force, mechanics) -> np.ndarray:
     return y
 
 
+def _on_clock(t, step) -> np.ndarray:
+    """The rows on the sample clock (multiples of ``step``), one a tick."""
+    ticks = np.round(t / step)
+    on_clock = np.abs(t - ticks * step) <= 1e-9 * step
+    on_clock[1:] &= np.diff(ticks) > 0  # one sample a tick (a valve action on the tick)
+    return on_clock
+
+
+def uneven_steps(record, step) -> int:
+    """Communication points between the clock's ticks (valve actions, but the run's end):
+    the transducer took the steps around them unevenly. Its paper magnetics' quadrature is
+    less accurate there: at 150 Hz and 50 us, B lagged 0.34 deg, which the diagnosis saw
+    (docs/DIAGNOSE.md, Simulated data)."""
+    t = np.asarray(record["time"])[:-1]
+    return int(np.count_nonzero(~_on_clock(t, step)))
+
+
 def variant_sensor(variant):
     """The displacement sensor of a model variant (its time-stepped form, at rest at 0), or
     None for the paper's model and variants whose sensor reads the rod as it is."""
@@ -168,10 +185,7 @@ def measurement_run(record, name: str, frequency: float, step: float,
             correction = np.array([correction[0]] + [
                 sensor.sensed(d, t) for d, t in zip(correction[1:], record["time"][1:])])
         y_free = y_free + correction
-    t = record["time"]
-    ticks = np.round(t / step)
-    on_clock = np.abs(t - ticks * step) <= 1e-9 * step
-    on_clock[1:] &= np.diff(ticks) > 0  # one sample a tick (a valve action on the tick)
+    on_clock = _on_clock(record["time"], step)
     rows, y_free = record[on_clock], y_free[on_clock]
     voltage = sense_voltage(rows["time"], rows["flux_density"])
     rows, y_free, voltage = rows[2:-2], y_free[2:-2], voltage[2:-2]
