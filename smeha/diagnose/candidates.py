@@ -34,6 +34,9 @@ from gmt.extensions.steady import flux_density_from_ratio, steady_state
 
 from .features import HARMONICS
 
+__all__ = ["CAUSES", "FORMS", "label", "Candidate", "PAPER", "candidates", "Batch",
+           "Evaluator"]
+
 CAUSES = ext.CAUSES
 #: The forms of the causes with several (the first is the default).
 FORMS = ext.FORMS
