@@ -20,7 +20,10 @@ candidate's own path from M to y
 (:func:`gmt.extensions.steady.flux_density_from_ratio`), it takes one
 Gauss-Newton step (in ln B_m) on the run's y harmonics, so that a candidate
 that changes the fundamental in a way the path does not (saturation's bias)
-is judged on the rest.
+is judged on the rest. The step is held within a trust region
+(:data:`LN_FLUX_STEP`): where y is flat in B_m (a Preisach density that adds
+most of the fundamental) one linearised step overshoots, and a run predicted
+at three times its measured stroke decided the fit.
 """
 from __future__ import annotations
 

@@ -10,7 +10,7 @@ from gmt import extensions as ext
 from .candidates import CAUSES, FORMS, Batch, Evaluator, label
 from . import remainder
 from .decision import (MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, channels, explained,
-                       within_noise)
+                       leader, within_noise)
 from .workflow import CONFUSABLE_WITHOUT_B
 
 __all__ = ["SIGNALS", "characterise", "cautions", "evidence", "remainder_report",
@@ -273,8 +273,7 @@ def _named_lines(d) -> list[str]:
     p, e = d.paper, d.extended
     without = d.runs_without_sense_voltage
     out = []
-    first = min((f for f in d.fits if f.causes == (d.cause,)),
-                key=lambda f: f.total_score)
+    first = leader([f for f in d.fits if f.causes == (d.cause,)])
     out.append(f"named {first.label} (acts on {SIGNALS[d.cause]}): held-out BIC lower by "
                f"{p.score - first.score:.4g} (threshold {MIN_BIC_DROP:g}), "
                f"{100 * explained(p, first):.3g} % of the paper's excess chi^2 removed; "
