@@ -15,10 +15,10 @@ only its public API is used) or, with ``--generator synthetic``, from the projec
 ``--json``. Figures only: no timed asserts.
 
     python benchmarks/diagnose_detection.py [--generator labsim|synthetic] [--seeds 20]
-        [--first-seed 0] [--rates 100,800,20000Hz] [--cases clean,singles,pairs]
+        [--first-seed 0] [--rates 100,800,20000Hz] [--cases clean,singles,pairs|allpairs]
         [--strengths 1] [--noises 0.05] [--workers 2] [--no-sense]
         [--formulation default|alt] [--formulations EFFECT=NAME,...]
-        [--low-frequency-cycles 3] [--start-in-transient]
+        [--low-frequency-cycles 3] [--start-in-transient] [--log FILE.jsonl]
         [--json]
     python benchmarks/diagnose_detection.py --markdown STUDY.json[.gz]
 
@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import gzip
+import itertools
 import json
 import os
 import sys
@@ -97,7 +98,7 @@ def _one(task):
     t_gen = time.perf_counter() - t
     t = time.perf_counter()
     try:
-        d = diagnose.diagnose(runs)
+        d = diagnose.diagnose(runs, workers=1)  # the study's own workers run the datasets
         out = {"cause": d.cause, "causes": d.causes, "gain": d.gain, "weak": d.weak,
                "form": d.form}
     except Exception as exc:  # a failure is a result of the study, reported as such
@@ -118,6 +119,8 @@ def _cases(names, effects):
             out += [(e,) for e in effects]
         elif name == "pairs":
             out += list(PAIRS)
+        elif name == "allpairs":  # every pair of the causes
+            out += list(itertools.combinations(effects, 2))
         else:  # one effect or a pair written a+b
             out.append(tuple(name.split("+")))
     return out
@@ -234,6 +237,8 @@ def main(argv=None):
                     help="labsim records N cycles of the runs below 10 Hz (default: 6)")
     ap.add_argument("--start-in-transient", action="store_true",
                     help="labsim records from the drive's switch-on, transient included")
+    ap.add_argument("--log", metavar="FILE.jsonl",
+                    help="also append each dataset's result to FILE as it finishes")
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--markdown", metavar="STUDY.json",
                     help="print a saved study (--json output) as a Markdown table and exit")
@@ -267,8 +272,16 @@ def main(argv=None):
              for seed in range(args.first_seed, args.first_seed + args.seeds)]
     tasks = list(dict.fromkeys(tasks))
     t0 = time.perf_counter()
+    results = []
+    log = open(args.log, "a") if args.log else None
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        results = list(pool.map(_one, tasks, chunksize=1))
+        for res in pool.map(_one, tasks, chunksize=1):
+            results.append(res)
+            if log is not None:  # one JSON line a dataset, as they finish
+                log.write(json.dumps(res) + "\n")
+                log.flush()
+    if log is not None:
+        log.close()
     wall = time.perf_counter() - t0
     rows = summarise(results)
     if args.json:

@@ -19,7 +19,7 @@ one core"); on a shared machine read the figures as upper bounds.
 
     python benchmarks/identify_diagnose_speed.py [--repeats 3] [--cli-repeats 1]
         [--effect eddy_current_diffusion] [--samples-per-cycle 800] [--cycles 6]
-        [--seed 3] [--json]
+        [--seed 3] [--workers N] [--json]
 """
 from __future__ import annotations
 
@@ -67,6 +67,8 @@ def main(argv=None):
     ap.add_argument("--samples-per-cycle", type=int, default=800)
     ap.add_argument("--cycles", type=int, default=6)
     ap.add_argument("--seed", type=int, default=3)
+    ap.add_argument("--workers", type=int, default=None,
+                    help="diagnose's worker processes (default smeha.pool.default_workers)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     from smeha import diagnose, identify
@@ -79,7 +81,7 @@ def main(argv=None):
     for _ in range(args.repeats):
         dt, _ = _timed(lambda: identify.identify(runs))
         walls["identify"].append(dt)
-        dt, result = _timed(lambda: diagnose.diagnose(runs))
+        dt, result = _timed(lambda: diagnose.diagnose(runs, workers=args.workers))
         walls["diagnose"].append(dt)
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "speed.csv"
@@ -90,7 +92,8 @@ def main(argv=None):
                                           "sys.exit(main())"])
         for _ in range(args.cli_repeats):
             dt, proc = _timed(lambda: subprocess.run(
-                command + ["diagnose", str(path), "--json"], capture_output=True, text=True))
+                command + ["diagnose", str(path), "--json"]
+                + ([] if args.workers is None else ["--workers", str(args.workers)]), capture_output=True, text=True))
             if proc.returncode != 0:
                 raise SystemExit(f"smeha diagnose failed ({proc.returncode}):\n{proc.stderr}")
             walls["cli"].append(dt)
@@ -112,7 +115,8 @@ def main(argv=None):
     d = out["dataset"]
     print(f"labsim: {d['runs']} runs x {d['cycles']} cycles x {d['samples_per_cycle']} samples "
           f"a period ({n_samples} samples), effect {d['effect']}, seed {d['seed']} "
-          f"(generated in {t_gen:.1f} s)")
+          f"(generated in {t_gen:.1f} s); diagnose's workers {args.workers or 'default'}, "
+          f"load average {os.getloadavg()[0]:.2f}")
     for k, label in (("identify", "identify (function)"), ("diagnose", "diagnose (function)"),
                      ("cli", "smeha diagnose --json (subprocess)")):
         if k in med:

@@ -58,7 +58,7 @@ import gmt  # cheap: its names load on first use (gmt/__init__.py)
 
 from . import __version__
 from .errors import InputError, RunError
-from .cliargs import (Parser, UsageError, add_branch_rule, input_file,
+from .cliargs import (Parser, UsageError, add_branch_rule, count, input_file,
                       join_negative_values, output_dir)
 from .studies.flowcommands import CIRCUITS, FREQUENCY, add_flow, add_simulate, add_sweep
 from .studies.positioncommands import add_position
@@ -213,6 +213,10 @@ def _add_diagnose(subparsers):
     p.add_argument("--report", metavar="DIR", type=output_dir,
                    help="write PNG figures per run into DIR (loops, residual by branch, "
                         "paper vs extended; created if missing)")
+    p.add_argument("--workers", type=count(1), metavar="N",
+                   help="processes that fit the candidates side by side, at least 1 (default "
+                        "2 on Linux, 1 on Windows and macOS: smeha.pool.default_workers); "
+                        "the answer does not depend on it")
     p.set_defaults(run=_run_diagnose)
 
 
@@ -225,7 +229,7 @@ def _run_diagnose(args) -> int:
         if not holdout:
             raise UsageError(f"--holdout {args.holdout!r} names no run")
     runs = measured.read_measurements(args.data)  # DataError (a ValueError): exit 2
-    result = diagnose.diagnose(runs, holdout=holdout)
+    result = diagnose.diagnose(runs, holdout=holdout, workers=args.workers)
     written = diagnose.write_report(result, args.report) if args.report else []
     if args.json:
         report = {"file": str(args.data), **result.as_dict()}

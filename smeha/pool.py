@@ -13,10 +13,11 @@ CPU time of one. One worker, or one job, runs in this process.
 from __future__ import annotations
 
 import multiprocessing
+import os
 import sys
 from typing import Callable
 
-__all__ = ["START_METHOD", "prepare", "run_jobs"]
+__all__ = ["START_METHOD", "default_workers", "prepare", "run_jobs"]
 
 #: How worker processes start: forked from the prepared parent on Linux and the other
 #: POSIX systems that fork; spawned (a fresh interpreter: imports, kernel and FMU loaded
@@ -24,6 +25,17 @@ __all__ = ["START_METHOD", "prepare", "run_jobs"]
 #: libraries are not safe to use in a forked child (Python's default there is spawn).
 START_METHOD = ("fork" if "fork" in multiprocessing.get_all_start_methods()
                 and sys.platform != "darwin" else "spawn")
+
+
+def default_workers() -> int:
+    """Worker processes when the user names none: 2 where :data:`START_METHOD` forks (the
+    project's 2-core machine; a forked worker costs little), else 1 (a spawned worker
+    imports everything again), never more than the CPUs this process may use."""
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cpus = os.cpu_count() or 1
+    return min(2, cpus) if START_METHOD == "fork" else 1
 
 
 def prepare(workers: int, fmu_path=None, say: Callable[[str], None] | None = None) -> None:

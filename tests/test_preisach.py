@@ -45,9 +45,12 @@ def test_closed_form_harmonics_match_relays_switched_in_time(amplitude):
     measured = 2.0 * np.fft.rfft(stepped)[:9] / theta.size
     assert np.abs(measured[1:] - coeff[1:9]).max() <= 2e-3 * abs(coeff[1])
     assert abs(measured[0].real - coeff[0].real) <= 2e-3 * abs(coeff[1])
-    # the synthesised waveform is the band-limited series of the relays (Gibbs at the jumps
-    # of single relays averages out over the population)
-    assert np.abs(synthesise(coeff, theta)[0] - stepped).max() <= 0.02 * np.ptp(stepped)
+    # the synthesised waveform is the band-limited series of the relays: it converges in the
+    # mean square (Parseval: its error is the energy of the harmonics above the band), not
+    # uniformly at the relays' jumps (Gibbs), which cluster near the drive's crest where the
+    # relays with interaction fields near the amplitude switch within a few samples
+    err = synthesise(coeff, theta)[0] - stepped
+    assert math.sqrt(np.mean(err * err)) <= 0.01 * np.ptp(stepped)
 
 
 def test_loss_per_cycle_is_the_relays_loop_area_and_never_negative():

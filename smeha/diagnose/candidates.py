@@ -183,6 +183,10 @@ class Batch:
         return len(self.runs)
 
 
+#: Largest change of ln B_m of the Gauss-Newton step of a run without B (predict).
+LN_FLUX_STEP = 0.3
+
+
 class Evaluator:
     """Periodic steady state of candidates for batches of runs (module docstring)."""
 
@@ -225,7 +229,10 @@ class Evaluator:
             jac = (y1 - y0) / sd / np.where(nob, 1e-6, 1.0)[:, None]
             num = np.sum((np.conj(jac) * r).real, axis=1)
             den = np.sum(np.abs(jac) ** 2, axis=1)
-            bm = bm * np.exp(np.where(nob & (den > 0), -num / np.where(den > 0, den, 1.0), 0.0))
+            step = np.where(nob & (den > 0), -num / np.where(den > 0, den, 1.0), 0.0)
+            # a step off the linear range (y flat in B_m) is bounded: at most a factor
+            # LN_FLUX_STEP's exponential either way
+            bm = bm * np.exp(np.clip(step, -LN_FLUX_STEP, LN_FLUX_STEP))
         y, b = evaluate(bm)
         s_off = np.zeros(len(batch))
         s_y1 = np.zeros(len(batch), complex)

@@ -12,7 +12,9 @@
   Then every extension that can join it is fitted together with it (all
   unknowns and the loss coefficients refitted), and the best-ranked such
   combination is kept when it passes the same rule against the model before
-  it and, without a sense voltage, removes a significant share of the paper's
+  it (its share of the excess counted in the channels the added cause acts on:
+  a sensor's delay cannot remove what the first cause's form leaves in B) and,
+  without a sense voltage, removes a significant share of the paper's
   excess in the channels it acts on (:func:`significant`); and so on, up to :data:`MAX_CAUSES` causes,
   while the model is still outside noise on the held-out runs; after each added cause, an exchange step
   (:func:`_swap`) may replace a member by another cause that ranks better with the rest;
@@ -32,7 +34,7 @@ margin the rule asks of a name.
 from __future__ import annotations
 
 from .candidates import Candidate
-from .fit import Fit, fit_and_score
+from .fit import Fit, fit_all
 
 #: Reduced chi^2 at or below which a model "explains the data within noise".
 WITHIN_NOISE = 2.0
@@ -70,15 +72,20 @@ def significant(paper: Fit, before: Fit, after: Fit, member) -> bool:
     return (before.heldout_excess_in(chans) - after.heldout_excess_in(chans)) >= MIN_SHARE * total
 
 
-def explained(base: Fit, new: Fit) -> float:
-    """Fraction of ``base``'s held-out excess chi^2 that ``new`` removes."""
-    return 1.0 - max(new.heldout_excess, 0.0) / max(base.heldout_excess, 1e-12)
+def explained(base: Fit, new: Fit, chans=None) -> float:
+    """Fraction of ``base``'s held-out excess chi^2 that ``new`` removes, over the
+    channels ``chans`` (default all: y, B and the drift)."""
+    if chans is None:
+        return 1.0 - max(new.heldout_excess, 0.0) / max(base.heldout_excess, 1e-12)
+    return (1.0 - max(new.heldout_excess_in(chans), 0.0)
+            / max(base.heldout_excess_in(chans), 1e-12))
 
 
-def passes(base: Fit, new: Fit) -> bool:
-    """The rule of the module docstring, ``new`` against ``base``."""
+def passes(base: Fit, new: Fit, chans=None) -> bool:
+    """The rule of the module docstring, ``new`` against ``base``; ``chans``: the channels
+    whose excess the added cause must explain (default all)."""
     return (base.score - new.score > MIN_BIC_DROP
-            and explained(base, new) >= MIN_EXPLAINED)
+            and explained(base, new, chans) >= MIN_EXPLAINED)
 
 
 def within_noise(fit: Fit, train_dof_lost: int = 5) -> bool:
@@ -89,7 +96,7 @@ def within_noise(fit: Fit, train_dof_lost: int = 5) -> bool:
             and fit.heldout_predictive_chi2 / fit.heldout_n <= WITHIN_NOISE)
 
 
-def select(ev, train, held, paper: Fit, singles: list, fit_scale=True) -> tuple:
+def select(ev, train, held, paper: Fit, singles: list, fit_scale=True, workers=None) -> tuple:
     """Forward selection (module docstring): (answer, chosen fit, combinations tried,
     causes in the order they were added).
 
@@ -105,45 +112,47 @@ def select(ev, train, held, paper: Fit, singles: list, fit_scale=True) -> tuple:
         return "unexplained", paper, [], []
     current, tried, order = best, [], [best.cause]
     while len(current.causes) < MAX_CAUSES and not within_noise(current):
-        round_fits = [f for f in (_joined(ev, train, held, current, (), s, fit_scale)
-                                  for s in singles) if f is not None]
+        round_fits = _joined(ev, train, held, [(current, (), s) for s in singles],
+                             fit_scale, workers)
         tried += round_fits
         if not round_fits:
             break
         nxt = min(round_fits, key=lambda f: f.total_score)
         added = [m for m in nxt.candidate.members if m not in current.candidate.members][0]
-        if not passes(current, nxt) or (not fit_scale
-                                        and not significant(paper, current, nxt, added)):
+        if not passes(current, nxt, channels(added)) or (
+                not fit_scale and not significant(paper, current, nxt, added)):
             break
         order += [c for c in nxt.causes if c not in order]
         current = nxt
         current, order = _swap(ev, train, held, paper, current, order, singles, tried,
-                               fit_scale)
+                               fit_scale, workers)
     return order[0], current, tried, order
 
 
-def _joined(ev, train, held, current: Fit, keep, single: Fit, fit_scale):
-    """``current``'s members ``keep`` (all of them when empty) plus ``single``'s extension,
-    fitted from their fitted values; None when they cannot combine or the fit fails."""
-    member = single.candidate.members[0]
-    members = tuple(keep) or current.candidate.members
-    own = dict(zip(current.candidate.members, current.candidate.split(current.x)))
-    if member in members or member.cause in {m.cause for m in members}:
-        return None
-    cand = Candidate(members)
-    if not cand.combinable(member):
-        return None
-    cand = cand.plus(member)
-    own[member] = single.x
-    start = tuple(v for m in cand.members for v in own[m])
-    try:
-        return fit_and_score(ev, train, held, cand, current.base, starts=[start],
-                             fit_scale=fit_scale)
-    except ValueError:
-        return None
+def _joined(ev, train, held, joins, fit_scale, workers=None) -> list:
+    """The fits of each (current, keep, single) in ``joins``: ``current``'s members ``keep``
+    (all of them when empty) plus ``single``'s extension, fitted from their fitted values
+    (side by side, :func:`smeha.diagnose.fit.fit_all`); those that cannot combine or whose
+    fit fails are left out."""
+    jobs = []
+    for current, keep, single in joins:
+        member = single.candidate.members[0]
+        members = tuple(keep) or current.candidate.members
+        if member in members or member.cause in {m.cause for m in members}:
+            continue
+        cand = Candidate(members)
+        if not cand.combinable(member):
+            continue
+        cand = cand.plus(member)
+        own = dict(zip(current.candidate.members, current.candidate.split(current.x)))
+        own[member] = single.x
+        start = tuple(v for m in cand.members for v in own[m])
+        jobs.append((cand, current.base, [start], fit_scale))
+    return [f for f in fit_all(ev, train, held, jobs, workers) if isinstance(f, Fit)]
 
 
-def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, fit_scale):
+def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, fit_scale,
+          workers=None):
     """Stepwise selection's exchange step (Efroymson's stepwise regression; Miller, *Subset
     Selection in Regression*, 2nd ed., 2002, sec. 3.4): with two or more causes, each member
     in turn is replaced by the best form of each of the :data:`SWAP_CANDIDATES` best-ranked
@@ -165,15 +174,18 @@ def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, fit_
                 s.cause not in best or s.total_score < best[s.cause].total_score):
             best[s.cause] = s
     useful = sorted(best.values(), key=lambda f: f.total_score)[:SWAP_CANDIDATES]
-    swaps = []
+    joins = []
     for out in current.candidate.members:
         keep = tuple(m for m in current.candidate.members if m is not out)
-        for single in useful:
-            if single.candidate.members[0].cause == out.cause:
-                continue
-            fit = _joined(ev, train, held, current, keep, single, fit_scale)
-            if fit is not None:
-                swaps.append((fit, out.cause, single.cause))
+        joins += [(current, keep, single) for single in useful
+                  if single.candidate.members[0].cause != out.cause]
+    fits = _joined(ev, train, held, joins, fit_scale, workers)
+    # each fit's member left out and the one that came in
+    swaps = []
+    for fit in fits:
+        gone = [m for m in current.candidate.members if m not in fit.candidate.members]
+        came = [m for m in fit.candidate.members if m not in current.candidate.members]
+        swaps.append((fit, gone[0].cause, came[0].cause))
     tried += [f for f, _, _ in swaps]
     if not swaps:
         return current, order

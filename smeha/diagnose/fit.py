@@ -288,3 +288,27 @@ def fit_and_score(ev, train, held, cand, base0, starts=None, fit_scale=True) -> 
         return score(ev, cand, base, x, chi2, n, held, cov, k=k)
     base, x, chi2, n, cov = fit_candidate(ev, train, cand, base0, starts, fit_scale)
     return score(ev, cand, base, x, chi2, n, held, cov)
+
+
+def _fit_or_reason(ev, train, held, cand, base0, starts, fit_scale):
+    """:func:`fit_and_score`, or the ValueError's message when the fit fails."""
+    try:
+        return fit_and_score(ev, train, held, cand, base0, starts=starts, fit_scale=fit_scale)
+    except ValueError as exc:
+        return str(exc)
+
+
+def fit_all(ev, train, held, jobs, workers=None) -> list:
+    """:func:`fit_and_score` of independent candidates, side by side in ``workers``
+    processes (:func:`smeha.pool.run_jobs`; default :func:`smeha.pool.default_workers`).
+
+    ``jobs`` holds (candidate, base0, starts, fit_scale) tuples; the result holds, in
+    job order, each one's :class:`Fit` or, where its fit failed, the reason (str). The
+    fits do not depend on each other, so the result does not depend on ``workers``.
+    """
+    from ..pool import default_workers, run_jobs
+
+    workers = default_workers() if workers is None else workers
+    return run_jobs(_fit_or_reason, [(ev, train, held) + tuple(job) for job in jobs],
+                    workers, desc="fits", unit="fit", quiet=True)
+

@@ -41,8 +41,10 @@ from .candidates import Batch, Candidate, Evaluator
 PENALTY_GRID = (1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2)
 #: Rounds of the alternation at most, and the relative change of chi^2 that ends it; a
 #: combination starts from its members' fitted values and takes fewer.
-ROUNDS, SETTLED = 8, 1e-4
-COMBINATION_ROUNDS = 4
+ROUNDS, SETTLED = 4, 1e-4
+COMBINATION_ROUNDS = 2
+#: Joint damped Gauss-Newton steps at most after the alternation (:func:`_joint`).
+JOINT_ROUNDS = 10
 #: Finite-difference step of the weights' Jacobian, [A/m].
 WEIGHT_STEP = 50.0
 #: Function evaluations of one refit of the nonlinear unknowns within a round: each round
@@ -110,6 +112,15 @@ class _Problem:
         r = self.ev.residuals(stacked, base, self.cand, (), components=tuple(comps))
         return ((self._per_copy(r, nw) - r0[None, :]) / WEIGHT_STEP).T
 
+    def row_runs(self):
+        """The training run of each residual (the order of :meth:`residuals`)."""
+        n = len(self.train.runs)
+        k = self.train.y.shape[1]
+        y = np.repeat(np.arange(n), k)
+        b = np.repeat(np.flatnonzero(self.train.has_b), k)
+        runs = np.arange(n)
+        return np.concatenate((y, y, b, b, runs, runs, runs))
+
     def _per_copy(self, r, copies):
         """Split stacked residuals (y's, B's, drift blocks over all rows) into one
         residual vector per copy of the training runs, ordered as :meth:`residuals`."""
@@ -150,10 +161,13 @@ def fit_linear(ev: Evaluator, train: Batch, cand: Candidate, base0, fit_candidat
     lin = linear_member(cand)
     prob = _Problem(ev, train, cand, lin)
     starts = [np.asarray(s, float) for s in ([start] if start is not None else cand.starts())]
+    if start is None and len(cand.members) == 1:
+        starts = [_screened(prob, base0, starts[0])]
     best = None
     rounds = ROUNDS if start is None else COMBINATION_ROUNDS
     for x0 in starts:
         out = _alternate(ev, train, prob, base0, x0, fit_candidate, fit_scale, rounds)
+        out = _joint(prob, *out, fit_scale)
         if best is None or out[2] < best[2]:
             best = out
     base, w, chi2, other, lam = best
@@ -204,6 +218,129 @@ def _alternate(ev, train, prob, base0, x0, fit_candidate, fit_scale, rounds=ROUN
         w = w_new
     r0 = prob.residuals(base, w, other)
     return base, w, float(r0 @ r0), other, lam
+
+
+def _joint(prob, base, w, chi2, other, lam, fit_scale, rounds=None):
+    """Step 4: damped Gauss-Newton steps on all unknowns together from the alternation's
+    result, (base, w, chi^2, other, lambda) as :func:`_alternate`.
+
+    Each step linearises the residuals in the weights (:meth:`_Problem.jacobian`) and in
+    the other unknowns (forward differences, the base ones scaled as in
+    :func:`smeha.diagnose.fit.fit_candidate`) and solves the penalised problem of step 2
+    for all of them at once, bounded (weights >= 0, the others within their bounds), with
+    Marquardt's damping (Marquardt, J. SIAM 11 (1963) 431-441: mu times each column's
+    squared norm) raised tenfold while the penalised chi^2 does not fall. The alternation
+    alone moves along the valley where the weights and the base trade off (eq 16's loss
+    against the density's loop area) a little a round."""
+    from scipy.optimize import lsq_linear
+
+    from .fit import BASE_LOWER, BASE_UPPER, base_factor
+
+    rounds = JOINT_ROUNDS if rounds is None else rounds
+    nb = 5 if fit_scale else 4
+    factor = base_factor(base)
+    lo = np.concatenate((BASE_LOWER[:nb], np.asarray(prob.cand.lower, float)[prob.other_idx]))
+    hi = np.concatenate((BASE_UPPER[:nb], np.asarray(prob.cand.upper, float)[prob.other_idx]))
+    pen = np.sqrt(lam) * prob.penalty
+
+    def unpack(z):
+        b = np.array(base, float)
+        b[:nb] = z[:nb] * factor[:nb]
+        return tuple(float(v) for v in b), np.asarray(z[nb:], float)
+
+    def objective(r, ww):
+        return float(r @ r) + float(np.sum((pen @ ww) ** 2))
+
+    z = np.concatenate((np.asarray(base[:nb], float) / factor[:nb], other))
+    r0 = prob.residuals(base, w, other)
+    f0 = objective(r0, w)
+    mu = 1e-3
+    for _ in range(rounds):
+        jw = prob.jacobian(base, w, other, r0)
+        cols = []
+        for j in range(z.size):
+            dz = 1e-6 * max(abs(z[j]), 1e-3)
+            if z[j] + dz > hi[j]:
+                dz = -dz
+            zz = z.copy()
+            zz[j] += dz
+            b, o = unpack(zz)
+            cols.append((prob.residuals(b, w, o) - r0) / dz)
+        jz = np.column_stack(cols)
+        a = np.hstack((jz, jw))
+        norms = np.sqrt(np.sum(a * a, axis=0))
+        norms = np.where(norms > 0, norms, 1.0)
+        # ||a v - rhs|| reduced to its triangular factor (a QR decomposition): the same
+        # minimiser, with as many rows as unknowns
+        a, rhs = _reduced(a, jw @ w - r0)
+        nz = z.size
+        for _ in range(5):  # raise the damping while the penalised chi^2 does not fall
+            damp = np.zeros((nz, a.shape[1]))
+            damp[:, :nz] = np.diag(np.sqrt(mu) * norms[:nz])
+            big = np.vstack((a, np.hstack((np.zeros((pen.shape[0], nz)), pen)), damp))
+            rhs_big = np.concatenate((rhs, np.zeros(pen.shape[0] + nz)))
+            lower = np.concatenate((lo - z, np.zeros(w.size))) * norms
+            upper = np.concatenate((hi - z, np.full(w.size, np.inf))) * norms
+            sol = lsq_linear(big / norms, rhs_big, bounds=(np.minimum(lower, 0.0),
+                                                          np.maximum(upper, 0.0)),
+                             method="trf", lsmr_tol="auto").x / norms
+            z_new = np.clip(z + sol[:nz], lo, hi)
+            w_new = np.maximum(sol[nz:], 0.0)
+            b_new, o_new = unpack(z_new)
+            r1 = prob.residuals(b_new, w_new, o_new)
+            f1 = objective(r1, w_new)
+            if np.isfinite(f1) and f1 < f0:
+                break
+            mu *= 10.0
+        else:
+            break
+        settled = f0 - f1 <= SETTLED * f1
+        z, w, r0, f0 = z_new, w_new, r1, f1
+        base, other = b_new, o_new
+        mu = max(mu / 3.0, 1e-6)
+        if settled:
+            break
+    return base, w, float(r0 @ r0), other, lam
+
+
+def _reduced(a, b):
+    """(R, Q^T b) of a = Q R: ||a v - b|| and ||R v - Q^T b|| differ by a constant."""
+    q, r = np.linalg.qr(a, mode="reduced")
+    return r, q.T @ b
+
+
+def _screened(prob, base0, x0):
+    """The start of a single linear family, its nonlinear unknowns screened (step 0).
+
+    A member whose nonlinear unknowns only scale its whole output per run by a factor
+    (``output_factor``, e.g. the Preisach family's rate factor g(f)) has them screened over
+    its grid (``screen_starts``): the weights' Jacobian at zero weights and factor 1
+    (evaluated once) has its rows scaled by each grid point's factor of their run, the
+    penalised NNLS solved for it, and the point with the least linearised chi^2 starts the
+    alternation. Other members keep ``x0``."""
+    member = prob.cand.members[0]
+    if not hasattr(member, "output_factor"):
+        return x0
+    w0 = np.zeros(prob.lin_idx.size)
+    # the Jacobian at the unknowns' upper bounds (a factor near 1), divided by that factor
+    ref = np.asarray(member.fit.upper, float)[prob.other_idx]
+    r0 = prob.residuals(base0, w0, ref)
+    rows = prob.row_runs()
+    freqs = np.array([rf.frequency for rf in prob.train.runs])
+    jac = prob.jacobian(base0, w0, ref, r0) / member.output_factor(ref, freqs)[rows][:, None]
+    lam = _choose_penalty(prob, jac, r0, w0)
+    best = None
+    for point in member.screen_starts():
+        jg = jac * member.output_factor(point, freqs)[rows][:, None]
+        w = prob.solve(jg, r0, w0, lam)
+        r = r0 + jg @ w
+        chi2 = float(r @ r)
+        if best is None or chi2 < best[0]:
+            best = (chi2, point, w)
+    x = np.array(x0, float)
+    x[prob.other_idx] = best[1]
+    x[prob.lin_idx] = best[2]
+    return x
 
 
 def _choose_penalty(prob, jac, r0, w):

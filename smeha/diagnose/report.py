@@ -9,7 +9,8 @@ from gmt import extensions as ext
 
 from .candidates import CAUSES, FORMS, Batch, Evaluator, label
 from . import remainder
-from .decision import MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, explained, within_noise
+from .decision import (MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, channels, explained,
+                       within_noise)
 from .workflow import CONFUSABLE_WITHOUT_B
 
 #: What each cause changes, for the evidence text.
@@ -284,10 +285,13 @@ def _named_lines(d) -> list[str]:
                    f"{e.heldout_misfit * 1e6:.4g} um, gain {d.gain:.3g}x")
     elif d.combinations:
         best = min(d.combinations, key=lambda f: f.score)
+        added = [m for m in best.candidate.members if m not in first.candidate.members]
+        chans = channels(added[0]) if added else None
+        where = "" if chans is None else f" in {', '.join(chans)}"
         out.append(f"forward selection: the best second cause, {best.label}, lowers the "
                    f"held-out BIC by {first.score - best.score:.4g} and removes "
-                   f"{100 * explained(first, best):.3g} % of the remaining excess; not "
-                   f"enough for a second name (the same rule)")
+                   f"{100 * explained(first, best, chans):.3g} % of the remaining "
+                   f"excess{where}; not enough for a second name (the same rule)")
     out.append(f"parameters of the extended model: {_fmt_params(e.parameters)}")
     out += [f"caution, {c}" for c in cautions(d)]
     if e.weak:

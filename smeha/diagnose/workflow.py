@@ -14,7 +14,7 @@ from ..plausibility import check_plausible
 from .candidates import CAUSES, PAPER, Batch, Evaluator, candidates
 from .decision import also_consistent, select
 from .features import extract
-from .fit import Fit, fit_and_score
+from .fit import Fit, fit_all, fit_and_score
 
 #: Without B (no sense voltage) these causes are told apart only by the shape of y:
 #: each magnetic cause that changes B and y together against the causes that change y only
@@ -217,7 +217,7 @@ def _heldout_and_training(runs, feats, skipped, holdout):
 
 
 def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
-             causes=CAUSES) -> Diagnosis:
+             causes=CAUSES, workers: int | None = None) -> Diagnosis:
     """Fit, characterise, name the cause(s) and measure the gain (:mod:`smeha.diagnose`).
 
     Parameters
@@ -233,6 +233,10 @@ def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
         coefficients are only the fallback start values.
     causes : sequence of str
         Candidates to try (default all six).
+    workers : int, optional
+        Processes that fit independent candidates side by side (default
+        :func:`smeha.pool.default_workers`: 2 on Linux); 1 fits them in this
+        process. The answer does not depend on it.
 
     Raises
     ------
@@ -262,15 +266,13 @@ def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
     # y alone cannot tell the strain scale from B_m: fitted only with sense voltages
     fit_scale = bool(train.has_b.any())
     paper = fit_and_score(ev, train, held, PAPER, base0, fit_scale=fit_scale)
-    fits, unfitted = [], []
-    for cand in candidates()[1:]:
-        if cand.cause not in causes:
-            continue
-        try:
-            fits.append(fit_and_score(ev, train, held, cand, paper.base, fit_scale=fit_scale))
-        except ValueError as exc:  # a candidate that cannot be fitted is left out, said so
-            unfitted.append(str(exc))
-    cause, chosen, combos, order = select(ev, train, held, paper, fits, fit_scale)
+    jobs = [(cand, paper.base, None, fit_scale) for cand in candidates()[1:]
+            if cand.cause in causes]
+    done = fit_all(ev, train, held, jobs, workers)
+    # a candidate that cannot be fitted is left out, and said so
+    fits = [f for f in done if isinstance(f, Fit)]
+    unfitted = [f for f in done if not isinstance(f, Fit)]
+    cause, chosen, combos, order = select(ev, train, held, paper, fits, fit_scale, workers)
     character = characterise(ev, list(feats.values()), paper.base)
     noise = float(np.median([rf.noise_y for rf in feats.values()])) * 1e6
     diag = Diagnosis(cause=cause, evidence=[], heldout_runs=holdout,

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 
@@ -21,6 +20,7 @@ from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_ST
                                     HYDRAULIC_STEP, MAXIMUM_DURATION, MINIMUM_CYCLES,
                                     REALISTIC_LOAD, SKIP_CYCLES, VALVE_CONTROLLER_PERIOD)
 
+from ..pool import default_workers
 from ..cliargs import (UsageError, add_branch_rule, count, input_file, number, number_list,
                       output_file, scheduler_address, warn)
 
@@ -337,7 +337,8 @@ def _run_simulate(args) -> int:
 
 #: --workers of flow and sweep: how the local workers start and what that costs
 #: (docs/SWEEP.md, Workers; benchmarks/README.md, Sweeps).
-WORKERS_HELP = ("local worker processes, at least 1 (default 2); on Linux they are forked from "
+WORKERS_HELP = ("local worker processes, at least 1 (default 2 on Linux, 1 on Windows and "
+                "macOS: smeha.pool.default_workers); on Linux they are forked from "
                 "this process once it has loaded the kernel and the FMU, and cost about the "
                 "CPU time of one; on Windows and macOS each starts a new interpreter (~1.5-2 s "
                 "of CPU): there 1 is faster for grids of a few short runs")
@@ -403,7 +404,7 @@ FAST_RETIRED = ("--fast is retired: the default co-simulation replaced the perio
 
 
 def _workers(args) -> int:
-    return args.workers if args.workers is not None else min(2, os.cpu_count() or 1)
+    return args.workers if args.workers is not None else default_workers()
 
 
 def _run_flow(args) -> int:
