@@ -38,6 +38,7 @@ from . import kernel
 from .circuit import initial_state
 from .implicit import integration_failure
 from .record import circuit_columns
+from .rod import RodParameters
 
 
 class CouplingError(RunError):
@@ -67,8 +68,16 @@ def run_displacement_port(backend, control, circuit, settings, drive, controller
     packed = kernel.pack(circuit)
     area = circuit.chamber.piston_area
     x = initial_state(circuit)
-    rod = backend.rod_state()
     force = x[0] * area
+    # the rod starts at rest under the chamber's force, as the force port's
+    # (system_models.plant.initial_state). The transducer's rod starts free, so it is
+    # handed the chamber's force beyond that preload and the master moves its output back
+    # by the preload's static deflection: the mechanics are linear (eq 27), so the sum is
+    # the preloaded rod's motion exactly
+    preload = force
+    offset = -RodParameters.of(backend.mechanics()).static_deflection(preload)
+    y0, v0 = backend.rod_state()
+    rod = (y0 + offset, v0)
     volume = compressed = 0.0
     slope = [None]  # the secant slope, carried from step to step
     t = 0.0
@@ -79,7 +88,7 @@ def run_displacement_port(backend, control, circuit, settings, drive, controller
         # the digital compensator samples u(t); the continuous drive holds u(t + h/2)
         u = control(t) if drive.compensated else control(t + 0.5 * h)
         result = solve_interface(backend, t, h, u, force, x, rod, commands, packed, settings,
-                                  area, slope)
+                                  area, slope, (preload, offset))
         x1, (y1, v1), current, force1, iterations, dvol, dcomp = result
         row = circuit_columns(x[:10], rod, packed)
         previous = _valve_phase(commands, settings.direction)
@@ -102,8 +111,12 @@ def run_displacement_port(backend, control, circuit, settings, drive, controller
     writer.add(row, 1)
 
 
-def solve_interface(backend, t, h, u, force, x, rod, commands, packed, settings, area, slope):
+def solve_interface(backend, t, h, u, force, x, rod, commands, packed, settings, area, slope,
+                    preload=(0.0, 0.0)):
     """One displacement-port step: the held chamber force F with F = A_d p_P(t + h).
+
+    ``preload``: (F_0 [N], its static deflection [m], negative): the transducer's rod is
+    handed F - F_0 and its output moved by the deflection (run_displacement_port).
 
     Returns (x at t + h, (y, v) at t + h, current, F, iterations, volume into
     the big cavity, compression volume).
@@ -114,7 +127,8 @@ def solve_interface(backend, t, h, u, force, x, rod, commands, packed, settings,
     for it in range(1, settings.max_iterations + 1):
         if it > 1:
             backend.restore(saved)
-        y1, v1, current = backend.step(t, h, u, f_k)
+        y1, v1, current = backend.step(t, h, u, f_k - preload[0])
+        y1 += preload[1]
         status, x1, _, dvol, dcomp, halvings = kernel.circuit_step(
             x, rod, (y1, v1), h, commands, settings.load_force, packed, substeps)
         if status != kernel.OK:

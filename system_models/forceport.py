@@ -24,6 +24,8 @@ density, which cannot jump, so it is taken linear in both modes.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 import gmt
@@ -37,13 +39,16 @@ from .rod import RodParameters
 
 
 def run_force_port(backend, control, circuit, settings, drive, controller, grid, writer,
-                   progress, n_steps, initial=None):
+                   progress, n_steps, initial=None, substeps=None):
     """The force port's run (module docstring): the transducer one step ahead, the plant
     a window at a time, rows into ``writer`` at ``grid``'s points.
 
     ``initial``: the plant's state to start from (a previous run's return value, to
     continue it: the closed-loop position study runs one pump period at a time); None
-    starts at rest. Returns the plant's state at the run's end."""
+    starts at rest. ``substeps``: the plant's substep control (:func:`kernel.new_control`)
+    to carry on with, updated in place (with ``initial``, the continued run steps on as
+    one run would, not from a short substep); None starts short. Returns the plant's
+    state at the run's end."""
     rod = RodParameters.of(backend.mechanics())
     plant = PlantParameters(circuit, rod)
     packed = plant.packed
@@ -54,7 +59,8 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
     # a continuous drive, or the time-domain magnetics: the force linear over a step
     linear = not drive.compensated or drive.continuous_force
     volume = compressed = 0.0
-    substeps = kernel.new_control()  # the plant's substep length, carried across windows
+    if substeps is None:  # the plant's substep length, carried across windows
+        substeps = kernel.new_control()
     valves = 0 if settings.direction == "down" else 2  # V1 or V3: open while compressing
     first = circuit_columns(z[:10], z[out:out + 2], packed)
     # the transducer's step from t = 0: (t, h, u, current, force)
@@ -64,8 +70,14 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
     # time-domain magnetics driven continuously, whose B integrates the held current:
     # u at mid-step then (a held u(t_k) would lag the drive by half a step)
     mid = 0.5 if drive.continuous_force and not drive.compensated else 0.0
-    pending = (u0,) + tuple(backend.drive_step(0.0, times[1],
-                                               control(mid * times[1]) if mid else u0))
+    # the transducer's own sensors (flux density, the free rod's displacement): None
+    # where the backend has none (NaN in the record)
+    sensors = getattr(backend, "sensors", None)
+    y_start = backend.rod_state()[0] if sensors else math.nan
+    first_step = backend.drive_step(0.0, times[1], control(mid * times[1]) if mid else u0)
+    flux0, y_end = _read(sensors, y_start)
+    # (u, current, force, B at the step's start; the free rod at its start and its end)
+    pending = (u0, *first_step, flux0, y_start, y_end)
     t = 0.0
     previous = None  # the last row's valve phase (the final row repeats it)
     while grid.before_end(t):
@@ -75,16 +87,19 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
         starts, steps = points[:m], np.diff(points[:m + 1])
         u = np.empty(m + 1)
         current, force = np.empty(m + 1), np.empty(m + 1)
-        u[0], current[0], force[0] = pending
+        flux, y_free = np.empty(m + 1), np.empty(m + 2)  # y_free[k + 1]: after step k
+        u[0], current[0], force[0], flux[0], y_free[0], y_free[1] = pending
         for k in range(1, m + 1):
             if k < points.size - 1:
                 u[k] = control(points[k])
                 h = points[k + 1] - points[k]
                 current[k], force[k] = backend.drive_step(
                     points[k], h, control(points[k] + mid * h) if mid else u[k])
+                flux[k], y_free[k + 1] = _read(sensors, y_free[k])
             else:  # the run's end: the last step holds its force
                 u[k], current[k], force[k] = u[k - 1], current[k - 1], force[k - 1]
-        pending = (u[m], current[m], force[m])
+                flux[k], y_free[k + 1] = flux[k - 1], y_free[k]
+        pending = (u[m], current[m], force[m], flux[m], y_free[m], y_free[m + 1])
         commands = controller.commands_over(starts)
         forces = np.column_stack((force[:m], force[1:] if linear else force[:m]))
         status, done, rows = kernel.plant_run(
@@ -102,6 +117,7 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
         vol_end, comp_end = volume + rows[:, n + 5], compressed + rows[:, n + 6]
         cols.update({
             "time": starts, "control": u[:m], "current": current[:m], "force": force[:m],
+            "flux_density": flux[:m], "free_displacement": y_free[:m],
             "compressing": controller.phases_over(starts),
             "valves_compressing": commands[:, valves],
             "volume_into_big": np.concatenate(([volume], vol_end[:-1])),
@@ -117,8 +133,17 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
         if progress is not None:
             progress(min(int(round(t / settings.step)), n_steps), n_steps)
     final = dict(first, time=t, control=control(t), current=pending[1], force=pending[2],
+                 flux_density=pending[3], free_displacement=pending[4],
                  compressing=float(controller.phase_at(t)),
                  valves_compressing=previous if previous is not None else 0.0,
                  volume_into_big=volume, compression_volume=compressed, iterations=0.0)
     writer.add(final, 1)
     return z
+
+
+def _read(sensors, y_before) -> tuple:
+    """(B over the step just taken, the free rod's displacement at its end) from the
+    backend's ``sensors``; NaN for B and ``y_before`` held where it has none."""
+    if sensors is None:
+        return math.nan, y_before
+    return tuple(sensors())

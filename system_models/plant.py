@@ -57,9 +57,14 @@ def chamber_side(z, plant: PlantParameters) -> tuple[float, float]:
 
 def initial_state(plant: PlantParameters, rod_displacement: float, **circuit) -> np.ndarray:
     """The circuit at rest (:func:`system_models.circuit.initial_state`, ``circuit``
-    its keyword arguments) and the rod at rest at ``rod_displacement`` [m]."""
-    return np.concatenate((_circuit_start(plant.circuit, **circuit),
-                           plant.rod.rest_state(rod_displacement)))
+    its keyword arguments) and the rod at rest under the chamber's force A_d p_P there,
+    ``rod_displacement`` [m] being the transducer's rest without it.
+
+    A rod started at its free rest would spring back at the first step by A_d p_P / K
+    (96 um at the realistic circuit's 1.5 MPa: :meth:`RodParameters.loaded_state`)."""
+    x = _circuit_start(plant.circuit, **circuit)
+    force = plant.circuit.chamber.piston_area * x[0]
+    return np.concatenate((x, plant.rod.loaded_state(rod_displacement, force)))
 
 
 def rhs(t, z, force, commands, load, plant: PlantParameters) -> np.ndarray:

@@ -21,7 +21,7 @@ RESULT_FIELDS = (
     "time", "control", "current", "rod_displacement", "rod_velocity", "force",
     "p_pump", "p_big", "p_small", "p_accumulator", "piston_position", "piston_velocity",
     "q_v1", "q_v2", "q_v3", "q_v4", "volume_into_big", "compression_volume",
-    "compressing", "valves_compressing", "iterations",
+    "compressing", "valves_compressing", "iterations", "flux_density", "free_displacement",
 )
 #: SI unit of each field, as CSV column names carry it (``p_pump_Pa``, ``q_v1_m3_s``):
 #: "" for a 0/1 flag (``compressing``: the controller's pump phase, ``valves_compressing``:
@@ -32,7 +32,12 @@ RESULT_UNITS = {
     "p_accumulator": "Pa", "piston_position": "m", "piston_velocity": "m_s",
     "q_v1": "m3_s", "q_v2": "m3_s", "q_v3": "m3_s", "q_v4": "m3_s", "volume_into_big": "m3",
     "compression_volume": "m3", "compressing": "", "valves_compressing": "", "iterations": "",
+    "flux_density": "T", "free_displacement": "m",
 }
+#: ``flux_density``: the rod's B (eq 4) at the row's current; ``free_displacement``: the
+#: transducer's own rod with no chamber force on it, as its displacement sensor reads it (the
+#: FMU's ``sensed_displacement``), what a test of the transducer alone measures (the force
+#: port; NaN in the displacement port, whose FMU rod carries the chamber's force).
 
 
 class Grid:

@@ -79,6 +79,21 @@ class RodParameters:
         """At rest at ``displacement`` [m] (both masses there)."""
         return (displacement, 0.0) * (self.size // 2)
 
+    def loaded_state(self, displacement: float, force: float) -> tuple:
+        """At rest under ``force`` [N] on the output (the chamber's A_d p_P, opposing
+        elongation), ``displacement`` [m] being the rest without it: the statics of the
+        equations above, K y_1 = K y_free - F, and with two masses k_j (y_1 - y_2) = F."""
+        y1 = displacement - force / self.stiffness
+        if self.size == 2:
+            return (y1, 0.0)
+        return (y1, 0.0, y1 - force / self.joint_stiffness, 0.0)
+
+    def static_deflection(self, force: float) -> float:
+        """How far ``force`` [N] on the output pushes the output back at rest, [m]
+        (:meth:`loaded_state`)."""
+        deflection = force / self.stiffness
+        return deflection if self.size == 2 else deflection + force / self.joint_stiffness
+
 
 @jitable
 def rod_rates(y1, v1, y2, v2, force, external_force, mass, damping, stiffness, output_mass,

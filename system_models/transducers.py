@@ -53,6 +53,11 @@ class TransducerBackend(Protocol):
         """Advance over [time, time + step] with no force on the rod; (current,
         magnetostrictive force) over the step (the force port)."""
 
+    def sensors(self) -> tuple:
+        """What the last :meth:`drive_step` left on the transducer's own sensors: (flux
+        density B over that step [T], the displacement its sensor reads at the step's end
+        [m]) of the transducer with no force on its rod (the force port)."""
+
     def save(self): ...
 
     def restore(self, state) -> None: ...
@@ -84,7 +89,11 @@ class DirectTransducer:
 
     def drive_step(self, time, step, control):
         out = self.model.step(control, step, 0.0)
+        self._sensors = (out.magnetics.flux_density, out.sensed_displacement)
         return out.current, out.magnetics.force
+
+    def sensors(self):
+        return self._sensors
 
     def outside_design_point(self) -> bool:
         """Whether the coil current departs from the model's operating point now
@@ -202,11 +211,13 @@ class FmuTransducer:
         self._c = fmi2_functions(self.fmu)
         self._in_vr = (fmi2ValueReference * 2)(self._vr["u"], self._vr["external_force"])
         self._in_val = (fmi2Real * 2)()
-        outputs = ("displacement", "velocity", "current", "force")
-        self._out_vr = (fmi2ValueReference * 4)(*(self._vr[n] for n in outputs))
+        outputs = ("displacement", "velocity", "current", "force", "flux_density",
+                   "sensed_displacement")
+        self._out_vr = (fmi2ValueReference * 4)(*(self._vr[n] for n in outputs[:4]))
         self._out_val = (fmi2Real * 4)()
-        # the force port sets u alone (external_force stays 0) and reads current and force
-        self._drive_out_vr = (fmi2ValueReference * 2)(*(self._vr[n] for n in outputs[2:]))
+        # the force port sets u alone (external_force stays 0) and reads current and force,
+        # and in the same call the transducer's own sensors (sensors())
+        self._drive_out_vr = (fmi2ValueReference * 4)(*(self._vr[n] for n in outputs[2:]))
         self._true = fmi2True
         self._new_state = fmi2FMUstate
         self._state = None
@@ -255,8 +266,11 @@ class FmuTransducer:
         val[0] = control
         self._check("fmi2SetReal", c["fmi2SetReal"](comp, self._in_vr, 1, val))
         self._check("fmi2DoStep", c["fmi2DoStep"](comp, time, step, self._true))
-        self._check("fmi2GetReal", c["fmi2GetReal"](comp, self._drive_out_vr, 2, out))
+        self._check("fmi2GetReal", c["fmi2GetReal"](comp, self._drive_out_vr, 4, out))
         return out[0], out[1]
+
+    def sensors(self):
+        return self._out_val[2], self._out_val[3]
 
     def outside_design_point(self) -> bool:
         """The FMU's ``outside_design_point`` output now."""

@@ -34,6 +34,9 @@ from gmt.extensions.steady import flux_density_from_ratio, steady_state
 
 from .features import HARMONICS
 
+__all__ = ["CAUSES", "FORMS", "label", "Candidate", "PAPER", "candidates", "Batch",
+           "Evaluator"]
+
 CAUSES = ext.CAUSES
 #: The forms of the causes with several (the first is the default).
 FORMS = ext.FORMS
@@ -185,6 +188,11 @@ class Batch:
 
 #: Largest change of ln B_m of the Gauss-Newton step of a run without B (predict).
 LN_FLUX_STEP = 0.3
+#: Relative step of B_m for that step's derivative: well above the error left by the
+#: iteration that solves the paper's part for B_m (gmt.extensions.steady.
+#: paper_permeability), whose count depends on the other runs evaluated with it; at 1e-6
+#: the derivative of one run changed with the batch it was evaluated in.
+FLUX_DIFFERENCE_STEP = 1e-4
 
 
 class Evaluator:
@@ -222,11 +230,11 @@ class Evaluator:
             # B_m of a run without B is its own unknown: one Gauss-Newton step in ln B_m on
             # that run's y harmonics from the path's estimate (module docstring)
             y0, _ = evaluate(bm)
-            step = np.where(nob, 1e-6, 0.0)
+            step = np.where(nob, FLUX_DIFFERENCE_STEP, 0.0)
             y1, _ = evaluate(bm * (1.0 + step))
             sd = batch.y_sd if batch.y_sd is not None else np.ones_like(y0.real)
             r = (y0 - batch.y) / sd
-            jac = (y1 - y0) / sd / np.where(nob, 1e-6, 1.0)[:, None]
+            jac = (y1 - y0) / sd / np.where(nob, FLUX_DIFFERENCE_STEP, 1.0)[:, None]
             num = np.sum((np.conj(jac) * r).real, axis=1)
             den = np.sum(np.abs(jac) ** 2, axis=1)
             step = np.where(nob & (den > 0), -num / np.where(den > 0, den, 1.0), 0.0)

@@ -36,6 +36,10 @@ from __future__ import annotations
 from .candidates import Candidate
 from .fit import Fit, fit_all
 
+__all__ = ["WITHIN_NOISE", "MIN_BIC_DROP", "MIN_EXPLAINED", "MAX_CAUSES", "MIN_SHARE",
+           "SWAP_CANDIDATES", "channels", "significant", "explained", "passes",
+           "within_noise", "select", "also_consistent"]
+
 #: Reduced chi^2 at or below which a model "explains the data within noise".
 WITHIN_NOISE = 2.0
 #: A model must lower the held-out score (BIC) of the one before it by more than this ...

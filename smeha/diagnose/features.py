@@ -44,6 +44,10 @@ import gmt
 from ..identify import flux_density_from_displacement
 from ..measured import Run
 
+__all__ = ["HARMONICS", "MIN_CYCLES", "NOISE_HARMONICS", "TRANSIENT_Z", "SkippedRun",
+           "RunFeatures", "current_fundamental", "noise_estimate", "leading_transient",
+           "run_features", "extract"]
+
 #: Harmonics of y and B in the features and the models.
 HARMONICS = 8
 #: Fewest whole periods a record needs: one to use, one more to tell whether the first is

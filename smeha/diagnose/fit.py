@@ -66,6 +66,9 @@ import gmt
 from .candidates import Batch, Candidate, Evaluator
 from .linearfit import fit_linear, linear_member
 
+__all__ = ["BASE_LOWER", "BASE_UPPER", "MAX_EVALUATIONS", "Fit", "base_factor",
+           "fit_candidate", "predictive_chi2", "score", "fit_and_score", "fit_all"]
+
 #: Bounds of the base unknowns (K_h, n, K_e, K_ex, s).
 BASE_LOWER = (0.0, 1.0, 0.0, 0.0, 0.2)
 BASE_UPPER = (np.inf, 3.0, np.inf, np.inf, 5.0)

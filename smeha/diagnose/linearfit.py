@@ -37,6 +37,9 @@ from scipy.optimize import nnls
 
 from .candidates import Batch, Candidate, Evaluator
 
+__all__ = ["PENALTY_GRID", "COMBINATION_ROUNDS", "WEIGHT_STEP", "ROUND_EVALUATIONS",
+           "linear_member", "effective_dof", "fit_linear"]
+
 #: Penalty weights tried, times trace(J^T J) / trace(D^T D).
 PENALTY_GRID = (1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2)
 #: Rounds of the alternation at most, and the relative change of chi^2 that ends it; a

@@ -24,6 +24,8 @@ import numpy as np
 
 from .candidates import Batch
 
+__all__ = ["contributions", "signature", "describe", "summary"]
+
 
 def _excess(fit) -> float:
     return max(fit.heldout_excess, 0.0)

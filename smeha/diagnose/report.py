@@ -13,6 +13,9 @@ from .decision import (MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, channels, expl
                        within_noise)
 from .workflow import CONFUSABLE_WITHOUT_B
 
+__all__ = ["SIGNALS", "characterise", "cautions", "evidence", "remainder_report",
+           "format_diagnosis", "sense_voltage_report", "as_dict", "write_report"]
+
 #: What each cause changes, for the evidence text.
 SIGNALS = {e.cause: e.signals for e in ext.EXTENSIONS}
 

@@ -12,6 +12,8 @@ from collections.abc import Mapping
 import gmt
 from gmt import extensions as ext
 
+__all__ = ["PAPER", "variant_from_diagnosis", "read_variant", "read_variant_json"]
+
 PAPER = ext.PAPER
 
 

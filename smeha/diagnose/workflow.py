@@ -16,6 +16,9 @@ from .decision import also_consistent, select
 from .features import extract
 from .fit import Fit, fit_all, fit_and_score
 
+__all__ = ["CONFUSABLE_WITHOUT_B", "Diagnosis", "default_holdout", "propagate_errors",
+           "diagnose"]
+
 #: Without B (no sense voltage) these causes are told apart only by the shape of y:
 #: each magnetic cause that changes B and y together against the causes that change y only
 #: and leave a similar trace in y's harmonics against f.

@@ -48,7 +48,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
+from gmt.errors import RunError
+
 from . import loader, native
+
+__all__ = ["REPO", "IN_SOURCE_TREE", "FMU_SRC", "DIST", "table", "iface", "RUNTIME_MODULE",
+           "FMU_MODULES", "COMMON_MODULES", "runtime", "PACKAGE_SOURCES", "FmuSpec",
+           "SPECS", "spec", "GUID_NAMESPACE", "FMI2_OPTIONS", "FMI3_OPTIONS", "BuildError",
+           "patch_fmi2", "deterministic_guid", "finish_model_description",
+           "LINUX_BINARIES", "rewrite_fmu", "rename_imports", "bundle_package", "build",
+           "build_fmu", "validate_fmu", "build_all"]
 
 #: The folder holding the packages: the source tree's root in a checkout (also under
 #: ``pip install -e``), site-packages in an installed wheel.
@@ -225,8 +234,8 @@ FMI3_OPTIONS = dict(needsExecutionTool=True, canHandleVariableCommunicationStepS
                     canSerializeFMUState=True)
 
 
-class BuildError(RuntimeError):
-    """The FMU could not be built or does not validate."""
+class BuildError(RunError):
+    """The FMU could not be built or does not validate (a :class:`gmt.errors.RunError`)."""
 
 
 # -- model description --------------------------------------------------------------

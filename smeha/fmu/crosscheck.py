@@ -27,6 +27,8 @@ import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
+__all__ = ["OUTPUTS", "REL_TOL", "PLATFORM", "TOOL", "inputs", "reference", "write"]
+
 #: The experiment: [s].
 START_TIME, STOP_TIME, STEP_SIZE = 0.0, 0.02, 1e-5
 #: Drive frequency [Hz] and current amplitude [A] (the FMU's defaults: Table 1's 50 Hz case).

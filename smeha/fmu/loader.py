@@ -25,6 +25,11 @@ import sysconfig
 import tempfile
 from pathlib import Path
 
+from gmt.errors import RunError
+
+__all__ = ["SOURCE_NAME", "TARGET_SUFFIX", "HAND_WRITTEN", "LoaderError", "header_dir",
+           "function_types", "forwarders", "compiler", "compile_loader"]
+
 #: The loader's C source (in the FMU sources).
 SOURCE_NAME = "smeha_fmu_loader.c"
 #: Machines (``platform.machine()``) the loader is compiled for: those of pythonfmu's Linux
@@ -43,8 +48,9 @@ _TYPEDEF = re.compile(r"typedef\s+([\w\s\*]+?)\s*\b(fmi[23]\w+)TYPE\s*\(([^)]*)\
 _IDENT = re.compile(r"[A-Za-z_]\w*")
 
 
-class LoaderError(RuntimeError):
-    """The loader cannot be built on this machine (the reason is the message)."""
+class LoaderError(RunError):
+    """The loader cannot be built on this machine (the reason is the message; a
+    :class:`gmt.errors.RunError`)."""
 
 
 def header_dir() -> Path:

@@ -34,9 +34,14 @@ import sysconfig
 import tempfile
 from pathlib import Path
 
+from gmt.errors import RunError
 
-class NativeError(RuntimeError):
-    """No shared libpython, no patchelf, or patchelf failed."""
+__all__ = ["NativeError", "find_libpython", "environment_record", "patchelf",
+           "link_libpython"]
+
+
+class NativeError(RunError):
+    """No shared libpython, no patchelf, or patchelf failed (a :class:`gmt.errors.RunError`)."""
 
 
 def find_libpython() -> Path:

@@ -22,7 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
+from gmt.errors import RunError
+
 from .ssp import MECHANICS  # noqa: F401  (re-exported: what a run may report)
+
+__all__ = ["PLANT_FIELDS", "ssp_experiment", "osp_experiment", "ssp_parameter_set",
+           "run_fmpy", "run_libcosim", "run_container", "flow"]
 
 #: The plant outputs a record holds (and the flow check reads).
 PLANT_FIELDS = ("rod_displacement", "volume_into_big", "valves_compressing", "p_pump",
@@ -165,7 +170,7 @@ def run_libcosim(osp_file, step: float | None = None, stop_time: float | None = 
     wall = time.perf_counter()
     for k in range(n):
         if not execution.step(1):
-            raise RuntimeError(f"libcosim step {k} failed: {execution.status()}")
+            raise RunError(f"libcosim step {k} failed: {execution.status()}")
         rows[k] = observer.last_real_values(index, reals)
         phases[k] = observer.last_boolean_values(index, [refs["valves_compressing"]])[0]
         if k == 0:

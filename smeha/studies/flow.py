@@ -55,6 +55,7 @@ from .. import paperdata
 from .flowrow import FlowRow
 
 __all__ = ["MODES", "CIRCUITS", "CURRENT_AMPLITUDE", "paper_control_amplitudes", "paper_dy",
+           "operating_current",
            "control_amplitude", "Sinusoid", "control_signal", "Case", "variant_start_values",
            "default_fmu_path", "ensure_fmu", "FREE_SAMPLES_PER_CYCLE", "free_dy",
            "rod_lag_degrees", "WATCHED_PRESSURES", "lowest_pressure", "flag_row", "run_case",
@@ -241,6 +242,22 @@ class Case:
         """"paper", or the variant's name (its cause, gmt.VARIANTS)."""
         return "paper" if self.variant is None else self.variant.name
 
+    @property
+    def current_amplitude(self) -> float:
+        """I_m of the model's operating point, [A] (:func:`operating_current`)."""
+        return operating_current(self.mode, self.amplitude, self.magnetics, self.waveform)
+
+    def held_force_mechanics(self):
+        """The rod's :class:`gmt.RodMechanics` where the plant takes the transducer's force
+        linear over a step while the transducer holds it (a continuous drive:
+        system_models.forceport), for :func:`smeha.studies.simmeasure.hold_correction`;
+        None where both hold it (the digital compensator's current, the paper's
+        magnetics)."""
+        if self.mode == "compensated" and self.magnetics == "paper":
+            return None
+        return gmt.Transducer(excitation=gmt.Excitation(self.frequency, self.current_amplitude),
+                              variant=self.variant).rod_mechanics()
+
     def drive(self) -> gmt.DriveParameters:
         return gmt.DriveParameters(compensated=self.mode == "compensated",
                                    branch_rule=self.branch_rule,
@@ -250,7 +267,7 @@ class Case:
         """The transducer FMU's parameter values of this case (those that differ from its
         start values may be among them)."""
         drive = self.drive()
-        values = {"frequency": self.frequency, "current_amplitude": CURRENT_AMPLITUDE,
+        values = {"frequency": self.frequency, "current_amplitude": self.current_amplitude,
                   "compensated": drive.compensated, "branch_rule": drive.branch_rule,
                   "compensator_period": drive.compensator_period,
                   **variant_start_values(self.variant)}
@@ -259,6 +276,19 @@ class Case:
         if self.inverse is not None:
             values["inverse_model"] = self.inverse
         return values
+
+
+def operating_current(mode: str, amplitude: float | None, magnetics: str = "paper",
+                      waveform: str = "sine") -> float:
+    """I_m of the paper model's operating point (eqs 16-20 at the drive's f and I_m), [A]:
+    the drive's own, K_a a, for a sinusoidal current of amplitude a (uncompensated, the
+    paper's magnetics); otherwise the study's :data:`CURRENT_AMPLITUDE` (the compensated
+    current is the compensator's; another waveform or the time-domain magnetics has no
+    operating point of its own)."""
+    if (mode == "uncompensated" and amplitude is not None and magnetics == "paper"
+            and waveform == "sine"):
+        return gmt.DriveParameters().amplifier_gain * amplitude
+    return CURRENT_AMPLITUDE
 
 
 def variant_start_values(variant: gmt.ModelVariant | None) -> dict:
@@ -330,7 +360,8 @@ def free_dy(frequency: float, mode: str, branch_rule: str = BRANCH_RULE,
         return gmt.loop_metrics(params, point)["dy"]
     drive = gmt.DriveParameters(compensated=mode == "compensated", branch_rule=branch_rule,
                                 compensator_period=compensator_period)
-    unit = gmt.Transducer(params, gmt.Excitation(frequency, CURRENT_AMPLITUDE), drive,
+    im = operating_current(mode, amplitude, magnetics, waveform)
+    unit = gmt.Transducer(params, gmt.Excitation(frequency, im), drive,
                           variant=variant, magnetics=magnetics, inverse=inverse)
     control, _ = control_signal(mode, frequency, amplitude, waveform)
     h = 1.0 / (frequency * FREE_SAMPLES_PER_CYCLE)
@@ -447,7 +478,7 @@ def run_case(case: Case, fmu_path: Path | None = None, progress=None):
     if case.backend == "fmu":
         backend = FmuTransducer(fmu_path or default_fmu_path(), case.fmu_start_values())
     else:
-        backend = DirectTransducer(params, gmt.Excitation(case.frequency, CURRENT_AMPLITUDE),
+        backend = DirectTransducer(params, gmt.Excitation(case.frequency, case.current_amplitude),
                                    drive, case.variant, magnetics=case.magnetics,
                                    inverse=case.inverse)
     wall = time.perf_counter()

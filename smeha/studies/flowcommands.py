@@ -166,11 +166,27 @@ def add_simulate(subparsers):
                    help="the transducer with a model variant: FILE is 'smeha diagnose --json' "
                         "output or {\"cause\": ..., \"parameters\": {...}} (e.g. "
                         "data/paper_variant.json); with --measurement, a data set to diagnose")
+    p.add_argument("--amplitude", type=number(0.0, 1000.0, low_open=True, unit="V"),
+                   metavar="A",
+                   help="the control signal's amplitude: uncompensated the coil current's "
+                        "I_m [A] (default 1, the paper's; the model's operating point "
+                        "follows it), compensated the demand's a [V] (default Figure 10's)")
     p.add_argument("--measurement", metavar="FILE", type=output_file,
                    help="add the run to FILE in the measurement format (docs/MEASURED.md: "
-                        "run, frequency_Hz, time_s, current_A, displacement_um, control_V), "
-                        "as run '<mode>_<f>Hz'; a run of that name already there is replaced, "
-                        "others kept, so runs at several frequencies make one data set")
+                        "run, frequency_Hz, time_s, current_A, displacement_um, "
+                        "sense_voltage_V, control_V), as run '<mode>_<f>Hz' ('_<a>A' with "
+                        "--amplitude); a run of that name already there is replaced, others "
+                        "kept, so runs at several frequencies and amplitudes make one data "
+                        "set for 'smeha diagnose'. The transducer's own channels: its rod "
+                        "free of the chamber's force, the sensing coil's voltage (eq 21), "
+                        "sampled every --step, with sensor noise (--noise-um)")
+    p.add_argument("--noise-um", type=number(0.0, 1000.0, low_open=False, unit="um"),
+                   metavar="UM",
+                   help="with --measurement: the displacement sensor's noise, standard "
+                        "deviation [um] (default 0.05; the sense voltage's 0.5 mV scales "
+                        "with it); seeded by the run's name and --seed")
+    p.add_argument("--seed", type=count(0), metavar="N",
+                   help="with --measurement: the sensor noise's seed (default 0)")
     p.add_argument("--plot", metavar="FILE", type=output_file, help="write a PNG of the run")
     p.add_argument("--json", action="store_true", help="print only a JSON object")
     p.set_defaults(run=_run_simulate)
@@ -186,7 +202,7 @@ def _case_from(args, frequency, mode, load=None, variant=None):
                 "compensator_period": args.compensator_period,
                 "controller_period": args.controller_period,
                 "hydraulic_step": args.hydraulic_step, "magnetics": args.magnetics,
-                "waveform": args.waveform}
+                "waveform": args.waveform, "amplitude": getattr(args, "amplitude", None)}
     return Case(frequency=frequency, mode=mode, load=load, branch_rule=args.branch_rule,
                 variant=variant, **{k: v for k, v in optional.items() if v is not None})
 
@@ -240,6 +256,20 @@ def _check_simulate(args) -> None:
                 f"and averages at least {MINIMUM_CYCLES - SKIP_CYCLES} more: give --duration "
                 f">= {MINIMUM_CYCLES / args.frequency:g} s")
     _check_circuit(args)
+    if args.measurement is None and (args.noise_um is not None or args.seed is not None):
+        raise UsageError("--noise-um and --seed set the noise of --measurement's file; "
+                         "give --measurement FILE")
+    if args.measurement is not None and (args.mode == "compensated"
+                                         or args.waveform not in (None, "sine")):
+        warn("simulate", "--measurement: the identification and the diagnosis model a "
+                         "sinusoidal coil current (the paper's uncompensated drive); this "
+                         "run's current is not one (the compensator's, or another waveform), "
+                         "so the paper's model will not describe it (measured: 'unexplained' "
+                         "for the paper's own model, compensated)")
+    if args.measurement is not None and args.coupling == "displacement":
+        raise UsageError("--measurement records the transducer's own rod, which the "
+                         "displacement port loads with the chamber's force: use --coupling "
+                         "force (the default)")
     compensated = args.mode == "compensated"
     period = (COMPENSATOR_PERIOD if args.compensator_period is None
               else args.compensator_period) if compensated else 0.0
@@ -270,15 +300,26 @@ def _write_record_csv(record, path) -> None:
                delimiter=",", header=",".join(names), comments="")
 
 
-def _add_measurement(record, case, path) -> None:
-    """The run as a measured one (smeha.measured.Run: coil current, the rod's displacement,
-    the control signal at the communication points), added to the measurement file."""
-    from pathlib import Path
-
+def _add_measurement(record, case, args) -> None:
+    """The run as a measurement of the transducer (smeha.studies.simmeasure), added to the
+    measurement file."""
     from .. import measured
-    name = f"{case.mode}_{case.frequency:g}Hz"
-    run = measured.Run(name, case.frequency, record["time"].copy(), record["current"].copy(),
-                       record["rod_displacement"].copy(), control=record["control"].copy())
+    from . import simmeasure
+    path = args.measurement
+    name = simmeasure.run_name(case.mode, case.frequency, case.amplitude)
+    scale = 1.0 if args.noise_um is None else args.noise_um * 1e-6 / simmeasure.DISPLACEMENT_NOISE
+    run = simmeasure.measurement_run(
+        record, name, case.frequency, case.step, simmeasure.DISPLACEMENT_NOISE * scale,
+        simmeasure.VOLTAGE_NOISE * scale, args.seed or 0, case.held_force_mechanics(),
+        simmeasure.variant_sensor(case.variant))
+    uneven = simmeasure.uneven_steps(record, case.step)
+    if uneven:
+        warn("simulate", f"--measurement: {uneven} valve actions fell between the "
+                         f"{case.step:g} s steps, so the transducer stepped unevenly there and "
+                         "its quadrature is less accurate (0.34 deg of B at 150 Hz, 50 us: "
+                         "the diagnosis sees it); a --step and --controller-period that "
+                         "divide half the period and the valves' dead time avoid it (150 Hz: "
+                         "both 6.6667e-05 s)")
     runs = measured.read_measurements(path) if Path(path).is_file() else []
     measured.write_measurements(path, [r for r in runs if r.name != name] + [run])
 
@@ -304,7 +345,7 @@ def _run_simulate(args) -> int:
     if args.csv:
         _write_record_csv(record, args.csv)
     if args.measurement:
-        _add_measurement(record, case, args.measurement)
+        _add_measurement(record, case, args)
     if args.plot:
         from .flowplots import plot_run
         plot_run(record, row, args.plot)

@@ -65,16 +65,16 @@ def run_figure(record, row, skip_cycles: int | None = None):
     low, high = float(np.min(record["control"])), float(np.max(record["control"]))
     twin.set_ylim(low - 0.05 * (high - low), high + 0.3 * (high - low))  # room for the legend
     shaded = Patch(color="0.92", label=_SKIPPED)
-    # the axis spans the averaged cycles, with room above them for the legend: the run's
-    # start (the free rod meeting the chamber's pressure, ~100 um) stays off scale, said
+    # the axis spans the averaged cycles, with room above them for the legend; a start
+    # beyond them (the drive switched on at its peak, the circuit settling) is said
     ys = (y - bottom)[steady] if steady.any() else y - bottom
     span = float(np.ptp(ys)) or 1.0
     top = float(np.max(ys)) + 0.45 * span
     ax.set_ylim(float(np.min(ys)) - 0.05 * span, top)
     if float(np.max(y - bottom)) > top:
         ax.set_title(ax.get_title(loc="left") + f"\nthe start is off scale (up to "
-                     f"{float(np.max(y - bottom)):.0f} um: the free rod meeting the chamber's "
-                     "pressure, within the discarded cycles)", fontsize=8, loc="left")
+                     f"{float(np.max(y - bottom)):.0f} um: the drive switched on and the "
+                     "circuit settling, within the discarded cycles)", fontsize=8, loc="left")
     ax.legend(handles=[rod, control, shaded], loc="upper right", fontsize=7, ncol=3,
               framealpha=0.9)
     ax.set_zorder(twin.get_zorder() + 1)  # the rod's line above the control trace

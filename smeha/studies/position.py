@@ -1,8 +1,9 @@
 """The cylinder's position in closed loop through the transducer FMU (``smeha position``).
 
 The pump runs at a fixed frequency f. A position controller, sampled once a pump period
-T = 1/f (:mod:`smeha.studies.positionloop`), sets the cylinder's direction (Figure 2's
-stages 1-2 or 3-4) and the drive amplitude (the current amplitude uncompensated, the
+T = 1/f (:mod:`smeha.studies.positionloop`) or every N-th one (``controller_rate`` = f/N:
+its decision then holds N periods, and the design's T is N/f), sets the cylinder's
+direction (Figure 2's stages 1-2 or 3-4) and the drive amplitude (the current amplitude uncompensated, the
 demanded stroke compensated) from the position error, up to an amplitude limit (the
 paper's drive: I_m = 1 A uncompensated, the Figure 10 control amplitude compensated), so
 that a long step runs at the flow table's point.
@@ -51,7 +52,9 @@ from .positioncommands import FREQUENCY_HZ, LOAD_STEP_N, TARGET_MM
 from .positionloop import Decision, LoopRecord, run_loop
 
 __all__ = ["PositionSettings", "PlantModel", "Design", "PositionResult", "identify", "design",
-           "run_study", "step_metrics", "MODES", "SCENARIOS"]
+           "run_study", "step_metrics", "MODES", "SCENARIOS", "open_backend", "Controller",
+           "run_step", "run_sine", "run_load_step", "default_sine_frequencies",
+           "flow_table_velocity", "format_report"]
 
 MODES = flow.MODES
 SCENARIOS = ("step", "sine", "load")
@@ -99,6 +102,10 @@ class PositionSettings:
     step: float = DEFAULT_STEP
     load_step: float = LOAD_STEP  #: the load scenario's step of load, [N]
     sine_amplitude: float = 0.1e-3  #: the sine scenario's amplitude, [m]
+    #: the controller's sample rate, [Hz]: the pump frequency over a whole number N (the
+    #: drive changes at a period's start, so the controller decides every N-th one and its
+    #: decision holds N periods); None: the pump frequency, once a period
+    controller_rate: float | None = None
 
     def __post_init__(self):
         check = gmt.errors.check_range
@@ -121,6 +128,24 @@ class PositionSettings:
         if self.backend not in ("fmu", "direct"):
             raise gmt.ParameterError(f"backend = {self.backend!r} is not one of "
                                      "('fmu', 'direct')")
+        if self.controller_rate is not None:
+            check("controller_rate", self.controller_rate, 0.0, self.frequency, unit="Hz",
+                  high_open=False)
+            n = self.frequency / self.controller_rate
+            if abs(n - round(n)) > 1e-6 * n:
+                raise gmt.ParameterError(
+                    f"controller_rate = {self.controller_rate:g} Hz does not divide the pump "
+                    f"frequency {self.frequency:g} Hz: the drive changes at a pump period's "
+                    f"start, so the controller samples every N-th period (e.g. "
+                    f"{self.frequency / max(math.floor(n), 1):g} or "
+                    f"{self.frequency / math.ceil(n):g} Hz)")
+
+    @property
+    def controller_periods(self) -> int:
+        """N: pump periods a controller sample holds (1: once a period)."""
+        if self.controller_rate is None:
+            return 1
+        return int(round(self.frequency / self.controller_rate))
 
     @property
     def load_force(self) -> float:
@@ -296,12 +321,16 @@ def _saturated_step(model: PlantModel, kp, ki, period, target, periods):
     return t, np.asarray(resp.outputs).ravel()
 
 
-def design(model: PlantModel, target: float = TARGET) -> Design:
-    """Gains, margins and the predicted step and bandwidth (module docstring)."""
+def design(model: PlantModel, target: float = TARGET, periods: int = 1) -> Design:
+    """Gains, margins and the predicted step and bandwidth (module docstring), for a
+    controller sampled every ``periods`` pump periods: the sample-and-hold of the loop is
+    then T = periods / f (the plant P(z) = T / (z - 1) at that T, the gains K_p and K_i
+    scaled with it, so the loop in z is the same and its frequencies scale as 1/T)."""
     import warnings
 
     import control as ct
-    period = 1.0 / model.frequency
+    gmt.errors.check_range("periods", periods, 1, 1000, unit="", low_open=False)
+    period = int(periods) / model.frequency
     kp = LOOP_GAIN / period
     ki = INTEGRAL_RATIO * kp / period
     loop = _open_loop(kp, ki, period)
@@ -339,10 +368,13 @@ class Controller:
                  settle: int = 0, hold_band: float = HOLD_BAND):
         self.model, self.gains, self.limit, self.relative = model, gains, limit, relative
         self.settle, self.hold_band = settle, hold_band
-        self.start = settle * gains.period
+        self.start = settle / model.frequency  # the pump's periods
         self.origin = None
         self.integral = 0.0
         self.direction = "down"
+        #: pump periods a decision holds (the design's sample period over the pump's)
+        self.every = max(int(round(gains.period * model.frequency)), 1)
+        self.last = Decision(self.direction, 0.0)
 
     def reference(self, t) -> float:
         """The position command r(t), [m] (NaN while settling)."""
@@ -353,6 +385,13 @@ class Controller:
     def __call__(self, k, t, x) -> Decision:
         if k < self.settle:
             return Decision(self.direction, 0.0)
+        if (k - self.settle) % self.every:  # between the controller's samples: held
+            return self.last
+        self.last = self._decide(t, x)
+        return self.last
+
+    def _decide(self, t, x) -> Decision:
+        """One sample of the PI law (module docstring)."""
         if self.origin is None:
             self.origin = x
         e = self.reference(t) - x
@@ -540,7 +579,7 @@ def run_study(settings: PositionSettings, scenarios=("step",), sine_frequencies=
               fmu_path=None) -> dict:
     """Identify, design, then run each scenario; returns {"model", "design", "results"}."""
     model = identify(settings, fmu_path)
-    gains = design(model, settings.target)
+    gains = design(model, settings.target, settings.controller_periods)
     results = []
     for scenario in scenarios:
         if scenario == "step":

@@ -66,6 +66,11 @@ def add_position(subparsers):
                    const=LOAD_STEP_N, metavar="N",
                    help=f"also step the load by N (default {LOAD_STEP_N:g}) while holding "
                         "the position: deflection, stiffness, recovery")
+    p.add_argument("--controller-rate", type=number(0.0, 1000.0, unit="Hz"), metavar="HZ",
+                   help="the position controller's sample rate [Hz]: the pump frequency over "
+                        "a whole number N (default: the pump frequency, a decision a period). "
+                        "The drive changes at a pump period's start, so a decision holds N "
+                        "periods; the design's sample-and-hold is N/f")
     p.add_argument("--backend", choices=("fmu", "direct"), default="fmu",
                    help="the transducer: its FMU through fmpy (default) or gmt in-process")
     p.add_argument("--json", action="store_true", help="print only a JSON object")
@@ -86,7 +91,8 @@ def _settings(args, mode):
     return position.PositionSettings(
         mode=mode, target=args.target_mm * 1e-3, frequency=args.frequency, load=args.load,
         duration=args.duration, circuit=args.circuit, variant=variant, backend=args.backend,
-        load_step=args.load_step if args.load_step is not None else position.LOAD_STEP)
+        load_step=args.load_step if args.load_step is not None else position.LOAD_STEP,
+        controller_rate=args.controller_rate)
 
 
 def _sine_frequencies(text):

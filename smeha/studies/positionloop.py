@@ -31,6 +31,7 @@ from typing import Callable
 
 import numpy as np
 
+from system_models import kernel
 from system_models.controller import SampledValveController, dead_times
 from system_models.cosim import CosimSettings
 from system_models.forceport import run_force_port
@@ -141,6 +142,7 @@ def run_loop(backend, mode: str, circuit, frequency: float, periods: int,
     plant = PlantParameters(circuit, RodParameters.of(backend.mechanics()))
     z = plant_start(plant, backend.rod_state()[0])  # at rest, the piston mid-stroke
     in_force = None
+    substeps = kernel.new_control()  # the plant's substeps run on across the periods
     blocks, table = [], np.zeros(periods, dtype=[(n, float) for n in PERIOD_FIELDS])
     x = float(z[4])  # the piston's position (system_models.circuit.STATE_NAMES)
     watch = hasattr(backend, "outside_design_point")
@@ -163,7 +165,7 @@ def run_loop(backend, mode: str, circuit, frequency: float, periods: int,
         n_steps = int(math.ceil(period / settings.step))
         writer = Writer(n_steps + 8, True, None)
         z = run_force_port(shifted, control, circuit, chunk, drive, controller, grid, writer,
-                           None, n_steps, initial=z)
+                           None, n_steps, initial=z, substeps=substeps)
         rows = writer.result()
         in_force = controller.commands_at(period)
         rows["time"] += t0

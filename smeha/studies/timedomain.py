@@ -23,7 +23,7 @@ import gmt
 from . import flow, waveforms
 
 __all__ = ["compare_rows", "format_compare", "drive_amplitude", "waveform_rows",
-           "format_waveforms", "gain_rows", "format_gains", "measured_gain"]
+           "format_waveforms", "gain_rows", "format_gains", "measured_gain", "waveform_cases"]
 
 #: The study's reference coil current: the paper's sinusoid of 1 A peak (RMS 0.707 A).
 PEAK_CURRENT = 1.0

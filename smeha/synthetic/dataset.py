@@ -15,6 +15,8 @@ from ..measured import Run
 from .response import true_response
 from .truth import truth_parameters
 
+__all__ = ["OFFSET_RANGE", "run_name", "generate_runs"]
+
 #: Half-width of the random constant displacement offset per run, [m].
 OFFSET_RANGE = 30e-6
 
@@ -71,7 +73,7 @@ def generate_runs(effect=None, *, seed=0, strength=1.0, noise_um=0.05, voltage_n
     p = params or gmt.TransducerParameters()
     truth = truth_parameters(effect, strength, seed=seed, jitter=jitter, params=p)
     if int(cycles * samples_per_cycle) < samples_per_cycle + 1 or samples_per_cycle < 8:
-        raise ValueError(f"cycles = {cycles!r}, samples_per_cycle = {samples_per_cycle!r}: "
+        raise gmt.ParameterError(f"cycles = {cycles!r}, samples_per_cycle = {samples_per_cycle!r}: "
                          "a run needs at least one period of at least 8 samples")
     rng = np.random.default_rng(seed)
     y_bias = bias_displacement(p)

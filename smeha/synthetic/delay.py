@@ -6,6 +6,8 @@ from scipy.interpolate import CubicSpline
 
 from gmt.forward import bias_displacement
 
+__all__ = ["delayed"]
+
 
 def delayed(params, time, displacement, delay):
     """The displacement record read through a delay line, y(t_k - tau), [m].

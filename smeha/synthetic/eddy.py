@@ -10,6 +10,8 @@ import numpy as np
 
 from .foh import foh_response
 
+__all__ = ["slab_diffusion"]
+
 def _slab_matrices(diffusion_time, nodes):
     """Method-of-lines matrices (A, b) of 1-D diffusion in a half slab.
 

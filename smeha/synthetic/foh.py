@@ -8,6 +8,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import lfilter
 
+__all__ = ["foh_response"]
+
 def foh_response(a, b, c, u, step, x0=None):
     """Output c x_k of dx/dt = a x + b u(t) for u linear between samples, x(0) = x0.
 

@@ -11,6 +11,8 @@ import math
 import numpy as np
 from scipy.special import ndtr
 
+__all__ = ["preisach"]
+
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(48)
 
 

@@ -11,6 +11,8 @@ from gmt.forward import bias_displacement
 
 from .foh import foh_response
 
+__all__ = ["two_mass_matrices", "two_mass_response"]
+
 def two_mass_matrices(rod_mass, damping, stiffness, output_mass, joint_stiffness,
                       joint_damping):
     """Continuous state-space (A, B) of the rod + output-mass model.

@@ -26,6 +26,8 @@ from .resonance import two_mass_response
 from .saturation import saturated_magnetization
 from .thermal import temperature_rise
 
+__all__ = ["FINE", "true_response"]
+
 #: Internal steps per sample of the generator's models: the force is taken linear between
 #: the internal samples (relative error about (w h / FINE)^2 / 12, 3e-6 at 256 samples a
 #: period) and the effects' own integrations run on the same grid.
@@ -223,6 +225,6 @@ def _fine_response(effect, truth, params, frequency, current_amplitude, cycles,
     if effect is None:  # the paper's model alone
         return out
     if effect not in _CHANGES:
-        raise ValueError(f"effect = {effect!r} is not one of {tuple(_CHANGES)} or None")
+        raise gmt.ParameterError(f"effect = {effect!r} is not one of {tuple(_CHANGES)} or None")
     out.update(_CHANGES[effect](run, truth, params))
     return out

@@ -9,6 +9,10 @@ import math
 
 import numpy as np
 
+from gmt.errors import ParameterError
+
+__all__ = ["langevin", "langevin_slope", "inverse_langevin", "saturated_magnetization"]
+
 def langevin(x):
     """Langevin function L(x) = coth(x) - 1/x, [-] (Taylor series for |x| < 0.05)."""
     x = np.asarray(x, dtype=float)
@@ -34,7 +38,7 @@ def langevin_slope(x):
 def inverse_langevin(y: float) -> float:
     """x with L(x) = y, |y| < 1, by Newton's method from Cohen's Pade start."""
     if not abs(y) < 1.0:
-        raise ValueError(f"inverse_langevin: y = {y!r} is outside (-1, 1)")
+        raise ParameterError(f"inverse_langevin: y = {y!r} is outside (-1, 1)")
     x = y * (3.0 - y * y) / (1.0 - y * y)
     for _ in range(50):
         step = (float(langevin(x)) - y) / float(langevin_slope(x))

@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 
+__all__ = ["temperature_rise"]
+
 def temperature_rise(time, current_amplitude, frequency, truth):
     """Coil temperature rise Delta T(t), [K], from a first-order thermal model.
 

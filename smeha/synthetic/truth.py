@@ -13,6 +13,7 @@ import numpy as np
 
 import gmt
 from gmt.constants import MU_0
+__all__ = ["EFFECTS", "MAGNETIC_EFFECTS", "NOMINAL", "truth_parameters"]
 
 #: The hidden effects the generator can add (``None`` adds none).
 EFFECTS = ("rate_independent_hysteresis", "magnetization_saturation",
@@ -120,12 +121,12 @@ def truth_parameters(effect, strength=1.0, *, seed=0, jitter=0.2, params=None) -
     if effect is None:
         return {}
     if effect not in EFFECTS:
-        raise ValueError(f"effect = {effect!r} is not one of {EFFECTS} or None")
+        raise gmt.ParameterError(f"effect = {effect!r} is not one of {EFFECTS} or None")
     s = float(strength)
     if not (s >= 0.0 and math.isfinite(s)):
-        raise ValueError(f"strength = {strength!r} is outside the allowed range [0, inf)")
+        raise gmt.ParameterError(f"strength = {strength!r} is outside the allowed range [0, inf)")
     if not 0.0 <= jitter < 0.5:
-        raise ValueError(f"jitter = {jitter!r} is outside the allowed range [0, 0.5)")
+        raise gmt.ParameterError(f"jitter = {jitter!r} is outside the allowed range [0, 0.5)")
     p = params or gmt.TransducerParameters()
     rng = np.random.default_rng([int(seed), 20250605])
     nominal = dict(NOMINAL[effect])
@@ -151,7 +152,7 @@ def truth_parameters(effect, strength=1.0, *, seed=0, jitter=0.2, params=None) -
     elif effect == "mechanical_resonance":
         m2 = nominal["output_mass"]
         if not 0.0 < m2 < p.mass:
-            raise ValueError(f"output_mass = {m2:g} kg must lie in (0, {p.mass:g}) kg")
+            raise gmt.ParameterError(f"output_mass = {m2:g} kg must lie in (0, {p.mass:g}) kg")
         k1 = m2 * (2.0 * math.pi * nominal["joint_frequency"]) ** 2
         t["joint_stiffness"] = math.inf if s == 0.0 else k1 / s
         t["joint_damping"] = (math.inf if s == 0.0 else
