@@ -243,7 +243,10 @@ VARIABLES: tuple[Variable, ...] = (
          "sinusoid at (operating_frequency, operating_current_amplitude) the complex "
          "permeability is defined for (eqs 1-2, 31): frequency off by more than 5 %, "
          "amplitude or offset by more than 1 % of I_m (judged each period), standing still "
-         "(DC, a step's plateau) or stepping; a warning is logged the first time. Always "
+         "(DC, a step's plateau) or stepping; uncompensated, also a first sample that is "
+         "not the drive's peak I_m (one sample cannot tell a current at rest from a "
+         "sinusoid of another phase: cleared when the current moves); a warning is logged "
+         "the first time (and for that first sample). Always "
          "false with magnetics \"time_domain\" (every drive is inside that model)",
          kind="Boolean"),
     _out("operating_frequency", "Hz", "Frequency f of the operating point the model runs "

@@ -155,7 +155,7 @@ class TransducerSlave(SlaveBase):
         """The variables at their initial values; no transducer until initialisation."""
         self._transducer = None  # gmt.Transducer, built on leaving initialisation
         self._built_from = None  # parameter values it was built from
-        self._warned_design_point = False  # the design-point warning is logged once
+        self._warned_design_point = set()  # the design-point warnings logged (once each)
         self._init_base()
 
     def _built(self) -> bool:
@@ -225,9 +225,13 @@ class TransducerSlave(SlaveBase):
             return False
         for name, value in zip(REAL_OUTPUTS, reals):
             setattr(self, name, value)
-        if self.outside_design_point and not self._warned_design_point:
-            self._warned_design_point = True  # once per instance
-            self._report(transducer.monitor.describe(), self.STATUS_WARNING)
+        if self.outside_design_point:
+            # once per instance, and once more for the first sample's provisional verdict
+            # (a drive not at its peak at the start), which a sinusoid's second sample clears
+            kind = "start" if transducer.monitor.provisional else "drive"
+            if kind not in self._warned_design_point:
+                self._warned_design_point.add(kind)
+                self._report(transducer.monitor.describe(), self.STATUS_WARNING)
         self._after_step(current_time, step_size)
         return True
 

@@ -99,20 +99,66 @@ def test_dc_drive_is_flagged(params):
     assert not current.any()
     rise = y[-1] - gmt.bias_displacement(params)
     assert 12e-6 < rise < 14e-6
-    # issue 20: flagged from the second sample (one cannot tell a still current from a
-    # sinusoid), not after the first half period of the operating point (10 ms at 50 Hz)
-    assert not flag[0] and flag[1:].all()
+    # issue 20: flagged from the first sample (0 A is not the peak I_m at which the model's
+    # drive I_m cos(w t) starts), as standing still from the second, not after the first
+    # half period of the operating point (10 ms at 50 Hz)
+    assert flag.all()
     assert REASONS[tr.monitor.reason] == "standing still"
     assert tr.monitor.departures == 1
 
 
+def test_a_current_at_rest_is_flagged_at_the_first_sample_and_said_why():
+    tr = gmt.Transducer()
+    out = tr.step(0.0, H)
+    assert out.outside_design_point and tr.monitor.provisional
+    assert REASONS[tr.monitor.reason] == "start" and "first sample, 0 A" in tr.monitor.describe()
+    # the outputs the issue reports (B = 0.027 T, M = 21 kA/m, F = 1.7 kN at zero field) are
+    # those of eq 31's quadrature term alone, +I_m: H_q = N I_m/(k_f L) = 14.77 kA/m (eq 1)
+    assert out.magnetics.field == 0.0
+    assert out.magnetics.quadrature_field == pytest.approx(1300 * 1.0 / (1.1 * 0.08))
+    assert (out.magnetics.flux_density, out.magnetics.magnetization,
+            out.magnetics.force) == pytest.approx((0.027, 21.4e3, 1.70e3), rel=0.01)
+
+
+@pytest.mark.parametrize("f,peak,h", [(50.0, 1.0, H), (50.0, -1.0, H), (100.0, 1.0, 4e-5),
+                                      (50.0, 1.0 - 0.5 * AMPLITUDE_TOLERANCE, H)])
+def test_the_papers_drive_is_not_flagged_at_the_first_sample(f, peak, h):
+    # i = I_m cos(w t) starts at its peak, where the quadrature sqrt(I_m^2 - i^2) is zero
+    # whatever its branch; so does the trough, and a peak within the amplitude tolerance
+    tr = gmt.Transducer(excitation=gmt.Excitation(f, 1.0))
+    assert not tr.step(peak, h).outside_design_point
+    assert not tr.monitor.provisional and tr.monitor.departures == 0
+    # and a first sample just outside the tolerance is (the rule can fail)
+    tr = gmt.Transducer(excitation=gmt.Excitation(f, 1.0))
+    assert tr.step(peak * (1.0 - 1.5 * AMPLITUDE_TOLERANCE), h).outside_design_point
+
+
+def test_the_compensated_drive_is_not_judged_at_its_first_sample():
+    # Figure 9's compensated u = 2.2 + 2.2 cos(100 pi t) V starts at a current of 0.70 A, not
+    # at I_m: the compensator's current is no sinusoid, so the first-sample rule is off there
+    tr = gmt.Transducer(drive=gmt.DriveParameters(compensated=True))
+    out = tr.step(4.4, H)
+    assert abs(out.current) < 0.9 and not out.outside_design_point
+
+
 @pytest.mark.parametrize("f", [50.0, 100.0])
 def test_a_sinusoid_starting_at_zero_is_not_taken_for_a_current_at_rest(f):
-    # the drive sin(2 pi f t) starts where u = 0 does: it moves by I_m w h per step there,
+    # the drive sin(2 pi f t) starts where u = 0 does: flagged at that first sample, whose
+    # outputs are u = 0's (eq 31 takes the + branch, a falling current; sin rises there,
+    # its quadrature is -I_m), and cleared at the second, as it moves by I_m w h per step,
     # four times the rest rule's bound I_m sin(pi f h)/2 (design_point's docstring)
     tr, t, _, flag, _ = run(lambda t: math.sin(2 * math.pi * f * t), 0.1,
                             excitation=gmt.Excitation(f, 1.0))
-    assert not flag.any() and tr.monitor.departures == 0
+    assert flag[0] and not flag[1:].any() and tr.monitor.departures == 1
+    # the first output is off the drive's loop: I_m sin(w t) = I_m cos(w t - pi/2) has the
+    # quadrature I_m sin(w t - pi/2) = -I_m at t = 0 (eq 4: H_q = -H_m), the model +H_m;
+    # from the second sample on the branch is the drive's
+    tr = gmt.Transducer(excitation=gmt.Excitation(f, 1.0))
+    h_m = 1300 * 1.0 / (1.1 * 0.08)  # eq 1 with Table 2's N, k_f, L
+    first, second = (tr.step(math.sin(2 * math.pi * f * k * H), H) for k in (0, 1))
+    assert first.magnetics.quadrature_field == pytest.approx(h_m)
+    assert second.magnetics.quadrature_field == pytest.approx(
+        -h_m * math.cos(2 * math.pi * f * H), rel=1e-6)
 
 
 def test_a_current_at_rest_is_judged_without_the_compensator_only():
@@ -127,8 +173,8 @@ def test_a_step_of_current_is_flagged_at_the_step(params):
     # quadrature from the direction of the step): flagged at the step, and while held
     tr, t, y, flag, _ = run(lambda t: 1.0 if t >= 5e-3 else 0.0, 0.04)
     k = int(round(5e-3 / H))
-    # the current at rest at zero before the step is flagged from the second sample
-    assert not flag[0] and flag[1:].all()
+    # the current at rest at zero before the step is flagged from the first sample
+    assert flag.all()
     assert tr.monitor.departures == 1  # outside once, and it stays
     # with the compensator (whose current jumps where Figure 9 switches branch, so jumps
     # are not judged), the held demand is caught as standing still
@@ -141,7 +187,10 @@ def test_half_the_amplitude_is_flagged_or_followed(params):
     tr, t, y, flag, _ = run(cosine(50.0, 0.5), 0.1)
     assert flag[-1] and REASONS[tr.monitor.reason] == "amplitude"
     tr, t, y, flag, _ = run(cosine(50.0, 0.5), 0.1, excitation=gmt.Excitation(follow_drive=True))
-    assert not flag.any() and tr.point.current_amplitude == pytest.approx(0.5, rel=1e-6)
+    # the first sample, 0.5 A, is not the peak of the 1 A drive the model starts at (the
+    # first-sample rule); from the second on the model follows the drive
+    assert flag[0] and not flag[1:].any()
+    assert tr.point.current_amplitude == pytest.approx(0.5, rel=1e-6)
     assert np.ptp(y[t > 0.06]) == pytest.approx(steady_ptp(params, 50.0, 0.5), rel=2e-3)
 
 

@@ -283,13 +283,42 @@ def test_time_domain_magnetics_in_the_c_host_and_fmpy_flag_nothing(fmi, c_host, 
 
 
 @pytest.mark.parametrize("fmi", ["2", "3"])
-def test_fmu_flags_a_drive_at_rest_from_the_start(fmi, fmu_dist, runner_dir):
+def test_fmu_flags_a_drive_at_rest_from_the_first_step(fmi, fmu_dist, runner_dir):
     # issue 20 item 6: u = 0 from the start gave B = 0.027 T, M = 21 kA/m, F = 1.7 kN at zero
-    # field with the flag down for half a period; now flagged from the second step
+    # field with the flag down for half a period; now flagged after the first doStep (0 A is
+    # not the peak at which the model's drive I_m cos(w t) starts, gmt.design_point), with a
+    # warning through the FMU's logger, and as standing still from the second
+    one = run_runner("drive", runner_dir / f"rest1_{fmi}", fmu_dist[fmi], "1", "1e-5", "50",
+                     "0", "0")
+    assert one["statuses"] == [0] and one["outside_design_point"] == [True]
+    warnings = [m for s, _, m in one["logs"] if s == 1 and "design point" in m]
+    assert len(warnings) == 1 and "first sample, 0 A" in warnings[0]
     res = run_runner("drive", runner_dir / f"rest{fmi}", fmu_dist[fmi], "200", "1e-5", "50",
                      "0", "0")
-    assert res["statuses"] == [0]
-    assert not res["outside_design_point"][0] and all(res["outside_design_point"][1:])
+    assert res["statuses"] == [0] and all(res["outside_design_point"])
+    warnings = [m for s, _, m in res["logs"] if s == 1 and "design point" in m]
+    assert len(warnings) == 2 and "stands still" in warnings[1]
+
+
+@pytest.mark.parametrize("fmi", ["2", "3"])
+def test_the_papers_drive_is_not_flagged_at_the_first_step(fmi, fmu_dist, runner_dir):
+    # u = cos(2 pi 50 t): its first sample is the peak I_m, where the model's drive starts
+    one = run_runner("drive", runner_dir / f"peak1_{fmi}", fmu_dist[fmi], "1", "1e-5", "50",
+                     "1", "0")
+    assert one["statuses"] == [0] and one["outside_design_point"] == [False]
+    assert not [m for s, _, m in one["logs"] if "design point" in m]
+
+
+@pytest.mark.parametrize("fmi", ["2", "3"])
+def test_c_host_is_warned_of_a_drive_at_rest_at_the_first_step(fmi, c_host, unzipped):
+    # the same in the C host (loggingOn, the FMU's logger to stderr): one doStep with u = 0
+    # warns of the first sample; one with u = cos(2 pi 50 t) does not
+    fmu = unzipped(fmi)
+    rest = fmu.run(c_host, drive=("1", "1e-5", "50", "0", "0"))
+    peak = fmu.run(c_host, drive=("1", "1e-5", "50", "1", "0"))
+    assert rest.returncode == 0 and peak.returncode == 0, rest.stderr + peak.stderr
+    assert "[Warning]" in rest.stderr and "first sample, 0 A" in rest.stderr, rest.stderr
+    assert "design point" not in peak.stderr, peak.stderr
 
 
 @pytest.mark.parametrize("fmi", ["2", "3"])

@@ -9,6 +9,8 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+import pytest
+
 FMU_SRC = Path(__file__).resolve().parents[1] / "fmu_src"
 
 
@@ -155,3 +157,18 @@ def test_a_missing_package_is_looked_for_in_the_build_environment_and_named(tmp_
     message = runtime.missing_packages_message()
     assert "smeha_absent_pkg" in message and "/nowhere" in message
     assert runtime.find_packages({"site": []}, ("smeha_absent_pkg",)) == ["smeha_absent_pkg"]
+
+
+# -- the loader's limits (docs/FMU.md, "The loader": limits) ------------------------------------
+@pytest.mark.parametrize("system,machine,named", [("linux", "aarch64", "aarch64"),
+                                                  ("darwin", "x86_64", "darwin"),
+                                                  ("win32", "AMD64", "win32")])
+def test_the_loader_is_compiled_for_linux_x86_64_only(monkeypatch, system, machine, named):
+    # pythonfmu ships its Linux binary for x86-64 alone: elsewhere the build is told why it
+    # cannot have the loader (and falls back, smeha.fmu.build._linux_binaries)
+    from smeha.fmu import loader
+
+    monkeypatch.setattr(loader.sys, "platform", system)
+    monkeypatch.setattr(loader.platform, "machine", lambda: machine)
+    with pytest.raises(loader.LoaderError, match=named):
+        loader.compile_loader("2", "SmehaGmt", "SmehaGmt", FMU_SRC / loader.SOURCE_NAME)

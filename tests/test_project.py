@@ -7,6 +7,7 @@ and the repository stands alone (no reference to notes kept outside it).
 """
 import re
 import subprocess
+import sys
 import tomllib
 from pathlib import Path
 
@@ -173,3 +174,16 @@ def test_docs_hold_no_notes_to_the_lead(doc):
     # issue 20 item 6: docs/MEASURED.md opened with "(README section, for the lead to merge.)"
     text = (ROOT / doc).read_text()
     assert not re.search(r"for the lead|to merge\.\)", text), doc
+
+
+def test_the_fmu_tooling_does_not_import_the_command_line():
+    # issue 20 item 8: the FMU tooling has its own package, smeha.fmu, and the old
+    # fmu_build <-> cli import circle is gone: the tooling imports without the commands
+    code = ("import sys, smeha.fmu.build, smeha.fmu.ssp, smeha.fmu.systemrun, "
+            "smeha.fmu.crosscheck, smeha.fmu.loader, smeha.fmu.native; "
+            "print(sorted(m for m in sys.modules if m.startswith(('smeha.cli', 'smeha.studies', "
+            "'smeha.diagnose'))))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=ROOT, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "[]"

@@ -37,8 +37,20 @@ from the operating point (f, I_m):
   differ by less than I_m sin(pi f h)/2: a sinusoid of amplitude I_m passing there moves
   by at least 2 I_m sin(pi f h) cos(asin(1/4) + pi f h) >= 1.6 I_m sin(pi f h), over three
   times that (only one of amplitude below I_m/4 stays under it, the bound of standing
-  still above). A current at rest from the start (u = 0) is so flagged from the second
-  sample, not after half a period (issue 20; one sample cannot tell it from a sinusoid).
+  still above);
+* **the first sample** (without the compensator, whose Figure 9 drive starts at 0.70 A)
+  -- the model's drive is i = I_m cos(w t) from its start (eqs 1-2), which begins at its
+  peak, where eq 31's quadrature sqrt(I_m^2 - i^2) is zero and its sign does not matter.
+  Anywhere else one sample cannot say which arc of the loop the current is on: the
+  stepper takes the + branch (a falling current), so u = 0 at the start gives the B, M
+  and F of the quadrature term alone (0.027 T, 21 kA/m, 1.7 kN with Table 2), right only
+  for a sinusoid falling through zero. A first sample below I_m (1 - AMPLITUDE_TOLERANCE)
+  in magnitude is therefore flagged (issue 20), provisionally: the flag stays while the
+  current does not move (its branch is still the guess), becomes standing still or a
+  step where those rules say so, and clears as soon as the current moves otherwise (a
+  sinusoid of another phase, whose branch the second sample gives; the period checks
+  then judge it as any drive). A current at rest from the start is so flagged from the
+  first sample, and as standing still from the second.
 
 The verdict stays until a full period passes every check again. With ``follow`` the
 monitor instead asks its owner (:class:`gmt.Transducer`) to move the operating point to
@@ -65,7 +77,9 @@ _ARM = 0.25
 #: A half-period window spanning less than this fraction of I_m is standing still.
 _STILL = 0.25
 #: Reasons, by code (the code is part of the state).
-REASONS = ("", "frequency", "amplitude", "offset", "standing still", "step")
+REASONS = ("", "frequency", "amplitude", "offset", "standing still", "step", "start")
+#: The code of the first sample's provisional verdict (module docstring).
+_START = REASONS.index("start")
 
 
 class DriveMonitor:
@@ -149,6 +163,11 @@ class DriveMonitor:
         """True while the drive departs from the model's operating point."""
         return self.outside
 
+    @property
+    def provisional(self) -> bool:
+        """True while the only verdict is the first sample's (not at the drive's peak)."""
+        return self.outside and self.reason == _START
+
     def describe(self) -> str:
         """The verdict in words (for a warning)."""
         f, im = self.model
@@ -160,7 +179,13 @@ class DriveMonitor:
                 "offset": "it is offset from zero",
                 "standing still": "it stands still (DC, a step's plateau, or a much slower "
                                   "drive)",
-                "step": "it steps"}[REASONS[self.reason]]
+                "step": "it steps",
+                "start": (f"its first sample, {self.i1:.4g} A, is not the peak I_m of that "
+                          "drive at its start, and one sample does not tell which arc of "
+                          "the loop it is on (eq 31's quadrature takes the + branch: a "
+                          "current at rest, u = 0, shows the B, M and F of the quadrature "
+                          "term alone); the flag stays while the current does not move"),
+                }[REASONS[self.reason]]
         return (f"the coil current departs from the operating point of the complex-"
                 f"permeability model (eqs 1-2, 31: i = I_m cos(2 pi f t) with f = {f:g} Hz, "
                 f"I_m = {im:g} A): {seen} (tolerances {FREQUENCY_TOLERANCE:.0%} in "
@@ -193,6 +218,11 @@ class DriveMonitor:
                   and change < 0.5 * self.model[1] * math.sin(math.pi * self.model[0]
                                                                * self.h1)):
                 self.depart(4)
+            elif i1 != i1:  # the first sample: inside only at the drive's peak
+                if abs(i) < (1.0 - AMPLITUDE_TOLERANCE) * self.model[1]:
+                    self.depart(_START)
+            elif self.reason == _START and change > 0.0:  # it moves: its branch is known
+                self.outside, self.reason = False, 0
         # standing still: the range over every half period
         if i > self.w_high:
             self.w_high = i

@@ -10,12 +10,13 @@ and the compiler checks each definition against the standard's declaration in
 version, instantiation and freeing) are :data:`HAND_WRITTEN`.
 
 :func:`compile_loader` returns the loader's bytes, or None with the reason when this
-machine cannot compile it (no C compiler, not Linux, fmpy without headers): the build then
+machine cannot compile it (no C compiler, not Linux x86-64, fmpy without headers): the build then
 keeps the FMU as it was before the loader (pythonfmu's binary linked to the build's
 libpython, :mod:`smeha.fmu.native`).
 """
 from __future__ import annotations
 
+import platform
 import re
 import shutil
 import subprocess
@@ -31,6 +32,9 @@ __all__ = ["SOURCE_NAME", "TARGET_SUFFIX", "HAND_WRITTEN", "LoaderError", "heade
 
 #: The loader's C source (in the FMU sources).
 SOURCE_NAME = "smeha_fmu_loader.c"
+#: Machines (``platform.machine()``) the loader is compiled for: those of pythonfmu's Linux
+#: binaries (``binaries/linux64``, ``binaries/x86_64-linux``), x86-64 alone.
+LINUX_MACHINES = ("x86_64", "amd64")
 #: File name of pythonfmu's binary next to the loader: ``<modelIdentifier>`` + this.
 TARGET_SUFFIX = ".pythonfmu.so"
 #: Functions the C file defines itself; every other function of the header is forwarded.
@@ -120,10 +124,14 @@ def compile_loader(fmi: str, model_identifier: str, model_name: str, source: Pat
     Raises
     ------
     LoaderError
-        Not Linux, no C compiler, no FMI headers, or the compiler failed.
+        Not Linux x86-64, no C compiler, no FMI headers, or the compiler failed.
     """
     if not sys.platform.startswith("linux"):
         raise LoaderError(f"the loader is built on Linux only (this is {sys.platform})")
+    if platform.machine() not in LINUX_MACHINES:
+        raise LoaderError(f"the loader is built on Linux x86-64 only (this machine is "
+                          f"{platform.machine() or 'of unknown architecture'}): pythonfmu "
+                          "ships its Linux binary for x86-64 alone, which the loader loads")
     cc = compiler()
     if cc is None:
         raise LoaderError("no C compiler (cc, gcc) on PATH")
