@@ -1,0 +1,65 @@
+"""The decision's rules on fits with known scores (smeha.diagnose.decision).
+
+Reference: the rule of docs/DIAGNOSE.md ("Score and decision"): a model is named when it
+lowers the held-out BIC (Schwarz 1978) by more than MIN_BIC_DROP and removes at least
+MIN_EXPLAINED of the held-out excess chi^2 (chi^2 - n); a later cause's share counted in the
+channels it acts on; the ranking over all data guarded by the held-out score. The fits here
+are built with chosen chi^2 values, so each rule is checked by arithmetic, not by a fit.
+"""
+from __future__ import annotations
+
+import pytest
+
+from gmt import extensions as ext
+from smeha.diagnose import decision
+from smeha.diagnose.candidates import Candidate
+from smeha.diagnose.fit import Fit
+
+#: held-out features per channel (y, B, drift)
+N_PARTS = (100, 100, 10)
+
+
+def fit(members=(), y=0.0, b=0.0, drift=0.0, train=0.0):
+    """A Fit with held-out chi^2 (n + excess) per channel and a training chi^2."""
+    cy, cb, cd = (N_PARTS[0] + y, N_PARTS[1] + b, N_PARTS[2] + drift)
+    chi = cy + cb + cd
+    return Fit(candidate=Candidate(tuple(members)), base=(1.0, 1.5, 1.0, 0.0, 1.0), x=(),
+               train_chi2=train, train_n=300, heldout_chi2=chi, heldout_predictive_chi2=chi,
+               heldout_n=sum(N_PARTS), heldout_chi2_y=cy, heldout_chi2_b=cb,
+               heldout_chi2_drift=cd, heldout_rms=0.0, heldout_misfit=0.0, score=chi,
+               heldout_noise_misfit=0.0, parameters={}, heldout_n_parts=N_PARTS)
+
+
+def _cls(cause, form=""):
+    return next(e for e in ext.EXTENSIONS if e.cause == cause and (not form or e.form == form))
+
+
+def test_a_later_sensor_cause_is_judged_on_the_channels_it_acts_on():
+    # after a magnetic first cause whose form leaves 1000 in y and 800 in B, a delay that
+    # removes 550 of y's 1000 removes 55 % in its channels (y, drift) and 30.6 % of all:
+    # it passes in its channels, not over all of them (MIN_EXPLAINED = 0.5)
+    hyst = _cls("rate_independent_hysteresis", "preisach")
+    delay = _cls("transport_delay")
+    before = fit((hyst,), y=1000.0, b=800.0)
+    after = fit((hyst, delay), y=450.0, b=800.0)
+    assert decision.channels(delay) == ("y", "drift")
+    assert decision.explained(before, after) == pytest.approx(550.0 / 1800.0)
+    assert decision.explained(before, after, ("y", "drift")) == pytest.approx(0.55)
+    assert not decision.passes(before, after)
+    assert decision.passes(before, after, decision.channels(delay))
+    # a magnetic cause acts on every channel: its share is the whole one
+    assert decision.channels(hyst) == ("y", "B", "drift")
+
+
+def test_the_best_ranked_model_gives_way_to_a_clearly_better_prediction():
+    # ranked by the training and held-out chi^2 together (total_score); a rival that
+    # predicts the held-out runs better by more than MIN_BIC_DROP takes the lead
+    flexible = fit((_cls("rate_independent_hysteresis", "preisach"),), y=900.0, train=100.0)
+    plain = fit((_cls("magnetization_saturation"),), y=800.0, train=2000.0)
+    assert flexible.total_score < plain.total_score
+    assert plain.score < flexible.score - decision.MIN_BIC_DROP
+    assert decision.leader([flexible, plain]) is plain
+    # within the margin the ranking stands
+    close = fit((_cls("magnetization_saturation"),), y=900.0 - 0.5 * decision.MIN_BIC_DROP,
+                train=2000.0)
+    assert decision.leader([flexible, close]) is flexible
