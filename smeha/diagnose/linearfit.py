@@ -260,16 +260,7 @@ def _joint(prob, base, w, chi2, other, lam, fit_scale, rounds=None):
     mu = 1e-3
     for _ in range(rounds):
         jw = prob.jacobian(base, w, other, r0)
-        cols = []
-        for j in range(z.size):
-            dz = 1e-6 * max(abs(z[j]), 1e-3)
-            if z[j] + dz > hi[j]:
-                dz = -dz
-            zz = z.copy()
-            zz[j] += dz
-            b, o = unpack(zz)
-            cols.append((prob.residuals(b, w, o) - r0) / dz)
-        jz = np.column_stack(cols)
+        jz = _unknowns_jacobian(prob, base, w, other, factor[:nb], r0, upper=hi)
         a = np.hstack((jz, jw))
         norms = np.sqrt(np.sum(a * a, axis=0))
         norms = np.where(norms > 0, norms, 1.0)
@@ -304,6 +295,32 @@ def _joint(prob, base, w, chi2, other, lam, fit_scale, rounds=None):
         if settled:
             break
     return base, w, float(r0 @ r0), other, lam
+
+
+def _unknowns_jacobian(prob, base, w, other, factor, r0, upper=None):
+    """d r / d (z, other) by forward differences, the weights ``w`` held: z the base's first
+    ``factor.size`` unknowns over ``factor`` (as :func:`smeha.diagnose.fit.fit_candidate`
+    scales them), then the other unknowns; a step that would pass ``upper`` (bounds of z
+    and other) is taken backwards. ``r0``: the residuals at (base, w, other)."""
+    nb = factor.size
+    z0 = np.asarray(base[:nb]) / factor
+    cols = []
+    for j in range(nb + other.size):
+        value = z0[j] if j < nb else other[j - nb]
+        dz = 1e-6 * max(abs(value), 1e-3)
+        if upper is not None and value + dz > upper[j]:
+            dz = -dz
+        if j < nb:
+            z = z0.copy()
+            z[j] += dz
+            b = np.array(base, float)
+            b[:nb] = z * factor
+            cols.append((prob.residuals(tuple(b), w, other) - r0) / dz)
+        else:
+            o = other.copy()
+            o[j - nb] += dz
+            cols.append((prob.residuals(base, w, o) - r0) / dz)
+    return np.column_stack(cols) if cols else np.zeros((r0.size, 0))
 
 
 def _reduced(a, b):
@@ -370,22 +387,8 @@ def _covariance(ev, train, cand, prob, base, w, other, jac_w, lam, fit_scale):
 
     nb = 5 if fit_scale else 4
     factor = base_factor(base)
-    z0 = np.asarray(base[:nb]) / factor[:nb]
     r0 = prob.residuals(base, w, other)
-    cols = []
-    for j in range(nb):
-        z = z0.copy()
-        dz = 1e-6 * max(abs(z0[j]), 1e-3)
-        z[j] += dz
-        b = np.array(base, float)
-        b[:nb] = z * factor[:nb]
-        cols.append((prob.residuals(tuple(b), w, other) - r0) / dz)
-    for j in range(other.size):
-        o = other.copy()
-        dz = 1e-6 * max(abs(o[j]), 1e-3)
-        o[j] += dz
-        cols.append((prob.residuals(base, w, o) - r0) / dz)
-    jz = np.column_stack(cols) if cols else np.zeros((r0.size, 0))
+    jz = _unknowns_jacobian(prob, base, w, other, factor[:nb], r0)
     # the columns in the order of x: base, then x's linear and other unknowns in place
     nx = prob.lin_idx.size + prob.other_idx.size
     jx = np.zeros((r0.size, nx))
