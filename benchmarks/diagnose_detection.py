@@ -7,7 +7,10 @@ several sample rates, noise levels and strengths, run :func:`smeha.diagnose.diag
 * **named**: the answer's causes are exactly the hidden ones (for clean data: ``none``);
 * **misnamed**: a cause that is not hidden appears among the answer's causes (for clean
   data: any cause); a miss that answers ``none`` or ``unexplained`` is not misnamed;
-* the held-out gain (paper over extended misfit) and how often it reaches 2.
+* the held-out gain (paper over extended misfit) and how often it reaches 2;
+* with ``--cases outside`` each cause beside each effect outside the six
+  (labsim.OUTSIDE_EFFECTS): named when the known cause is named and nothing else; the
+  share left unexplained (the report's remainder) is tabulated.
 
 The data come from the independent generator ``labsim`` (tests/labsim, its README;
 only its public API is used) or, with ``--generator synthetic``, from the project's own
@@ -15,7 +18,7 @@ only its public API is used) or, with ``--generator synthetic``, from the projec
 ``--json``. Figures only: no timed asserts.
 
     python benchmarks/diagnose_detection.py [--generator labsim|synthetic] [--seeds 20]
-        [--first-seed 0] [--rates 100,800,20000Hz] [--cases clean,singles,pairs|allpairs]
+        [--first-seed 0] [--rates 100,800,20000Hz] [--cases clean,singles,pairs|allpairs,outside]
         [--strengths 1] [--noises 0.05] [--workers 2] [--no-sense]
         [--formulation default|alt] [--formulations EFFECT=NAME,...]
         [--low-frequency-cycles 3] [--start-in-transient] [--log FILE.jsonl]
@@ -92,6 +95,7 @@ def _runs(generator, effects, seed, rate, strength, noise, sense=True, options=(
 def _one(task):
     generator, effects, seed, rate, strength, noise, sense, options = task
     from smeha import diagnose
+    from smeha.diagnose.report import remainder_report
 
     t = time.perf_counter()
     runs = _runs(generator, effects, seed, rate, strength, noise, sense, options)
@@ -99,18 +103,21 @@ def _one(task):
     t = time.perf_counter()
     try:
         d = diagnose.diagnose(runs, workers=1)  # the study's own workers run the datasets
+        rem = remainder_report(d)
         out = {"cause": d.cause, "causes": d.causes, "gain": d.gain, "weak": d.weak,
-               "form": d.form}
+               "form": d.form,
+               "unexplained_fraction": rem["unexplained_fraction"] if rem else 0.0,
+               "remainder": rem["summary"] if rem else ""}
     except Exception as exc:  # a failure is a result of the study, reported as such
         out = {"cause": f"error: {type(exc).__name__}: {exc}", "causes": [], "gain": 1.0,
-               "weak": False, "form": ""}
+               "weak": False, "form": "", "unexplained_fraction": 0.0, "remainder": ""}
     return {"effects": list(effects), "seed": seed, "rate": rate, "strength": strength,
             "noise_um": noise, "sense_voltage": sense, "labsim_options": dict(options),
             "seconds": time.perf_counter() - t, "generation_s": t_gen,
             **out}
 
 
-def _cases(names, effects):
+def _cases(names, effects, outside=()):
     out = []
     for name in names:
         if name == "clean":
@@ -121,20 +128,24 @@ def _cases(names, effects):
             out += list(PAIRS)
         elif name == "allpairs":  # every pair of the causes
             out += list(itertools.combinations(effects, 2))
+        elif name == "outside":  # each cause with each effect outside the six (labsim)
+            out += [(e, o) for e in effects for o in outside]
         else:  # one effect or a pair written a+b
             out.append(tuple(name.split("+")))
     return out
 
 
-def summarise(results):
-    """Rows of the table: one per (effects, rate, strength, noise)."""
+def summarise(results, outside=()):
+    """Rows of the table: one per (effects, rate, strength, noise). An effect in
+    ``outside`` (labsim.OUTSIDE_EFFECTS) is not one of the causes: its case is named when
+    the known causes are, nothing else."""
     keys = sorted({(tuple(r["effects"]), r["rate"], r["strength"], r["noise_um"])
                    for r in results}, key=lambda k: (len(k[0]), k[0], k[1], -k[2], k[3]))
     rows = []
     for key in keys:
         sel = [r for r in results if (tuple(r["effects"]), r["rate"], r["strength"],
                                       r["noise_um"]) == key]
-        truth = set(key[0])
+        truth = set(key[0]) - set(outside)
         named = [r for r in sel if (set(r["causes"]) == truth if truth
                                     else r["cause"] == "none")]
         misnamed = [r for r in sel if set(r["causes"]) - truth]
@@ -143,7 +154,7 @@ def summarise(results):
             label = "+".join(r["causes"]) or r["cause"]
             answers[label] = answers.get(label, 0) + 1
         gains = [r["gain"] for r in named] or [1.0]
-        rows.append({"effects": list(key[0]), "rate": key[1], "strength": key[2],
+        rows.append({"effects": list(key[0]), "known": sorted(truth), "rate": key[1], "strength": key[2],
                      "noise_um": key[3], "runs": len(sel),
                      "named_rate": len(named) / len(sel),
                      "misnamed": len(misnamed),
@@ -153,6 +164,8 @@ def summarise(results):
                      if named else 0.0,
                      "weak": sum(r["weak"] for r in named),
                      "answers": answers,
+                     "median_unexplained_fraction": float(np.median(
+                         [r.get("unexplained_fraction", 0.0) for r in sel])),
                      "median_seconds": float(np.median([r["seconds"] for r in sel]))})
     return rows
 
@@ -192,7 +205,9 @@ def markdown_table(study) -> str:
            + " | ".join(_rate_label(r) for r in rates) + " |",
            "|" + "---|" * (3 + len(rates))]
     for case in cases:
-        truth = set(case[0])
+        first = next(r for r in rows
+                     if (tuple(r["effects"]), r["strength"], r["noise_um"]) == case)
+        truth = set(first.get("known", case[0]))
         cells = []
         for rate in rates:
             sel = [r for r in rows if r["rate"] == rate
@@ -205,6 +220,8 @@ def markdown_table(study) -> str:
             if truth and r["named_rate"] > 0:
                 cell += (f"; gain {r['median_gain_named']:.3g} "
                          f"(min {r['min_gain_named']:.3g})")
+            if set(case[0]) - truth:  # an outside effect: what stays unexplained
+                cell += f"; unexplained {100 * r.get('median_unexplained_fraction', 0):.0f} %"
             other = [f"{a} x{n}" for a, n in r["answers"].items()
                      if (set(a.split("+")) != truth if truth else a != "none")]
             if other:
@@ -252,10 +269,11 @@ def main(argv=None):
         sys.path.insert(0, str(TESTS))
         import labsim
 
-        effects = tuple(labsim.EFFECTS)
+        effects, outside = tuple(labsim.EFFECTS), tuple(labsim.OUTSIDE_EFFECTS)
     else:
         from smeha.synthetic import EFFECTS as effects
-    cases = _cases(args.cases.split(","), effects)
+        outside = ()
+    cases = _cases(args.cases.split(","), effects, outside)
     rates = args.rates.split(",")
     strengths = [float(s) for s in args.strengths.split(",")]
     noises = [float(s) for s in args.noises.split(",")]
@@ -283,7 +301,7 @@ def main(argv=None):
     if log is not None:
         log.close()
     wall = time.perf_counter() - t0
-    rows = summarise(results)
+    rows = summarise(results, outside)
     if args.json:
         json.dump({"generator": args.generator, "rows": rows, "results": results,
                    "wall_seconds": wall, "pairs": [list(p) for p in PAIRS],
