@@ -26,7 +26,6 @@ magnetisation the stages before it give (:mod:`gmt.extensions.magnetic`).
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType

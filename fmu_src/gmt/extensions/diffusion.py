@@ -67,16 +67,15 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..constants import MU_0
 from ..errors import ParameterError, check_range
 from ..forward import Magnetics, magnetics
-from ..losses import imaginary_permeability, separate_losses
 from ..magnetostriction import magnetostriction, magnetostrictive_force
-from ..permeability import amplitude_permeability, flux_density, magnetization, real_permeability
+from ..permeability import flux_density, magnetization
 from ._base import Extension, FieldState, FitSpec, Parameter, agrees
 from ._numerics import bessel_i1_over_i0, bessel_j0_zeros
 from .eddy import LAG_BAND, FilterBankState

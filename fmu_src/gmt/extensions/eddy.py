@@ -40,7 +40,7 @@ continuous g H at t_k to second order in w h (relative error about
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
