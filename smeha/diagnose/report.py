@@ -247,10 +247,12 @@ def _verdict_lines(d) -> list[str]:
     p = d.paper
     out = []
     ranked = sorted(d.fits, key=lambda f: f.score)
+    listed = (", ".join(f"{f.label} {f.heldout_misfit * 1e6:.4g} um (score {f.score:.4g})"
+                        for f in ranked) if ranked else
+              "not fitted (within noise, no candidate can be named)")
     out.append(f"held-out misfit of y (the model against y's harmonics and drift, the "
                f"noise's share removed): paper {p.heldout_misfit * 1e6:.4g} um; candidates "
-               + ", ".join(f"{f.label} {f.heldout_misfit * 1e6:.4g} um (score {f.score:.4g})"
-                           for f in ranked) + f"; paper's score {p.score:.4g}")
+               + listed + f"; paper's score {p.score:.4g}")
     if d.cause in CAUSES:
         out += _named_lines(d)
     elif d.cause == "none":

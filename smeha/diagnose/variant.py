@@ -108,8 +108,10 @@ def _best_candidate(candidates, chosen, wanted, forms) -> Mapping:
                and len(c.get("causes") or [chosen]) == 1]
     if not matches:
         names = [c.get("cause") for c in candidates]
+        why = ("" if names else "; a diagnosis whose answer is 'none' fits no candidate: "
+               "the paper's model is within noise")
         raise gmt.ParameterError(f"cause = {chosen!r} has no candidate in the diagnosis "
-                                 f"(candidates: {names})")
+                                 f"(candidates: {names}){why}")
     if wanted:
         present = [c.get("form") or forms[0] for c in matches]
         matches = [c for c, f in zip(matches, present) if f == wanted]

@@ -12,7 +12,7 @@ from gmt.errors import InputError
 from ..measured import DataError
 from ..plausibility import check_plausible
 from .candidates import CAUSES, PAPER, Batch, Evaluator, candidates
-from .decision import also_consistent, select
+from .decision import also_consistent, select, within_noise
 from .features import extract
 from .fit import Fit, fit_all, fit_and_score
 
@@ -269,8 +269,10 @@ def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
     # y alone cannot tell the strain scale from B_m: fitted only with sense voltages
     fit_scale = bool(train.has_b.any())
     paper = fit_and_score(ev, train, held, PAPER, base0, fit_scale=fit_scale)
+    # within noise the answer is "none" whatever the candidates give (decision.select's
+    # first rule): they are not fitted
     jobs = [(cand, paper.base, None, fit_scale) for cand in candidates()[1:]
-            if cand.cause in causes]
+            if cand.cause in causes and not within_noise(paper)]
     done = fit_all(ev, train, held, jobs, workers)
     # a candidate that cannot be fitted is left out, and said so
     fits = [f for f in done if isinstance(f, Fit)]

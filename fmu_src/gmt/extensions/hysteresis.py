@@ -46,6 +46,7 @@ References
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -130,12 +131,24 @@ class PrandtlIshlinskii:
         """
         hm, th = np.broadcast_arrays(np.asarray(field_amplitude, dtype=float),
                                      np.mod(np.asarray(phase, dtype=float), 2 * np.pi))
-        hm, th = hm[..., None], th[..., None]  # against the thresholds, last axis
-        h = hm * np.cos(th)
-        r = np.asarray(self.thresholds, dtype=float)
-        z = np.where(th <= np.pi, np.minimum(hm - r, h + r), np.maximum(-hm + r, h - r))
-        z = np.where(r < hm, z, 0.0)
+        z = _play_outputs(tuple(float(r) for r in self.thresholds), hm.shape,
+                          hm.tobytes(), th.tobytes())
         return z @ np.asarray(self.weights, dtype=float)
+
+
+@functools.lru_cache(maxsize=16)
+def _play_outputs(thresholds, shape, field_amplitude, phase):
+    """The plays' periodic outputs F_r (:meth:`PrandtlIshlinskii.periodic`), shape + (plays,),
+    [A/m]. They do not depend on the weights: a fit that moves only the weights (the
+    diagnosis' density) reuses them (the arrays' bytes are the cache key; read-only)."""
+    hm = np.frombuffer(field_amplitude, dtype=float).reshape(shape)[..., None]
+    th = np.frombuffer(phase, dtype=float).reshape(shape)[..., None]
+    h = hm * np.cos(th)
+    r = np.asarray(thresholds, dtype=float)
+    z = np.where(th <= np.pi, np.minimum(hm - r, h + r), np.maximum(-hm + r, h - r))
+    z = np.where(r < hm, z, 0.0)
+    z.flags.writeable = False
+    return z
 
 
 class HysteresisForm(MagnetizationStage, Extension):
