@@ -63,3 +63,18 @@ def test_the_best_ranked_model_gives_way_to_a_clearly_better_prediction():
     close = fit((_cls("magnetization_saturation"),), y=900.0 - 0.5 * decision.MIN_BIC_DROP,
                 train=2000.0)
     assert decision.leader([flexible, close]) is flexible
+
+
+def test_a_cause_on_y_alone_waits_until_the_magnetic_part_fits_b():
+    # y follows from the magnetisation: while the magnetic cause misses B more than y
+    # (held-out excess 3000 in B against 1000 in y) y's misfit is not a filter's on y
+    hyst, delay = _cls("rate_independent_hysteresis", "preisach"), _cls("transport_delay")
+    saturation = _cls("magnetization_saturation")
+    off_in_b = fit((hyst,), y=1000.0, b=3000.0)
+    assert not decision.downstream_identifiable(off_in_b, delay)
+    # a magnetic second cause may still join, and once B is fitted as well as y, a delay may
+    assert decision.downstream_identifiable(off_in_b, saturation)
+    assert decision.downstream_identifiable(fit((hyst,), y=1000.0, b=1000.0), delay)
+    # after a cause on y alone there is no magnetic part to wait for
+    assert decision.downstream_identifiable(fit((delay,), y=1000.0, b=3000.0),
+                                            _cls("mechanical_resonance", "one_dof"))
