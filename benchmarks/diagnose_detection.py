@@ -24,6 +24,7 @@ only its public API is used) or, with ``--generator synthetic``, from the projec
         [--low-frequency-cycles 3] [--start-in-transient] [--log FILE.jsonl]
         [--json]
     python benchmarks/diagnose_detection.py --markdown STUDY.json[.gz]
+    python benchmarks/diagnose_detection.py --summary STUDY.json.gz,LOG.jsonl,...
 
 The studies quoted in docs/DIAGNOSE.md are kept in benchmarks/detection/ (gzipped JSON).
 
@@ -232,6 +233,75 @@ def markdown_table(study) -> str:
     return "\n".join(out)
 
 
+def _load_results(paths):
+    """The results of saved studies (``--json`` output, gzipped or not) and ``--log``
+    files (one JSON line a dataset), together."""
+    out = []
+    for path in paths:
+        opener = gzip.open if path.endswith(".gz") else open
+        with opener(path, "rt") as fh:
+            if ".jsonl" in path:
+                out += [json.loads(line) for line in fh if line.strip()]
+            else:
+                out += json.load(fh)["results"]
+    return out
+
+
+def _verdict(r, outside):
+    """"named", "misnamed" (a cause not hidden among the answer's; for clean data any
+    cause) or "missed" (none, unexplained or only some of the hidden causes)."""
+    truth = set(r["effects"]) - set(outside)
+    causes = set(r["causes"])
+    if causes - truth:
+        return "misnamed"
+    if (causes == truth) if truth else r["cause"] == "none":
+        return "named"
+    return "missed"
+
+
+def summary_table(results, outside) -> str:
+    """The issue's "done when" table of the results of several studies: per generator
+    (labsim's formulations), sense voltage and kind of case, the share named at each
+    sample clock, the misnamed ones counted, then every dataset not named."""
+    def group(r):
+        forms = dict((r.get("labsim_options") or {}).get("formulations") or ())
+        gen = "textbook forms" if forms else "first forms"
+        effects = r["effects"]
+        known = [e for e in effects if e not in outside]
+        kind = ("clean" if not effects else "outside effect + " + known[0]
+                if len(known) < len(effects) else effects[0] if len(effects) == 1
+                else "pairs of two causes")
+        return gen, r.get("sense_voltage", True), kind
+    rates = list(dict.fromkeys(r["rate"] for r in results))
+    keys = list(dict.fromkeys(group(r) for r in results))
+    out = ["| labsim | sense voltage | hidden | " + " | ".join(_rate_label(x) for x in rates)
+           + " |", "|" + "---|" * (3 + len(rates))]
+    for key in keys:
+        cells = []
+        for rate in rates:
+            sel = [r for r in results if group(r) == key and r["rate"] == rate]
+            if not sel:
+                cells.append("")
+                continue
+            v = [_verdict(r, outside) for r in sel]
+            cell = f"{v.count('named')}/{len(sel)} ({100 * v.count('named') / len(sel):.0f} %)"
+            if v.count("misnamed"):
+                cell += f", **{v.count('misnamed')} misnamed**"
+            cells.append(cell)
+        out.append(f"| {key[0]} | {'yes' if key[1] else 'no'} | {key[2]} | "
+                   + " | ".join(cells) + " |")
+    misses = [r for r in results if _verdict(r, outside) != "named"]
+    if misses:
+        out += ["", "Not named:", ""]
+        for r in sorted(misses, key=lambda r: (group(r), r["effects"], r["rate"], r["seed"])):
+            answer = "+".join(r["causes"]) or r["cause"]
+            out.append(f"- {group(r)[0]}, {'with' if group(r)[1] else 'without'} B, "
+                       f"{' + '.join(r['effects']) or 'clean'}, {r['rate']}, seed "
+                       f"{r['seed']}: {_verdict(r, outside)} as {answer}"
+                       + (f" (gain {r['gain']:.3g})" if r["causes"] else ""))
+    return "\n".join(out)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--generator", choices=("labsim", "synthetic"), default="labsim")
@@ -259,7 +329,16 @@ def main(argv=None):
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--markdown", metavar="STUDY.json",
                     help="print a saved study (--json output) as a Markdown table and exit")
+    ap.add_argument("--summary", metavar="STUDY[,STUDY...]",
+                    help="print the done-when table of saved studies and --log files "
+                         "together, and every dataset not named, and exit")
     args = ap.parse_args(argv)
+    if args.summary:
+        sys.path.insert(0, str(TESTS))
+        import labsim
+
+        print(summary_table(_load_results(args.summary.split(",")), labsim.OUTSIDE_EFFECTS))
+        return 0
     if args.markdown:
         opener = gzip.open if args.markdown.endswith(".gz") else open
         with opener(args.markdown, "rt") as fh:
