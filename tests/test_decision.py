@@ -8,6 +8,8 @@ are built with chosen chi^2 values, so each rule is checked by arithmetic, not b
 """
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 from gmt import extensions as ext
@@ -63,6 +65,9 @@ def test_the_best_ranked_model_gives_way_to_a_clearly_better_prediction():
     close = fit((_cls("magnetization_saturation"),), y=900.0 - 0.5 * decision.MIN_BIC_DROP,
                 train=2000.0)
     assert decision.leader([flexible, close]) is flexible
+    # a rival with an unknown on a bound (a weak fit) does not take the lead
+    weak = dataclasses.replace(plain, at_bounds=("magnetization_saturation.chi",))
+    assert decision.leader([flexible, weak]) is flexible
 
 
 def test_a_cause_on_y_alone_waits_until_the_magnetic_part_fits_b():
@@ -78,3 +83,22 @@ def test_a_cause_on_y_alone_waits_until_the_magnetic_part_fits_b():
     # after a cause on y alone there is no magnetic part to wait for
     assert decision.downstream_identifiable(fit((delay,), y=1000.0, b=3000.0),
                                             _cls("mechanical_resonance", "one_dof"))
+
+
+def test_a_later_cause_improves_every_channel_it_acts_on_and_is_firm():
+    # a magnetic cause that buys B's misfit with y's fits the first cause's form error
+    hyst, lag = _cls("rate_independent_hysteresis", "preisach"), _cls("eddy_current_diffusion",
+                                                                      "lag")
+    before = fit((hyst,), y=10.0, b=3000.0)
+    trades = fit((hyst, lag), y=10.0 + 2 * decision.MIN_BIC_DROP, b=500.0)
+    assert decision.passes(before, trades, decision.channels(lag))
+    assert not decision.no_channel_worse(before, trades, lag)
+    assert decision.no_channel_worse(before, fit((hyst, lag), y=10.0 + 0.5 * decision.MIN_BIC_DROP,
+                                                 b=500.0), lag)
+    # a delay acts on y: B's change is not its to answer for
+    assert decision.no_channel_worse(before, fit((hyst, _cls("transport_delay")), y=5.0,
+                                                 b=3100.0), _cls("transport_delay"))
+    # an unknown of the added cause on a bound: not firm; another cause's bound does not count
+    pair = dataclasses.replace(trades, at_bounds=("eddy_current_diffusion.order",))
+    assert not decision.firm_in(pair, "eddy_current_diffusion")
+    assert decision.firm_in(pair, "rate_independent_hysteresis")

@@ -13,11 +13,13 @@ import numpy as np
 import pytest
 
 import gmt
-from gmt.extensions.preisach import (PreisachForm, _relays, node_grid, node_harmonics,
-                                     relay_harmonics, synthesise)
+from gmt.extensions.preisach import (COERCIVE_GRID, INTERACTION_GRID, PreisachForm, _relays,
+                                     node_grid, node_harmonics, relay_harmonics, synthesise)
 from smeha.diagnose.linearfit import effective_dof
 
 H_MAX = 14000.0
+#: node weights of the diagnosis' density (coercive x interaction nodes)
+N_NODES = COERCIVE_GRID[2] * INTERACTION_GRID[2]
 
 
 def stepped_relays(a, b, weights, field):
@@ -99,29 +101,30 @@ def test_rate_factor_is_one_half_at_its_frequency_and_one_in_the_rate_independen
 
 
 def test_bad_density_refused_by_name():
-    good = PreisachForm.from_fit((4.0, 2.0) + (1.0,) * 42, {"field_max": H_MAX})
+    good = PreisachForm.from_fit((4.0, 2.0) + (1.0,) * N_NODES, {"field_max": H_MAX})
     gmt.ModelVariant("rate_independent_hysteresis", good, "preisach")
     with pytest.raises(gmt.ParameterError, match="weights_A_per_m has 3 values"):
         gmt.ModelVariant("rate_independent_hysteresis", dict(good, weights_A_per_m=[1, 2, 3]),
                          "preisach")
     with pytest.raises(gmt.ParameterError, match=r"weights_A_per_m\[0\] = -1"):
         gmt.ModelVariant("rate_independent_hysteresis",
-                         dict(good, weights_A_per_m=[-1.0] + [1.0] * 41), "preisach")
+                         dict(good, weights_A_per_m=[-1.0] + [1.0] * (N_NODES - 1)),
+                         "preisach")
 
 
 def test_effective_dof_is_the_free_count_without_penalty_and_falls_with_it():
     # the trace of a ridge hat matrix: p for lambda = 0 (full column rank), decreasing in
     # lambda (Hastie et al. 2009, eq. 3.50 and sec. 7.6)
     rng = np.random.default_rng(3)
-    jac = rng.normal(size=(200, 42))
+    jac = rng.normal(size=(300, N_NODES))
     pen = PreisachForm.smoothness()
-    free = np.ones(42, bool)
-    assert effective_dof(jac, pen, 0.0, free) == pytest.approx(42.0, rel=1e-6)
+    free = np.ones(N_NODES, bool)
+    assert effective_dof(jac, pen, 0.0, free) == pytest.approx(N_NODES, rel=1e-6)
     dfs = [effective_dof(jac, pen, lam, free) for lam in (1e-2, 1.0, 1e2, 1e4)]
     assert all(x > y for x, y in zip(dfs, dfs[1:]))
     # a quadratic (plane) density is not penalised by second differences: df -> 3 ... plus
     # nothing else as lambda grows (the penalty's null space: constant and linear per axis)
     assert effective_dof(jac, pen, 1e9, free) == pytest.approx(
-        42 - np.linalg.matrix_rank(pen), abs=0.05)
+        N_NODES - np.linalg.matrix_rank(pen), abs=0.05)
     free[:10] = False
-    assert effective_dof(jac, pen, 0.0, free) == pytest.approx(32.0, rel=1e-6)
+    assert effective_dof(jac, pen, 0.0, free) == pytest.approx(N_NODES - 10, rel=1e-6)

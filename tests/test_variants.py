@@ -19,6 +19,7 @@ import gmt
 from gmt import extensions as ext
 from gmt.design_point import DriveMonitor
 from gmt.extensions import FORMS, REGISTRY, VARIANTS, ModalBank, SectionBank
+from gmt.extensions.preisach import COERCIVE_GRID, INTERACTION_GRID
 from gmt.extensions.steady import mu_imag_from_losses, steady_state
 from gmt.variants import ModelVariant
 
@@ -28,6 +29,11 @@ W = 2 * math.pi * F
 N = int(round(1 / (F * H)))
 #: H_m at 1 A with Table 2 (eq 1), [A/m]: the largest field amplitude, the plays' grid
 FIELD_MAX = 14773.0
+#: four Preisach nodes (coercive index, interaction index) flat: coercive nodes 1-3 at
+#: h_u = 0 and node 4 at h_u = -H_max/3
+_NU = INTERACTION_GRID[2]
+PREISACH_NODES = tuple(i * _NU + j for i, j in
+                       ((1, _NU // 2), (2, _NU // 2), (3, _NU // 2), (4, (_NU - 1) // 3)))
 
 #: cause -> (SI parameters, the diagnosis' internal parametrisation of the same extension
 #: (the extension's FitSpec, mapped to SI by its from_fit)).
@@ -72,10 +78,10 @@ FORM_CASES = {
     ("eddy_current_diffusion", "cylinder_magnetization"): (math.log10(1e-3), 0.6),
     ("mechanical_resonance", "two_dof"): (0.5, math.log10(1000.0), 0.1),
     # a Preisach density of 3 kA/m at four nodes (a lognormal-like ridge at h_u = 0 and
-    # one asymmetric node), switching falling to half at 300 Hz
+    # one asymmetric node at h_u = -H_max/3), switching falling to half at 300 Hz
     ("rate_independent_hysteresis", "preisach"): (
-        math.log10(300.0), 2.0, *[3000.0 if j in (10, 17, 24, 30) else 0.0
-                                  for j in range(42)]),
+        math.log10(300.0), 2.0, *[3000.0 if j in PREISACH_NODES else 0.0
+                                  for j in range(COERCIVE_GRID[2] * INTERACTION_GRID[2])]),
 }
 #: Largest |Y_k(stepped) - Y_k(periodic)| / |Y_1|, k = 1..8, for y and B: the diffusion
 #: forms hold each mode's mean over the step, (w h)^2 / 12 = 3.3e-6 at 100 Hz and 10 us
