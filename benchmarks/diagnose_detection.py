@@ -136,6 +136,18 @@ def _cases(names, effects, outside=()):
     return out
 
 
+def _verdict(r, outside):
+    """"named", "misnamed" (a cause not hidden among the answer's; for clean data any
+    cause) or "missed" (none, unexplained or only some of the hidden causes)."""
+    truth = set(r["effects"]) - set(outside)
+    causes = set(r["causes"])
+    if causes - truth:
+        return "misnamed"
+    if (causes == truth) if truth else r["cause"] == "none":
+        return "named"
+    return "missed"
+
+
 def summarise(results, outside=()):
     """Rows of the table: one per (effects, rate, strength, noise). An effect in
     ``outside`` (labsim.OUTSIDE_EFFECTS) is not one of the causes: its case is named when
@@ -147,16 +159,16 @@ def summarise(results, outside=()):
         sel = [r for r in results if (tuple(r["effects"]), r["rate"], r["strength"],
                                       r["noise_um"]) == key]
         truth = set(key[0]) - set(outside)
-        named = [r for r in sel if (set(r["causes"]) == truth if truth
-                                    else r["cause"] == "none")]
-        misnamed = [r for r in sel if set(r["causes"]) - truth]
+        verdicts = [_verdict(r, outside) for r in sel]
+        named = [r for r, v in zip(sel, verdicts) if v == "named"]
+        misnamed = [r for r, v in zip(sel, verdicts) if v == "misnamed"]
         answers = {}
         for r in sel:
             label = "+".join(r["causes"]) or r["cause"]
             answers[label] = answers.get(label, 0) + 1
         gains = [r["gain"] for r in named] or [1.0]
-        rows.append({"effects": list(key[0]), "known": sorted(truth), "rate": key[1], "strength": key[2],
-                     "noise_um": key[3], "runs": len(sel),
+        rows.append({"effects": list(key[0]), "known": sorted(truth), "rate": key[1],
+                     "strength": key[2], "noise_um": key[3], "runs": len(sel),
                      "named_rate": len(named) / len(sel),
                      "misnamed": len(misnamed),
                      "median_gain_named": float(np.median(gains)),
@@ -233,30 +245,22 @@ def markdown_table(study) -> str:
     return "\n".join(out)
 
 
+def _open_text(path):
+    """A saved study or log for reading, gzipped (``.gz``) or not."""
+    return (gzip.open if path.endswith(".gz") else open)(path, "rt")
+
+
 def _load_results(paths):
     """The results of saved studies (``--json`` output, gzipped or not) and ``--log``
     files (one JSON line a dataset), together."""
     out = []
     for path in paths:
-        opener = gzip.open if path.endswith(".gz") else open
-        with opener(path, "rt") as fh:
+        with _open_text(path) as fh:
             if ".jsonl" in path:
                 out += [json.loads(line) for line in fh if line.strip()]
             else:
                 out += json.load(fh)["results"]
     return out
-
-
-def _verdict(r, outside):
-    """"named", "misnamed" (a cause not hidden among the answer's; for clean data any
-    cause) or "missed" (none, unexplained or only some of the hidden causes)."""
-    truth = set(r["effects"]) - set(outside)
-    causes = set(r["causes"])
-    if causes - truth:
-        return "misnamed"
-    if (causes == truth) if truth else r["cause"] == "none":
-        return "named"
-    return "missed"
 
 
 def summary_table(results, outside) -> str:
@@ -340,8 +344,7 @@ def main(argv=None):
         print(summary_table(_load_results(args.summary.split(",")), labsim.OUTSIDE_EFFECTS))
         return 0
     if args.markdown:
-        opener = gzip.open if args.markdown.endswith(".gz") else open
-        with opener(args.markdown, "rt") as fh:
+        with _open_text(args.markdown) as fh:
             print(markdown_table(json.load(fh)))
         return 0
     if args.generator == "labsim":

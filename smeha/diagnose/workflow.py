@@ -271,8 +271,8 @@ def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
     paper = fit_and_score(ev, train, held, PAPER, base0, fit_scale=fit_scale)
     # within noise the answer is "none" whatever the candidates give (decision.select's
     # first rule): they are not fitted
-    jobs = [(cand, paper.base, None, fit_scale) for cand in candidates()[1:]
-            if cand.cause in causes and not within_noise(paper)]
+    tried = () if within_noise(paper) else candidates()[1:]
+    jobs = [(cand, paper.base, None, fit_scale) for cand in tried if cand.cause in causes]
     done = fit_all(ev, train, held, jobs, workers)
     # a candidate that cannot be fitted is left out, and said so
     fits = [f for f in done if isinstance(f, Fit)]
