@@ -35,10 +35,12 @@ The studies quoted in docs/DIAGNOSE.md are kept in benchmarks/detection/ (gzippe
 from __future__ import annotations
 
 import argparse
+import functools
 import gzip
 import itertools
 import json
 import os
+import subprocess
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -93,6 +95,36 @@ def _runs(generator, effects, seed, rate, strength, noise, sense=True, options=(
     return out
 
 
+@functools.lru_cache(maxsize=1)
+def _code_version() -> str:
+    """The commit the study ran (``git describe --always --dirty``), "unknown" outside git."""
+    try:
+        return subprocess.run(["git", "describe", "--always", "--dirty"], cwd=TESTS.parent,
+                              capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+
+
+def _later_shares(d) -> dict:
+    """{cause: the decision's share} for each named cause after the first: the fraction of
+    the paper's held-out excess, in the channels it acts on, that adding it removed
+    (smeha.diagnose.decision.share; the model before it: the best-ranked fit of the causes
+    named before it)."""
+    from smeha.diagnose import decision
+
+    fits = list(d.fits) + list(d.combinations) + [d.extended]
+    out = {}
+    for i, cause in enumerate(d.causes[1:], start=1):
+        before = [f for f in fits if set(f.causes) == set(d.causes[:i])]
+        after = [f for f in fits if set(f.causes) == set(d.causes[:i + 1])]
+        if before and after:
+            b = min(before, key=lambda f: f.total_score)
+            a = min(after, key=lambda f: f.total_score)
+            member = next(m for m in a.candidate.members if m.cause == cause)
+            out[cause] = decision.share(d.paper, b, a, member)
+    return out
+
+
 def _one(task):
     generator, effects, seed, rate, strength, noise, sense, options = task
     from smeha import diagnose
@@ -107,12 +139,15 @@ def _one(task):
         rem = remainder_report(d)
         out = {"cause": d.cause, "causes": d.causes, "gain": d.gain, "weak": d.weak,
                "form": d.form,
+               "explained_fraction": rem["explained_fraction"] if rem else {},
+               "later_shares": _later_shares(d),
                "unexplained_fraction": rem["unexplained_fraction"] if rem else 0.0,
                "remainder": rem["summary"] if rem else ""}
     except Exception as exc:  # a failure is a result of the study, reported as such
         out = {"cause": f"error: {type(exc).__name__}: {exc}", "causes": [], "gain": 1.0,
-               "weak": False, "form": "", "unexplained_fraction": 0.0, "remainder": ""}
-    return {"effects": list(effects), "seed": seed, "rate": rate, "strength": strength,
+               "weak": False, "form": "", "explained_fraction": {}, "later_shares": {},
+               "unexplained_fraction": 0.0, "remainder": ""}
+    return {"code": _code_version(), "effects": list(effects), "seed": seed, "rate": rate, "strength": strength,
             "noise_um": noise, "sense_voltage": sense, "labsim_options": dict(options),
             "seconds": time.perf_counter() - t, "generation_s": t_gen,
             **out}

@@ -42,7 +42,7 @@ from .candidates import Candidate
 from .fit import Fit, fit_all
 
 __all__ = ["WITHIN_NOISE", "MIN_BIC_DROP", "MIN_EXPLAINED", "MAX_CAUSES", "MIN_SHARE",
-           "SWAP_CANDIDATES", "channels", "significant", "explained", "passes",
+           "SWAP_CANDIDATES", "channels", "share", "significant", "explained", "passes",
            "downstream_identifiable", "firm_in", "no_channel_worse", "within_noise", "leader",
            "select", "also_consistent"]
 
@@ -72,14 +72,20 @@ def channels(member) -> tuple:
     return ("y", "drift") if member.signals == "y only" else ("y", "B", "drift")
 
 
-def significant(paper: Fit, before: Fit, after: Fit, member) -> bool:
-    """True when adding ``member`` (``before`` -> ``after``) removes at least
-    :data:`MIN_SHARE` of the paper's held-out excess in the channels it acts on."""
+def share(paper: Fit, before: Fit, after: Fit, member) -> float:
+    """Fraction of the paper's held-out excess chi^2, in the channels ``member`` acts on,
+    that adding it (``before`` -> ``after``) removes (0 when the paper has no excess there)."""
     chans = channels(member)
     total = paper.heldout_excess_in(chans)
     if total <= 0.0:
-        return False
-    return (before.heldout_excess_in(chans) - after.heldout_excess_in(chans)) >= MIN_SHARE * total
+        return 0.0
+    return (before.heldout_excess_in(chans) - after.heldout_excess_in(chans)) / total
+
+
+def significant(paper: Fit, before: Fit, after: Fit, member) -> bool:
+    """True when adding ``member`` (``before`` -> ``after``) removes at least
+    :data:`MIN_SHARE` of the paper's held-out excess in the channels it acts on."""
+    return share(paper, before, after, member) >= MIN_SHARE
 
 
 def explained(base: Fit, new: Fit, chans=None) -> float:
