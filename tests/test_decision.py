@@ -102,3 +102,35 @@ def test_a_later_cause_improves_every_channel_it_acts_on_and_is_firm():
     pair = dataclasses.replace(trades, at_bounds=("eddy_current_diffusion.order",))
     assert not decision.firm_in(pair, "eddy_current_diffusion")
     assert decision.firm_in(pair, "rate_independent_hysteresis")
+
+
+def test_a_cause_on_y_with_its_own_share_of_y_joins_before_b_is_fitted():
+    # a delay that removes MIN_SHARE or more of the paper's excess in y joins a magnetic
+    # cause that still misses B a little more than y (labsim Preisach + delayed sensor)
+    hyst, delay = _cls("rate_independent_hysteresis", "preisach"), _cls("transport_delay")
+    paper = fit((), y=10000.0, b=1e6)
+    before = fit((hyst,), y=1500.0, b=1600.0)
+    after = fit((hyst, delay), y=100.0, b=1600.0)
+    s = decision.share(paper, before, after, delay)
+    assert s == pytest.approx(1400.0 / 10000.0)
+    assert not decision.downstream_identifiable(before, delay)
+    assert decision.downstream_identifiable(before, delay, s)
+    # a trace of y's excess is not a share of its own
+    small = fit((hyst,), y=150.0, b=1600.0)
+    assert not decision.downstream_identifiable(
+        small, delay, decision.share(paper, small, fit((hyst, delay), y=10.0, b=1600.0), delay))
+
+
+def test_a_later_cause_with_b_needs_a_share_of_the_papers_excess():
+    # with a sense voltage the floor is MIN_SHARE_WITH_B of the paper's excess in the
+    # channels the cause acts on; without one MIN_SHARE
+    hyst, lag = _cls("rate_independent_hysteresis", "preisach"), _cls("eddy_current_diffusion",
+                                                                      "lag")
+    paper = fit((), y=1e5, b=1e6)
+    before = fit((hyst,), y=300.0, b=700.0)
+    trace = fit((hyst, lag), y=100.0, b=100.0)           # removes 800 of 1.1e6: 0.073 %
+    assert decision.passes(before, trace, decision.channels(lag))
+    assert not decision.significant(paper, before, trace, lag, sense=True)
+    bigger = fit((hyst,), y=3000.0, b=7000.0)             # removes 9800: 0.89 %
+    assert decision.significant(paper, bigger, trace, lag, sense=True)
+    assert not decision.significant(paper, bigger, trace, lag, sense=False)

@@ -15,11 +15,12 @@
   combination is kept when it passes the same rule against the model before
   it (its share of the excess counted in the channels the added cause acts on:
   a sensor's delay cannot remove what the first cause's form leaves in B) and,
-  without a sense voltage, removes a significant share of the paper's
-  excess in the channels it acts on (:func:`significant`), and a cause acting on y only
-  joins a magnetic one only when that one misses B no more than y
-  (:func:`downstream_identifiable`), and no channel it acts on may be predicted worse
-  (:func:`no_channel_worse`), and its unknowns must be off their bounds (:func:`firm_in`);
+  removes a significant share of the paper's excess in the channels it acts on
+  (:func:`significant`: :data:`MIN_SHARE` without a sense voltage, :data:`MIN_SHARE_WITH_B`
+  with one), and a cause acting on y only joins a magnetic one only when that one misses B
+  no more than y or it carries :data:`MIN_SHARE` of y's excess (:func:`downstream_identifiable`), and no channel it acts on may be predicted worse
+  (:func:`no_channel_worse`), and its unknowns must be off their bounds (:func:`firm_in`:
+  the round's leader is chosen among the combinations whose added cause is firm);
   and so on, up to :data:`MAX_CAUSES` causes,
   while the model is still outside noise on the held-out runs; after each added cause, an exchange step
   (:func:`_swap`) may replace a member by another cause that ranks better with the rest;
@@ -42,6 +43,7 @@ from .candidates import Candidate
 from .fit import Fit, fit_all
 
 __all__ = ["WITHIN_NOISE", "MIN_BIC_DROP", "MIN_EXPLAINED", "MAX_CAUSES", "MIN_SHARE",
+           "MIN_SHARE_WITH_B",
            "SWAP_CANDIDATES", "channels", "share", "significant", "explained", "passes",
            "downstream_identifiable", "firm_in", "no_channel_worse", "within_noise", "leader",
            "select", "also_consistent"]
@@ -63,6 +65,15 @@ MAX_CAUSES = 3
 #: saturation + re-identified mechanics + thermal drift): a second cause is identifiable
 #: from y alone only where it carries a share of y's discrepancy of its own.
 MIN_SHARE = 0.1
+#: With a sense voltage, a cause after the first must remove at least this fraction of the
+#: paper's held-out excess in the channels it acts on. B pins a magnetic cause's form, but
+#: not to zero: the first cause's form leaves a trace that a flexible second cause fits.
+#: Set on labsim data apart from the detection study's seeds (textbook Preisach hysteresis
+#: alone, seeds 100-107 at 100 and 800 samples a period): the later causes that passed every
+#: other rule removed 0.014-0.026 % (a lag, a delay, a re-identified mechanics); on labsim
+#: pairs (seeds 100-101, 800) the true later causes removed 0.24 % (a drift after a delay)
+#: to 100 %, and outside lab C's delayed sensor 2.7 %.
+MIN_SHARE_WITH_B = 1e-3
 #: The exchange step tries the best-ranked this many single candidates outside the model.
 SWAP_CANDIDATES = 3
 
@@ -82,10 +93,11 @@ def share(paper: Fit, before: Fit, after: Fit, member) -> float:
     return (before.heldout_excess_in(chans) - after.heldout_excess_in(chans)) / total
 
 
-def significant(paper: Fit, before: Fit, after: Fit, member) -> bool:
+def significant(paper: Fit, before: Fit, after: Fit, member, sense: bool = False) -> bool:
     """True when adding ``member`` (``before`` -> ``after``) removes at least
-    :data:`MIN_SHARE` of the paper's held-out excess in the channels it acts on."""
-    return share(paper, before, after, member) >= MIN_SHARE
+    :data:`MIN_SHARE` (with a sense voltage, ``sense``: :data:`MIN_SHARE_WITH_B`) of the
+    paper's held-out excess in the channels it acts on."""
+    return share(paper, before, after, member) >= (MIN_SHARE_WITH_B if sense else MIN_SHARE)
 
 
 def explained(base: Fit, new: Fit, chans=None) -> float:
@@ -104,9 +116,13 @@ def passes(base: Fit, new: Fit, chans=None) -> bool:
             and explained(base, new, chans) >= MIN_EXPLAINED)
 
 
-def downstream_identifiable(current: Fit, added) -> bool:
+def downstream_identifiable(current: Fit, added, share_of_paper: float = 0.0) -> bool:
     """False when ``added`` acts on y only and ``current``, which holds a magnetic cause,
-    still misses B by more than it misses y (held-out excess chi^2, B's against y's).
+    still misses B by more than it misses y (held-out excess chi^2, B's against y's),
+    unless ``added`` removes :data:`MIN_SHARE` or more of the paper's excess in its channels
+    (``share_of_paper``, :func:`share`): a share of y's discrepancy of its own, as without a
+    sense voltage (labsim's Preisach hysteresis with a delayed sensor: the density alone
+    missed B 2 % more than y, and the delay removed 15 % of the paper's excess in y).
 
     y follows from the magnetisation (eqs 25-28) and B is its direct measure: while the
     magnetic part of the model is further off in B than in y, y's misfit is the magnetic
@@ -116,6 +132,8 @@ def downstream_identifiable(current: Fit, added) -> bool:
     mechanics took a third of y's)."""
     if added.signals != "y only" or all(m.signals == "y only"
                                           for m in current.candidate.members):
+        return True
+    if share_of_paper >= MIN_SHARE:
         return True
     return current.heldout_excess_in(("B",)) <= current.heldout_excess_in(("y",))
 
@@ -170,18 +188,30 @@ def select(ev, train, held, paper: Fit, singles: list, fit_scale=True, workers=N
         tried += round_fits
         if not round_fits:
             break
-        nxt = leader(round_fits)
-        added = [m for m in nxt.candidate.members if m not in current.candidate.members][0]
+        # the round's leader among the combinations whose added cause is firm: a weak form
+        # of a cause does not hide its firm form (labsim's saturation + resonance: the
+        # two-mass form, its mass ratio on a bound, ranked first; the one-mass form passed)
+        firm = [f for f in round_fits if firm_in(f, _added(current, f).cause)]
+        if not firm:
+            break
+        nxt = leader(firm)
+        added = _added(current, nxt)
         if not passes(current, nxt, channels(added)) or (
-                not fit_scale and not significant(paper, current, nxt, added)) or (
-                not downstream_identifiable(current, added)) or (
-                not no_channel_worse(current, nxt, added)) or not firm_in(nxt, added.cause):
+                not significant(paper, current, nxt, added, sense=fit_scale)) or (
+                not downstream_identifiable(current, added,
+                                            share(paper, current, nxt, added))) or (
+                not no_channel_worse(current, nxt, added)):
             break
         order += [c for c in nxt.causes if c not in order]
         current = nxt
         current, order = _swap(ev, train, held, paper, current, order, singles, tried,
                                fit_scale, workers)
     return order[0], current, tried, order
+
+
+def _added(current: Fit, new: Fit):
+    """The member of ``new``'s candidate that ``current``'s does not hold."""
+    return next(m for m in new.candidate.members if m not in current.candidate.members)
 
 
 def leader(fits) -> Fit:
