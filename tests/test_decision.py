@@ -134,3 +134,16 @@ def test_a_later_cause_with_b_needs_a_share_of_the_papers_excess():
     bigger = fit((hyst,), y=3000.0, b=7000.0)             # removes 9800: 0.89 %
     assert decision.significant(paper, bigger, trace, lag, sense=True)
     assert not decision.significant(paper, bigger, trace, lag, sense=False)
+
+
+def test_a_later_cause_must_do_more_than_another_form_of_the_causes_named():
+    # saturation + a one-mass mechanics + a delay predicts the held-out runs worse than
+    # saturation + a two-mass mechanics (weak or not): the delay makes up for the form
+    sat, one, two = (_cls("magnetization_saturation"), _cls("mechanical_resonance", "one_dof"),
+                     _cls("mechanical_resonance", "two_dof"))
+    with_delay = fit((sat, one, _cls("transport_delay")), y=4000.0, b=170.0)
+    other_form = dataclasses.replace(fit((sat, two), y=60.0, b=250.0),
+                                     at_bounds=("mechanical_resonance.m2/m",))
+    assert not decision.beyond_forms([other_form], with_delay)
+    assert decision.beyond_forms([fit((sat, two), y=6000.0, b=250.0)], with_delay)
+    assert decision.beyond_forms([], with_delay)
