@@ -104,23 +104,6 @@ def test_a_later_cause_improves_every_channel_it_acts_on_and_is_firm():
     assert decision.firm_in(pair, "rate_independent_hysteresis")
 
 
-def test_a_cause_on_y_with_its_own_share_of_y_joins_before_b_is_fitted():
-    # a delay that removes MIN_SHARE or more of the paper's excess in y joins a magnetic
-    # cause that still misses B a little more than y (labsim Preisach + delayed sensor)
-    hyst, delay = _cls("rate_independent_hysteresis", "preisach"), _cls("transport_delay")
-    paper = fit((), y=10000.0, b=1e6)
-    before = fit((hyst,), y=1500.0, b=1600.0)
-    after = fit((hyst, delay), y=100.0, b=1600.0)
-    s = decision.share(paper, before, after, delay)
-    assert s == pytest.approx(1400.0 / 10000.0)
-    assert not decision.downstream_identifiable(before, delay)
-    assert decision.downstream_identifiable(before, delay, s)
-    # a trace of y's excess is not a share of its own
-    small = fit((hyst,), y=150.0, b=1600.0)
-    assert not decision.downstream_identifiable(
-        small, delay, decision.share(paper, small, fit((hyst, delay), y=10.0, b=1600.0), delay))
-
-
 def test_a_later_cause_with_b_needs_a_share_of_the_papers_excess():
     # with a sense voltage the floor is MIN_SHARE_WITH_B of the paper's excess in the
     # channels the cause acts on; without one MIN_SHARE

@@ -18,9 +18,8 @@
   removes a significant share of the paper's excess in the channels it acts on
   (:func:`significant`: :data:`MIN_SHARE` without a sense voltage,
   :data:`MIN_SHARE_WITH_B` with one), and a cause acting on y only joins a magnetic one
-  only when that one misses B no more than y or it carries :data:`MIN_SHARE` of y's excess
-  (:func:`downstream_identifiable`), and no channel it acts on may be predicted worse
-  (:func:`no_channel_worse`), and it must predict better than the causes before it in any
+  only when that one misses B no more than y (:func:`downstream_identifiable`), and no
+  channel it acts on may be predicted worse (:func:`no_channel_worse`), and it must predict better than the causes before it in any
   other form (:func:`beyond_forms`), and its unknowns must be off their bounds
   (:func:`firm_in`: the round's leader is chosen among the combinations whose added cause
   is firm);
@@ -121,13 +120,9 @@ def passes(base: Fit, new: Fit, chans=None) -> bool:
             and explained(base, new, chans) >= MIN_EXPLAINED)
 
 
-def downstream_identifiable(current: Fit, added, share_of_paper: float = 0.0) -> bool:
+def downstream_identifiable(current: Fit, added) -> bool:
     """False when ``added`` acts on y only and ``current``, which holds a magnetic cause,
-    still misses B by more than it misses y (held-out excess chi^2, B's against y's),
-    unless ``added`` removes :data:`MIN_SHARE` or more of the paper's excess in its channels
-    (``share_of_paper``, :func:`share`): a share of y's discrepancy of its own, as without a
-    sense voltage (labsim's Preisach hysteresis with a delayed sensor: the density alone
-    missed B 2 % more than y, and the delay removed 15 % of the paper's excess in y).
+    still misses B by more than it misses y (held-out excess chi^2, B's against y's).
 
     y follows from the magnetisation (eqs 25-28) and B is its direct measure: while the
     magnetic part of the model is further off in B than in y, y's misfit is the magnetic
@@ -137,8 +132,6 @@ def downstream_identifiable(current: Fit, added, share_of_paper: float = 0.0) ->
     mechanics took a third of y's)."""
     if added.signals != "y only" or all(m.signals == "y only"
                                           for m in current.candidate.members):
-        return True
-    if share_of_paper >= MIN_SHARE:
         return True
     return current.heldout_excess_in(("B",)) <= current.heldout_excess_in(("y",))
 
@@ -213,8 +206,7 @@ def select(ev, train, held, paper: Fit, singles: list, fit_scale=True, workers=N
         added = _added(current, nxt)
         if not passes(current, nxt, channels(added)) or (
                 not significant(paper, current, nxt, added, sense=fit_scale)) or (
-                not downstream_identifiable(current, added,
-                                            share(paper, current, nxt, added))) or (
+                not downstream_identifiable(current, added)) or (
                 not no_channel_worse(current, nxt, added)) or not beyond_forms(
                 [f for f in list(singles) + tried if set(f.causes) == set(current.causes)
                  and f is not current], nxt):
