@@ -21,8 +21,8 @@
   only when that one misses B no more than y (:func:`downstream_identifiable`), and no
   channel it acts on may be predicted worse (:func:`no_channel_worse`), and it must predict better than the causes before it in any
   other form (:func:`beyond_forms`), and its unknowns must be off their bounds
-  (:func:`firm_in`: the round's leader is chosen among the combinations whose added cause
-  is firm);
+  (:func:`firm_in`: with a sense voltage the round's leader is chosen among the
+  combinations whose added cause is firm; without one a weak leader ends the selection);
   and so on, up to :data:`MAX_CAUSES` causes,
   while the model is still outside noise on the held-out runs; after each added cause, an exchange step
   (:func:`_swap`) may replace a member by another cause that ranks better with the rest;
@@ -196,9 +196,15 @@ def select(ev, train, held, paper: Fit, singles: list, fit_scale=True, workers=N
         tried += round_fits
         if not round_fits:
             break
-        # the round's leader among the combinations whose added cause is firm: a weak form
-        # of a cause does not hide its firm form (labsim's saturation + resonance: the
-        # two-mass form, its mass ratio on a bound, ranked first; the one-mass form passed)
+        # with a sense voltage the round's leader is chosen among the combinations whose
+        # added cause is firm: a weak form of a cause does not hide its firm form (labsim's
+        # saturation + resonance: the two-mass form, its mass ratio on a bound, ranked
+        # first; the one-mass form passed). Without one a weak leader ends the selection:
+        # from y alone it says what is left is the first cause's form (smeha.synthetic's
+        # saturation without B: a one-mass mechanics on a bound led, and a slab eddy form
+        # behind it passed every rule, 0.28 -> 0.14 um)
+        if not fit_scale and not _leader_firm(current, round_fits):
+            break
         firm = [f for f in round_fits if firm_in(f, _added(current, f).cause)]
         if not firm:
             break
@@ -216,6 +222,12 @@ def select(ev, train, held, paper: Fit, singles: list, fit_scale=True, workers=N
         current, order = _swap(ev, train, held, paper, current, order, singles, tried,
                                fit_scale, workers)
     return order[0], current, tried, order
+
+
+def _leader_firm(current: Fit, fits) -> bool:
+    """True when the leader of ``fits`` (:func:`leader`) holds its added cause firm."""
+    best = leader(fits)
+    return firm_in(best, _added(current, best).cause)
 
 
 def _added(current: Fit, new: Fit):
