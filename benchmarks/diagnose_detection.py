@@ -147,8 +147,9 @@ def _one(task):
         out = {"cause": f"error: {type(exc).__name__}: {exc}", "causes": [], "gain": 1.0,
                "weak": False, "form": "", "explained_fraction": {}, "later_shares": {},
                "unexplained_fraction": 0.0, "remainder": ""}
-    return {"code": _code_version(), "effects": list(effects), "seed": seed, "rate": rate, "strength": strength,
-            "noise_um": noise, "sense_voltage": sense, "labsim_options": dict(options),
+    return {"code": _code_version(), "effects": list(effects), "seed": seed, "rate": rate,
+            "strength": strength, "noise_um": noise, "sense_voltage": sense,
+            "labsim_options": dict(options),
             "seconds": time.perf_counter() - t, "generation_s": t_gen,
             **out}
 

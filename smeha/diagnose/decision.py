@@ -19,8 +19,9 @@
   (:func:`significant`: :data:`MIN_SHARE` without a sense voltage,
   :data:`MIN_SHARE_WITH_B` with one), and a cause acting on y only joins a magnetic one
   only when that one misses B no more than y (:func:`downstream_identifiable`), and no
-  channel it acts on may be predicted worse (:func:`no_channel_worse`), and it must predict better than the causes before it in any
-  other form (:func:`beyond_forms`), and its unknowns must be off their bounds
+  channel it acts on may be predicted worse (:func:`no_channel_worse`), and it must
+  predict better than the causes before it in any other form (:func:`beyond_forms`), and
+  its unknowns must be off their bounds
   (:func:`firm_in`: with a sense voltage the round's leader is chosen among the
   combinations whose added cause is firm; without one a weak leader ends the selection);
   and so on, up to :data:`MAX_CAUSES` causes,
@@ -47,8 +48,8 @@ from .fit import Fit, fit_all
 __all__ = ["WITHIN_NOISE", "MIN_BIC_DROP", "MIN_EXPLAINED", "MAX_CAUSES", "MIN_SHARE",
            "MIN_SHARE_WITH_B",
            "SWAP_CANDIDATES", "channels", "share", "significant", "explained", "passes",
-           "downstream_identifiable", "firm_in", "no_channel_worse", "beyond_forms", "within_noise", "leader",
-           "select", "also_consistent"]
+           "downstream_identifiable", "firm_in", "no_channel_worse", "beyond_forms",
+           "within_noise", "leader", "select", "also_consistent"]
 
 #: Reduced chi^2 at or below which a model "explains the data within noise".
 WITHIN_NOISE = 2.0
@@ -210,12 +211,14 @@ def select(ev, train, held, paper: Fit, singles: list, fit_scale=True, workers=N
             break
         nxt = leader(firm)
         added = _added(current, nxt)
+        # the causes named so far in their other forms (singles or earlier rounds' fits)
+        other_forms = [f for f in list(singles) + tried
+                       if set(f.causes) == set(current.causes) and f is not current]
         if not passes(current, nxt, channels(added)) or (
                 not significant(paper, current, nxt, added, sense=fit_scale)) or (
                 not downstream_identifiable(current, added)) or (
-                not no_channel_worse(current, nxt, added)) or not beyond_forms(
-                [f for f in list(singles) + tried if set(f.causes) == set(current.causes)
-                 and f is not current], nxt):
+                not no_channel_worse(current, nxt, added)) or (
+                not beyond_forms(other_forms, nxt)):
             break
         order += [c for c in nxt.causes if c not in order]
         current = nxt
@@ -307,11 +310,7 @@ def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, fit_
                   if single.candidate.members[0].cause != out.cause]
     fits = _joined(ev, train, held, joins, fit_scale, workers)
     # each fit's member left out and the one that came in
-    swaps = []
-    for fit in fits:
-        gone = [m for m in current.candidate.members if m not in fit.candidate.members]
-        came = [m for m in fit.candidate.members if m not in current.candidate.members]
-        swaps.append((fit, gone[0].cause, came[0].cause))
+    swaps = [(fit, _added(fit, current).cause, _added(current, fit).cause) for fit in fits]
     tried += [f for f, _, _ in swaps]
     if not swaps:
         return current, order
