@@ -38,6 +38,7 @@ BENCHMARKS = {
     "compensator_convergence": ([], ["--no-cosim", "--periods", "1e-4,1e-5"]),
     "position_realtime": ([], ["--repeats", "1", "--modes", "compensated"]),
     "timedomain_step_cost": ([], ["--runs", "2", "--steps", "3000"]),
+    "blas_threads": ([], ["--rows", "4000", "--repeat", "3"]),
 }
 
 

@@ -9,6 +9,18 @@ one (benchmarks/README.md, Sweeps). So the parent does that work once
 (:func:`prepare`) and the workers are forked from it where the platform forks
 safely (:data:`START_METHOD`): they start warm, and two workers take about the
 CPU time of one. One worker, or one job, runs in this process.
+
+Each process uses **one BLAS thread** while it runs jobs (:func:`one_blas_thread`):
+the jobs already keep the cores busy, one a process. OpenBLAS's threads wait for
+work by spinning, so two of them a process on a machine whose cores are taken
+make small dense problems many times slower: the QR factorisation of a
+20000 x 60 matrix took 1.5 s with OpenBLAS's default threads on the project's
+2-core machine with one other job running, 0.10 s with one thread
+(benchmarks/blas_threads.py); the fit of a Preisach density to labsim's Preisach
+hysteresis (seed 101, 800 samples a period, one other job running) took 42.6 s against
+4.2 s, and ``smeha diagnose`` of the outside lab file C (hysteresis and a delayed sensor)
+228 s against 22 s (2026-11-27; with the joint step of smeha.diagnose.linearfit mended the
+same day, which does the factorisations).
 """
 from __future__ import annotations
 
@@ -17,7 +29,7 @@ import os
 import sys
 from typing import Callable
 
-__all__ = ["START_METHOD", "default_workers", "prepare", "run_jobs"]
+__all__ = ["START_METHOD", "default_workers", "one_blas_thread", "prepare", "run_jobs"]
 
 #: How worker processes start: forked from the prepared parent on Linux and the other
 #: POSIX systems that fork; spawned (a fresh interpreter: imports, kernel and FMU loaded
@@ -36,6 +48,20 @@ def default_workers() -> int:
     except AttributeError:  # not on Linux
         cpus = os.cpu_count() or 1
     return min(2, cpus) if START_METHOD == "fork" else 1
+
+
+def one_blas_thread():
+    """A context in which BLAS and LAPACK (numpy's and scipy's OpenBLAS or MKL) use one
+    thread in this process (module docstring; threadpoolctl); it restores the limits it
+    found when it ends."""
+    from threadpoolctl import threadpool_limits
+    return threadpool_limits(limits=1, user_api="blas")
+
+
+def _worker_started():
+    """A worker process's set-up: one BLAS thread for its life (module docstring)."""
+    from threadpoolctl import threadpool_limits
+    threadpool_limits(limits=1, user_api="blas")
 
 
 def prepare(workers: int, fmu_path=None, say: Callable[[str], None] | None = None) -> None:
@@ -82,8 +108,8 @@ def run_jobs(function, jobs: list, workers: int, *, desc: str, unit: str, quiet:
     from tqdm import tqdm
     results = [None] * len(jobs)
     if workers <= 1 or len(jobs) <= 1:
-        with tqdm(total=len(jobs), desc=desc, unit=unit, disable=quiet,
-                  file=sys.stderr) as bar:
+        with one_blas_thread(), tqdm(total=len(jobs), desc=desc, unit=unit,
+                                     disable=quiet, file=sys.stderr) as bar:
             for i, job in enumerate(jobs):
                 results[i] = function(*job)
                 if on_result is not None:
@@ -92,7 +118,8 @@ def run_jobs(function, jobs: list, workers: int, *, desc: str, unit: str, quiet:
         return results
     import concurrent.futures as cf
     ctx = multiprocessing.get_context(START_METHOD)
-    with cf.ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=ctx) as pool:
+    with cf.ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=ctx,
+                                initializer=_worker_started) as pool:
         # the workers start (fork) at the first submission, before the progress bar's thread
         futures = {pool.submit(function, *job): i for i, job in enumerate(jobs)}
         with tqdm(total=len(jobs), desc=desc, unit=unit, disable=quiet,

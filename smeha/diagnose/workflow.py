@@ -250,11 +250,20 @@ def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
         Unknown or skipped held-out names, too few training runs (fewer than
         4: the four loss coefficients).
     """
-    from .report import characterise, evidence
+    from ..pool import one_blas_thread
 
     params = params or gmt.TransducerParameters()
     runs = list(runs)
     _check_arguments(runs, holdout, causes)
+    # the fits run side by side, one a process: one BLAS thread each (smeha.pool)
+    with one_blas_thread():
+        return _diagnose(runs, holdout, params, causes, workers)
+
+
+def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
+    """:func:`diagnose` on checked arguments."""
+    from .report import characterise, evidence
+
     check_plausible(runs, params)
     feats, skipped = _usable_features(runs, params)
     holdout, train_runs = _heldout_and_training(runs, feats, skipped, holdout)
