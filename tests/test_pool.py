@@ -44,3 +44,23 @@ def test_workers_are_forked_where_the_platform_forks_safely():
     assert pool.START_METHOD == expected
     if sys.platform in ("win32", "darwin"):
         assert pool.START_METHOD == "spawn"
+
+
+def _blas_threads(_):
+    import numpy  # noqa: F401 -- loads its BLAS, which threadpoolctl then finds
+    from threadpoolctl import threadpool_info
+    return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+
+
+def test_jobs_run_with_one_blas_thread_and_the_limit_is_restored():
+    # smeha.pool's docstring: one BLAS thread a process while jobs run (threadpoolctl reads
+    # the libraries' own setting), in this process and in the workers; afterwards this
+    # process has the threads it had
+    before = _blas_threads(0)
+    if not before:
+        pytest.skip("no BLAS library that threadpoolctl controls")
+    here = pool.run_jobs(_blas_threads, [(0,)], 1, desc="t", unit="job", quiet=True)
+    away = pool.run_jobs(_blas_threads, [(0,), (1,)], 2, desc="t", unit="job", quiet=True)
+    assert here == [[1] * len(before)]
+    assert away == [[1] * len(before)] * 2
+    assert _blas_threads(0) == before
