@@ -130,3 +130,13 @@ def test_a_later_cause_must_do_more_than_another_form_of_the_causes_named():
     assert not decision.beyond_forms([other_form], with_delay)
     assert decision.beyond_forms([fit((sat, two), y=6000.0, b=250.0)], with_delay)
     assert decision.beyond_forms([], with_delay)
+
+
+def test_a_named_model_that_predicts_y_worse_is_cautioned():
+    # smeha.diagnose.report.y_worse_caution: the gain (paper's held-out misfit of y over the
+    # extended model's) below 1 gets a caution naming both misfits; at 1 or above none
+    from smeha.diagnose.report import y_worse_caution
+    text = y_worse_caution(0.68e-6, 1.0e-6)
+    assert text is not None and "0.68 -> 1 um" in text and "gain 0.68x" in text
+    assert y_worse_caution(1.0e-6, 1.0e-6) is None
+    assert y_worse_caution(2.0e-6, 1.0e-6) is None
