@@ -207,9 +207,14 @@ def select(ev, train, held, paper: Fit, singles: list, fit_scale=True, workers=N
         if not fit_scale and not _leader_firm(current, round_fits):
             break
         firm = [f for f in round_fits if firm_in(f, _added(current, f).cause)]
-        if not firm:
+        # with B, when no added cause is firm, the leader of all may still be named, as a
+        # weak finding (the report says so): labsim's Preisach hysteresis with a two-mass
+        # resonance (seed 100 at 800 a period) left 6-7 % of the excess in y's odd
+        # harmonics, which a two-mass mechanics, its mass ratio on a bound, removed
+        # (99.8 % of what the density left) while passing every other rule
+        if not firm and not fit_scale:
             break
-        nxt = leader(firm)
+        nxt = leader(firm or round_fits)
         added = _added(current, nxt)
         # the causes named so far in their other forms (singles or earlier rounds' fits)
         other_forms = [f for f in list(singles) + tried
