@@ -23,7 +23,8 @@
   predict better than the causes before it in any other form (:func:`beyond_forms`), and
   its unknowns must be off their bounds
   (:func:`firm_in`: with a sense voltage the round's leader is chosen among the
-  combinations whose added cause is firm; without one a weak leader ends the selection);
+  combinations whose added cause is firm, and when that one is not admitted the leader of
+  all, if weak, may be, as a weak finding; without one a weak leader ends the selection);
   and so on, up to :data:`MAX_CAUSES` causes,
   while the model is still outside noise on the held-out runs; after each added cause, an exchange step
   (:func:`_swap`) may replace a member by another cause that ranks better with the rest;
