@@ -59,9 +59,9 @@ def one_blas_thread():
 
 
 def _worker_started():
-    """A worker process's set-up: one BLAS thread for its life (module docstring)."""
-    from threadpoolctl import threadpool_limits
-    threadpool_limits(limits=1, user_api="blas")
+    """A worker process's set-up: one BLAS thread for its life (module docstring; the
+    limit holds from :func:`one_blas_thread`'s call, never restored here)."""
+    one_blas_thread()
 
 
 def prepare(workers: int, fmu_path=None, say: Callable[[str], None] | None = None) -> None:

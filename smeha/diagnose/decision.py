@@ -205,7 +205,8 @@ def select(ev, train, held, paper: Fit, singles: list, fit_scale=True, workers=N
         # from y alone it says what is left is the first cause's form (smeha.synthetic's
         # saturation without B: a one-mass mechanics on a bound led, and a slab eddy form
         # behind it passed every rule, 0.28 -> 0.14 um)
-        if not fit_scale and not _leader_firm(current, round_fits):
+        top = leader(round_fits)
+        if not fit_scale and not firm_in(top, _added(current, top).cause):
             break
         firm = [f for f in round_fits if firm_in(f, _added(current, f).cause)]
         # the causes named so far in their other forms (singles or earlier rounds' fits)
@@ -218,8 +219,8 @@ def select(ev, train, held, paper: Fit, singles: list, fit_scale=True, workers=N
         # 0.01 % of what the density left, passing every other rule, while the firm leader
         # (a delay) did not
         tries = [leader(firm)] if firm else []
-        if fit_scale and leader(round_fits).weak:
-            tries.append(leader(round_fits))
+        if fit_scale and top.weak:
+            tries.append(top)
         nxt = next((f for f in tries if admitted(paper, current, f, other_forms, fit_scale)),
                    None)
         if nxt is None:
@@ -242,12 +243,6 @@ def admitted(paper: Fit, current: Fit, new: Fit, other_forms, sense: bool) -> bo
             and downstream_identifiable(current, added)
             and no_channel_worse(current, new, added)
             and beyond_forms(other_forms, new))
-
-
-def _leader_firm(current: Fit, fits) -> bool:
-    """True when the leader of ``fits`` (:func:`leader`) holds its added cause firm."""
-    best = leader(fits)
-    return firm_in(best, _added(current, best).cause)
 
 
 def _added(current: Fit, new: Fit):

@@ -264,7 +264,7 @@ def _joint(prob, base, w, chi2, other, lam, fit_scale, rounds=None):
         b[:nb] = z[:nb] * factor[:nb]
         return tuple(float(v) for v in b), np.asarray(z[nb:], float)
 
-    def objective(r, ww):
+    def objective(r):
         # a step is kept when it lowers chi^2, as the alternation's are: the penalty
         # regularises the steps; kept in the objective, it would trade chi^2 for a smoother
         # density, with a lambda chosen where the alternation started
@@ -272,7 +272,7 @@ def _joint(prob, base, w, chi2, other, lam, fit_scale, rounds=None):
 
     z = np.concatenate((np.asarray(base[:nb], float) / factor[:nb], other))
     r0 = prob.residuals(base, w, other)
-    f0 = objective(r0, w)
+    f0 = objective(r0)
     mu = 1e-3
     for _ in range(rounds):
         jw = prob.jacobian(base, w, other, r0)
@@ -302,7 +302,7 @@ def _joint(prob, base, w, chi2, other, lam, fit_scale, rounds=None):
             w_new = np.maximum(sol[nz:], 0.0)
             b_new, o_new = unpack(z_new)
             r1 = prob.residuals(b_new, w_new, o_new)
-            f1 = objective(r1, w_new)
+            f1 = objective(r1)
             if np.isfinite(f1) and f1 < f0:
                 break
             mu *= 10.0
