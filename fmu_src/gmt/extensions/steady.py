@@ -53,6 +53,9 @@ from ._base import FieldState, Steady
 GRID = 128
 #: Harmonics of y and B the evaluation returns by default.
 HARMONICS = 8
+#: mu'' of eq 16 is held at most this fraction of |mu| (a loss angle short of 90 degrees:
+#: mu' of eq 20 stays real); where eq 16 asks more the permeability is on its cap.
+LOSS_ANGLE_CAP = 0.999
 
 
 class SteadyResult(NamedTuple):
@@ -90,17 +93,17 @@ def paper_permeability(loss, frequency, field_amplitude, modulus, gain=1.0, adde
     amplitude, mu_0 |mu_p| H_m times ``loss_flux_factor`` (capped just below
     |mu_p|), and mu'_p eq 20, mu'_p = sqrt(|mu_p|^2 - mu''_p^2). For p = 0 this
     is |mu_p| = modulus / |g| in closed form (the paper's eqs 16, 20 for g = 1);
-    otherwise |mu_p| = a is the root of |mu_p(a) g + p| - modulus, found by the
-    secant method from a fixed-point step off the closed form (a few
-    iterations: p changes slowly with a against mu_p g). ``vacuum`` is the unshielded vacuum field per H_m the coil sees outside the
-    field stage's lag (:meth:`gmt.extensions.Extension.vacuum_share`), added to p.
+    otherwise |mu_p| = a is the least root of |mu_p(a) g + p| - modulus, the one on the
+    branch where mu'' is short of its cap (:func:`_first_root`). ``vacuum`` is the
+    unshielded vacuum field per H_m the coil sees outside the field stage's lag
+    (:meth:`gmt.extensions.Extension.vacuum_share`), added to p.
     """
     g = np.asarray(gain, dtype=complex)
     hm = np.asarray(field_amplitude, dtype=float)
 
     def mu_of(a):
         mu_i = np.minimum(mu_imag_from_losses(loss, frequency, MU_0 * a * hm * loss_flux_factor,
-                                              hm), 0.999 * a)
+                                              hm), LOSS_ANGLE_CAP * a)
         return np.sqrt(a * a - mu_i * mu_i) - 1j * mu_i
 
     a = modulus / np.abs(g)
@@ -110,23 +113,110 @@ def paper_permeability(loss, frequency, field_amplitude, modulus, gain=1.0, adde
         def adder(m1):
             return vacuum + (0.0 if inner is None else inner(m1))
     if adder is not None:
-        # secant iteration on e(a) = |mu_p(a) g + p(a)| - modulus from the closed form
         def err(a):
             mu = mu_of(a)
             return np.abs(mu * g + adder((mu - 1.0) * g * hm)) - modulus
 
-        e0 = err(a)
-        a1 = a * modulus / (e0 + modulus)
-        for _ in range(30):
-            e1 = err(a1)
-            if np.all(np.abs(e1) <= 1e-13 * modulus):
-                break
-            slope = np.where(a1 != a, (e1 - e0) / np.where(a1 != a, a1 - a, 1.0), np.abs(g))
-            slope = np.where(slope > 0.0, slope, np.abs(g))  # |mu_p g + p| grows with a
-            # steps kept within a factor 2, so that a stays positive
-            a, e0, a1 = a1, e1, np.clip(a1 - e1 / slope, 0.5 * a1, 2.0 * a1)
-        a = a1
+        a = _first_root(err, a, uncapped_limit(loss, frequency, hm, loss_flux_factor),
+                        modulus, np.abs(g))
     return mu_of(a)
+
+
+#: Points of the scan for the first root of |mu_p g + p| - modulus (:func:`_first_root`).
+ROOT_SCAN = 12
+
+
+def _first_root(err, a0, a_cap, modulus, gain_modulus):
+    """The least a in (0, min(a_cap, 4 a0)] with err(a) = 0, per run; ``a0`` the closed
+    form modulus / |g| (arrays of runs).
+
+    |mu_p g + p| grows with a = |mu_p| while eq 16's mu'' is well below a, but near the
+    cap (:data:`LOSS_ANGLE_CAP`) mu' = sqrt(a^2 - mu''^2) collapses and |mu_p g + p| can
+    fall again: a second, spurious root lies there, the loss angle near 90 degrees. An
+    iteration from the closed form found either (labsim's Preisach density with
+    saturation at 200 Hz and 1 A: it jumped to the second as M_b/M_s passed 0.006, y's
+    fundamental by 11 um, and the combination's fit could not descend). So the first sign
+    change on :data:`ROOT_SCAN` points is bracketed and refined by regula falsi with the
+    Illinois modification (Dowell & Jarratt, BIT 11 (1971) 168-174). Where err has no sign
+    change there (no root below the cap), a secant iteration from the closed form, as
+    before, gives the root wherever it is.
+    """
+    top = np.minimum(a_cap, 4.0 * a0)
+    lo = np.full_like(a0, 1e-9 * np.max(a0))
+    e_lo = err(lo)
+    hi = np.full_like(a0, np.nan)
+    e_hi = np.full_like(a0, np.nan)
+    for k in range(1, ROOT_SCAN + 1):
+        a = top * k / ROOT_SCAN
+        e = err(a)
+        open_ = np.isnan(hi)
+        found = open_ & (e >= 0.0) & (e_lo < 0.0)
+        hi, e_hi = np.where(found, a, hi), np.where(found, e, e_hi)
+        step_up = open_ & ~found & (e < 0.0)
+        lo, e_lo = np.where(step_up, a, lo), np.where(step_up, e, e_lo)
+    bracketed = ~np.isnan(hi)
+    out = _secant(err, a0, modulus, gain_modulus) if not np.all(bracketed) else a0
+    if not np.any(bracketed):
+        return out
+    hi = np.where(bracketed, hi, lo)
+    e_hi = np.where(bracketed, e_hi, e_lo)
+    side = np.zeros(np.shape(a0))
+    a = lo
+    for _ in range(60):
+        a = np.where(e_hi != e_lo, (lo * e_hi - hi * e_lo) / np.where(e_hi != e_lo,
+                                                                       e_hi - e_lo, 1.0), lo)
+        e = err(a)
+        if np.all(~bracketed | (np.abs(e) <= 1e-13 * modulus)):
+            break
+        up = e < 0.0
+        # Illinois: halve the value kept at the end that stayed twice in a row
+        e_hi = np.where(up & (side < 0), 0.5 * e_hi, e_hi)
+        e_lo = np.where(~up & (side > 0), 0.5 * e_lo, e_lo)
+        lo, e_lo = np.where(up, a, lo), np.where(up, e, e_lo)
+        hi, e_hi = np.where(up, hi, a), np.where(up, e_hi, e)
+        side = np.where(up, -1.0, 1.0)
+    return np.where(bracketed, a, out)
+
+
+def _secant(err, a, modulus, gain_modulus):
+    """The root of err by the secant method from ``a`` (steps within a factor 2, so that
+    a stays positive; a slope that is not positive replaced by |g|)."""
+    e0 = err(a)
+    a1 = a * modulus / (e0 + modulus)
+    for _ in range(30):
+        e1 = err(a1)
+        if np.all(np.abs(e1) <= 1e-13 * modulus):
+            break
+        slope = np.where(a1 != a, (e1 - e0) / np.where(a1 != a, a1 - a, 1.0), gain_modulus)
+        slope = np.where(slope > 0.0, slope, gain_modulus)  # |mu_p g + p| grows with a
+        a, e0, a1 = a1, e1, np.clip(a1 - e1 / slope, 0.5 * a1, 2.0 * a1)
+    return a1
+
+
+def uncapped_limit(loss, frequency, field_amplitude, loss_flux_factor=1.0):
+    """a_cap: the |mu_p| at which eq 16's mu'' reaches :data:`LOSS_ANGLE_CAP` |mu_p|, [-].
+
+    mu''/|mu_p| of eq 16 at B_m = mu_0 |mu_p| H_m (times ``loss_flux_factor``) is
+    K_h-, K_e- and K_ex-terms in |mu_p|^(n-1), |mu_p| and |mu_p|^0.5, none decreasing
+    (n >= 1), so the limit is one root, found by bisection in ln |mu_p| between 1e-6 and
+    1e9 (inf where the cap is never reached there, the lower end where it always is).
+    Arrays of runs allowed.
+    """
+    hm = np.asarray(field_amplitude, dtype=float)
+    f = np.asarray(frequency, dtype=float)
+    flux = hm * loss_flux_factor
+
+    def over(a):
+        return mu_imag_from_losses(loss, f, MU_0 * a * flux, hm) - LOSS_ANGLE_CAP * a
+
+    shape = np.broadcast(hm, f, flux).shape
+    lo, hi = np.full(shape, math.log(1e-6)), np.full(shape, math.log(1e9))
+    never = over(np.exp(hi)) < 0.0
+    for _ in range(48):  # the bracket's width falls to 2^-48 of ln(1e15), 1e-13
+        mid = 0.5 * (lo + hi)
+        up = over(np.exp(mid)) < 0.0
+        lo, hi = np.where(up, mid, lo), np.where(up, hi, mid)
+    return np.where(never, np.inf, np.exp(lo))
 
 
 def complex_permeability(steady: Steady, adder=None):

@@ -1,0 +1,86 @@
+"""The paper's part of the permeability beside a magnetisation-stage extension: its root.
+
+:func:`gmt.extensions.steady.paper_permeability` solves |mu_p(a) + p| = |B_1| / (mu_0 H_m)
+for a = |mu_p|, mu'' from eq 16 and mu' from eq 20. Near the point where eq 16's mu''
+reaches |mu_p| (the cap) mu' collapses and a second, spurious root appears. The
+reference here is a brute-force scan of the same equation on a fine grid of a (no
+iteration), and the case is the one where the iteration used to stall by the cap:
+labsim's Preisach density with saturation, 200 Hz at 1 A (loss coefficients of that fit,
+the adder p the density gave there).
+"""
+import math
+
+import numpy as np
+import pytest
+
+import gmt
+from gmt.constants import MU_0
+from gmt.extensions.steady import (LOSS_ANGLE_CAP, mu_imag_from_losses, paper_permeability,
+                                   uncapped_limit)
+
+LOSS = (135421.88, 1.9105760, 4004.9444, 7.4208)
+FREQ = 200.0
+HM = gmt.TransducerParameters().field_per_ampere * 1.0
+MODULUS = 3.0549556
+P = 1.132 - 0.242j
+
+
+def _mu(a):
+    mu_i = np.minimum(mu_imag_from_losses(LOSS, FREQ, MU_0 * a * HM, HM), LOSS_ANGLE_CAP * a)
+    return np.sqrt(a * a - mu_i * mu_i) - 1j * mu_i
+
+
+def _roots_by_scan(p):
+    """Every sign change of |mu(a) + p| - modulus on 2e5 points of a in (0, 3 modulus)."""
+    a = np.linspace(1e-4, 3.0 * MODULUS, 200_001)
+    e = np.abs(_mu(a) + p) - MODULUS
+    idx = np.flatnonzero(np.sign(e[1:]) != np.sign(e[:-1]))
+    return a[idx]
+
+
+def test_the_case_has_a_trap_by_the_cap():
+    # the premise: the scan's root lies well below the cap, and just below the cap
+    # |mu + p| - modulus comes back to within 0.2 % of zero, where an iteration from the
+    # closed form (a = modulus, above the cap) stalled
+    cap = float(uncapped_limit(LOSS, FREQ, HM))
+    assert _roots_by_scan(P)[0] < 0.9 * cap
+    a = np.linspace(0.97 * cap, cap, 2001)
+    assert np.min(np.abs(np.abs(_mu(a) + P) - MODULUS)) < 0.002 * MODULUS
+
+
+@pytest.mark.parametrize("t", np.linspace(0.9, 1.1, 21))
+def test_least_root_is_taken(t):
+    # the adder as a function of M_1 (constant here, as the density's is); tolerance: the
+    # scan's grid step, 4.6e-5 in a. Before the fix half of these p (0.9-1.1 times the
+    # case's) came back at the cap, |mu_p| 2.55 for 2.12
+    p = t * P
+    mu = paper_permeability(LOSS, FREQ, HM, MODULUS, adder=lambda m1: p + 0.0 * m1)
+    assert abs(mu) == pytest.approx(_roots_by_scan(p)[0], abs=5e-5)
+    assert abs(abs(mu + p) - MODULUS) < 1e-10
+
+
+def test_no_root_below_the_cap():
+    # p = 0: the closed form |mu_p| = modulus (eqs 16, 20), here above the cap
+    mu = paper_permeability(LOSS, FREQ, HM, MODULUS, adder=lambda m1: 0.0 * m1)
+    assert abs(mu) == pytest.approx(MODULUS, rel=1e-12)
+    assert MODULUS > float(uncapped_limit(LOSS, FREQ, HM))
+
+
+def test_uncapped_limit_is_where_mu_imag_reaches_the_cap():
+    cap = float(uncapped_limit(LOSS, FREQ, HM))
+    ratio = mu_imag_from_losses(LOSS, FREQ, MU_0 * cap * HM, HM) / cap
+    assert ratio == pytest.approx(LOSS_ANGLE_CAP, rel=1e-9)
+    # without losses the cap is never reached
+    assert math.isinf(float(uncapped_limit((0.0, 1.5, 0.0, 0.0), FREQ, HM)))
+
+
+def test_arrays_of_runs():
+    # one run with the adder, one without losses: each its own root
+    loss = LOSS
+    f = np.array([FREQ, 50.0])
+    hm = np.array([HM, 0.6 * HM])
+    modulus = np.array([MODULUS, 4.0])
+    p = np.array([P, 0.5])
+    mu = paper_permeability(loss, f, hm, modulus, adder=lambda m1: p + 0.0 * m1)
+    assert np.allclose(np.abs(mu + p), modulus, rtol=1e-12)
+    assert abs(mu[0]) == pytest.approx(_roots_by_scan(P)[0], abs=5e-5)
