@@ -177,14 +177,15 @@ def within_noise(fit: Fit, train_dof_lost: int = 5) -> bool:
             and fit.heldout_predictive_chi2 / fit.heldout_n <= WITHIN_NOISE)
 
 
-def select(ev, train, held, paper: Fit, singles: list, fit_scale=True, workers=None) -> tuple:
+def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None) -> tuple:
     """Forward selection (module docstring): (answer, chosen fit, combinations tried,
     causes in the order they were added).
 
     ``answer`` is "none", "unexplained" or the first cause; ``chosen`` the
     paper's fit for the first two (and no causes). A combination's members are
     in the order of the model's chain (gmt.extensions.ordered), which is not the
-    order of contribution: that is the fourth item.
+    order of contribution: that is the fourth item. ``sense``: whether the training
+    runs have a sense voltage (the rules for a later cause differ without B).
     """
     if within_noise(paper):
         return "none", paper, [], []
@@ -193,8 +194,7 @@ def select(ev, train, held, paper: Fit, singles: list, fit_scale=True, workers=N
         return "unexplained", paper, [], []
     current, tried, order = best, [], [best.cause]
     while len(current.causes) < MAX_CAUSES and not within_noise(current):
-        round_fits = _joined(ev, train, held, [(current, (), s) for s in singles],
-                             fit_scale, workers)
+        round_fits = _joined(ev, train, held, [(current, (), s) for s in singles], workers)
         tried += round_fits
         if not round_fits:
             break
@@ -206,7 +206,7 @@ def select(ev, train, held, paper: Fit, singles: list, fit_scale=True, workers=N
         # saturation without B: a one-mass mechanics on a bound led, and a slab eddy form
         # behind it passed every rule, 0.28 -> 0.14 um)
         top = leader(round_fits)
-        if not fit_scale and not firm_in(top, _added(current, top).cause):
+        if not sense and not firm_in(top, _added(current, top).cause):
             break
         firm = [f for f in round_fits if firm_in(f, _added(current, f).cause)]
         # the causes named so far in their other forms (singles or earlier rounds' fits)
@@ -219,16 +219,16 @@ def select(ev, train, held, paper: Fit, singles: list, fit_scale=True, workers=N
         # 0.01 % of what the density left, passing every other rule, while the firm leader
         # (a delay) did not
         tries = [leader(firm)] if firm else []
-        if fit_scale and top.weak:
+        if sense and top.weak:
             tries.append(top)
-        nxt = next((f for f in tries if admitted(paper, current, f, other_forms, fit_scale)),
+        nxt = next((f for f in tries if admitted(paper, current, f, other_forms, sense)),
                    None)
         if nxt is None:
             break
         order += [c for c in nxt.causes if c not in order]
         current = nxt
         current, order = _swap(ev, train, held, paper, current, order, singles, tried,
-                               fit_scale, workers)
+                               workers)
     return order[0], current, tried, order
 
 
@@ -267,7 +267,7 @@ def leader(fits) -> Fit:
     return held if held.score < ranked.score - MIN_BIC_DROP else ranked
 
 
-def _joined(ev, train, held, joins, fit_scale, workers=None) -> list:
+def _joined(ev, train, held, joins, workers=None) -> list:
     """The fits of each (current, keep, single) in ``joins``: ``current``'s members ``keep``
     (all of them when empty) plus ``single``'s extension, fitted from their fitted values
     (side by side, :func:`smeha.diagnose.fit.fit_all`); those that cannot combine or whose
@@ -285,12 +285,11 @@ def _joined(ev, train, held, joins, fit_scale, workers=None) -> list:
         own = dict(zip(current.candidate.members, current.candidate.split(current.x)))
         own[member] = single.x
         start = tuple(v for m in cand.members for v in own[m])
-        jobs.append((cand, current.base, [start], fit_scale))
+        jobs.append((cand, current.base, [start], True))
     return [f for f in fit_all(ev, train, held, jobs, workers) if isinstance(f, Fit)]
 
 
-def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, fit_scale,
-          workers=None):
+def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, workers=None):
     """Stepwise selection's exchange step (Efroymson's stepwise regression; Miller, *Subset
     Selection in Regression*, 2nd ed., 2002, sec. 3.4): with two or more causes, each member
     in turn is replaced by the best form of each of the :data:`SWAP_CANDIDATES` best-ranked
@@ -320,7 +319,7 @@ def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, fit_
         keep = tuple(m for m in current.candidate.members if m is not out)
         joins += [(current, keep, single) for single in useful
                   if single.candidate.members[0].cause != out.cause]
-    fits = _joined(ev, train, held, joins, fit_scale, workers)
+    fits = _joined(ev, train, held, joins, workers)
     # each fit's member left out and the one that came in
     swaps = [(fit, _added(fit, current).cause, _added(current, fit).cause) for fit in fits]
     tried += [f for f, _, _ in swaps]

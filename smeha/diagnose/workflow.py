@@ -275,18 +275,21 @@ def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
     held = Batch([feats[h] for h in holdout])
     context = {"params": params, "field_max": hmax, "evaluator": ev,
                "features": feats}
-    # y alone cannot tell the strain scale from B_m: fitted only with sense voltages
-    fit_scale = bool(train.has_b.any())
-    paper = fit_and_score(ev, train, held, PAPER, base0, fit_scale=fit_scale)
+    # the strain scale s is fitted with or without a sense voltage: without one each run's
+    # B_m follows y's fundamental, and s shows in the harmonics' ratio to it (eq 25's
+    # square law: Y_2 / Y_1^2 goes as 1 / s; smeha.diagnose.fit). The rules of the
+    # decision differ with B present (sense)
+    sense = bool(train.has_b.any())
+    paper = fit_and_score(ev, train, held, PAPER, base0)
     # within noise the answer is "none" whatever the candidates give (decision.select's
     # first rule): they are not fitted
     tried = () if within_noise(paper) else candidates()[1:]
-    jobs = [(cand, paper.base, None, fit_scale) for cand in tried if cand.cause in causes]
+    jobs = [(cand, paper.base, None, True) for cand in tried if cand.cause in causes]
     done = fit_all(ev, train, held, jobs, workers)
     # a candidate that cannot be fitted is left out, and said so
     fits = [f for f in done if isinstance(f, Fit)]
     unfitted = [f for f in done if not isinstance(f, Fit)]
-    cause, chosen, combos, order = select(ev, train, held, paper, fits, fit_scale, workers)
+    cause, chosen, combos, order = select(ev, train, held, paper, fits, sense, workers)
     character = characterise(ev, list(feats.values()), paper.base)
     noise = float(np.median([rf.noise_y for rf in feats.values()])) * 1e6
     diag = Diagnosis(cause=cause, evidence=[], heldout_runs=holdout,
