@@ -140,3 +140,15 @@ def test_a_named_model_that_predicts_y_worse_is_cautioned():
     assert text is not None and "0.68 -> 1 um" in text and "gain 0.68x" in text
     assert y_worse_caution(1.0e-6, 1.0e-6) is None
     assert y_worse_caution(2.0e-6, 1.0e-6) is None
+
+
+def test_scale_caution_only_without_b_outside_the_span():
+    # smeha.diagnose.report.scale_caution: without a sense voltage s outside SCALE_SPAN
+    # (outside lab C without B reached 1.82) gets a caution naming s; inside the span, or
+    # with B (s pinned by B and y together), none
+    from smeha.diagnose.report import SCALE_SPAN, scale_caution
+    text = scale_caution(1.82, True)
+    assert text is not None and "s = 1.82" in text
+    assert scale_caution(0.5, True) is not None
+    assert scale_caution(SCALE_SPAN[1], True) is None
+    assert scale_caution(1.82, False) is None

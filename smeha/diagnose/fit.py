@@ -4,8 +4,9 @@ The unknowns are the base ones, the four loss coefficients of eq 16
 (K_h, n, K_e, K_ex, scaled by their start values) and the strain scale s
 (:mod:`smeha.diagnose.candidates`; without a sense voltage too: each run's B_m then
 follows y's fundamental, and s shows in the harmonics' ratio to it, Y_2 / Y_1^2 going as
-1 / s by eq 25's square law, within :data:`SCALE_WITHOUT_B`; ``fit_scale`` False holds
-it), shared by all runs, and the
+1 / s by eq 25's square law, though every magnetic nonlinearity changes that ratio too:
+:func:`smeha.diagnose.report.scale_caution`; ``fit_scale`` False holds it), shared by all
+runs, and the
 candidate's own (:class:`smeha.diagnose.candidates.Candidate`). Least squares
 (:func:`scipy.optimize.least_squares`, bounded) on the training features,
 each residual over its standard deviation; every start vector is tried and
@@ -68,24 +69,12 @@ import gmt
 from .candidates import Batch, Candidate, Evaluator
 from .linearfit import fit_linear, linear_member
 
-__all__ = ["BASE_LOWER", "BASE_UPPER", "SCALE_WITHOUT_B", "MAX_EVALUATIONS", "Fit",
-           "base_bounds", "base_factor",
+__all__ = ["BASE_LOWER", "BASE_UPPER", "MAX_EVALUATIONS", "Fit", "base_factor",
            "fit_candidate", "predictive_chi2", "score", "fit_and_score", "fit_all"]
 
 #: Bounds of the base unknowns (K_h, n, K_e, K_ex, s).
 BASE_LOWER = (0.0, 1.0, 0.0, 0.0, 0.2)
 BASE_UPPER = (np.inf, 3.0, np.inf, np.inf, 5.0)
-#: Bounds of the strain scale s when no training run has a sense voltage. Without B, s is
-#: seen only in y's harmonics against its fundamental, and every magnetic nonlinearity
-#: changes those too: fitted within BASE_LOWER/UPPER, s took a Preisach loop's harmonics
-#: (outside lab C without its sense voltage: s = 1.82 in the paper's model, and the
-#: density's held-out misfit of y 5.8 um against the paper's 2.5). So s is held within
-#: +-10 % of Table 2's K_lambda: a rod's magnetostriction coefficient moves with its
-#: temperature and prestress (Engdahl (ed.), *Handbook of Giant Magnetostrictive
-#: Materials*, 2000, ch. 2), and +-10 % is this project's assumed span of a lab's
-#: conditions, not a material figure. Held at 1, labsim's rod 10 K warm (its K_lambda 5 %
-#: low) was answered as a re-identified mechanics.
-SCALE_WITHOUT_B = (0.9, 1.1)
 #: Most function evaluations of one start of a fit.
 MAX_EVALUATIONS = 300
 
@@ -177,15 +166,6 @@ class Fit:
         return bool(self.at_bounds)
 
 
-def base_bounds(batch: Batch) -> tuple:
-    """(lower, upper) of the base unknowns for a fit on ``batch``: :data:`BASE_LOWER` and
-    :data:`BASE_UPPER`, s within :data:`SCALE_WITHOUT_B` when no run has a sense voltage."""
-    lo, hi = list(BASE_LOWER), list(BASE_UPPER)
-    if not batch.has_b.any():
-        lo[4], hi[4] = SCALE_WITHOUT_B
-    return tuple(lo), tuple(hi)
-
-
 def base_factor(base0):
     """Scale factors of the base unknowns in the fit (n and s are not scaled)."""
     return np.array([max(abs(base0[0]), 1.0), 1.0, max(abs(base0[2]), 1.0),
@@ -213,11 +193,10 @@ def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=No
     """
     nb = 5 if fit_scale else 4
     factor = base_factor(base0)
-    blo, bhi = base_bounds(train)
-    b0 = np.clip(np.asarray(base0, float), blo, bhi) / factor
+    b0 = np.clip(np.asarray(base0, float), BASE_LOWER, BASE_UPPER) / factor
     b0[1] = min(max(base0[1], 1.0 + 1e-6), 3.0 - 1e-6)
-    lo = np.concatenate((blo[:nb], cand.lower)).astype(float)
-    hi = np.concatenate((bhi[:nb], cand.upper)).astype(float)
+    lo = np.concatenate((BASE_LOWER[:nb], cand.lower)).astype(float)
+    hi = np.concatenate((BASE_UPPER[:nb], cand.upper)).astype(float)
 
     def fun(z):
         base, x = _split(z, nb, base0, factor)
@@ -251,7 +230,7 @@ def predictive_chi2(ev: Evaluator, held: Batch, cand: Candidate, base, x, cov) -
     factor = base_factor(base)
     nb = cov.shape[0] - len(x)
     z0 = np.concatenate((np.asarray(base[:nb]) / factor[:nb], np.asarray(x, float)))
-    upper = np.concatenate((base_bounds(held)[1][:nb], cand.upper))
+    upper = np.concatenate((BASE_UPPER[:nb], cand.upper))
 
     def res(z):
         b, xx = _split(z, nb, base, factor)

@@ -250,14 +250,13 @@ def _joint(prob, base, w, chi2, other, lam, fit_scale, rounds=None):
     alternation and after these steps; 3.2e5 with the damping on every unknown)."""
     from scipy.optimize import lsq_linear
 
-    from .fit import base_bounds, base_factor
+    from .fit import BASE_LOWER, BASE_UPPER, base_factor
 
     rounds = JOINT_ROUNDS if rounds is None else rounds
     nb = 5 if fit_scale else 4
     factor = base_factor(base)
-    blo, bhi = base_bounds(prob.train)
-    lo = np.concatenate((blo[:nb], np.asarray(prob.cand.lower, float)[prob.other_idx]))
-    hi = np.concatenate((bhi[:nb], np.asarray(prob.cand.upper, float)[prob.other_idx]))
+    lo = np.concatenate((BASE_LOWER[:nb], np.asarray(prob.cand.lower, float)[prob.other_idx]))
+    hi = np.concatenate((BASE_UPPER[:nb], np.asarray(prob.cand.upper, float)[prob.other_idx]))
     pen = np.sqrt(lam) * prob.penalty
 
     def unpack(z):

@@ -13,7 +13,8 @@ from .decision import (MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, channels, expl
                        leader, within_noise)
 from .workflow import CONFUSABLE_WITHOUT_B
 
-__all__ = ["SIGNALS", "characterise", "cautions", "y_worse_caution", "evidence",
+__all__ = ["SIGNALS", "SCALE_SPAN", "characterise", "cautions", "y_worse_caution",
+           "scale_caution", "evidence",
            "remainder_report",
            "format_diagnosis", "sense_voltage_report", "as_dict", "write_report"]
 
@@ -266,13 +267,41 @@ def _verdict_lines(d) -> list[str]:
 
 
 def cautions(d) -> list[str]:
-    """What else leaves the named causes' signature (each extension's ``lookalike``), and
-    an extended model that predicts the held-out y worse than the paper's
-    (:func:`y_worse_caution`)."""
+    """What else leaves the named causes' signature (each extension's ``lookalike``), an
+    extended model that predicts the held-out y worse than the paper's
+    (:func:`y_worse_caution`), and a strain scale fitted without a sense voltage outside
+    :data:`SCALE_SPAN` (:func:`scale_caution`)."""
     members = d.extended.candidate.members if d.extended.causes else ()
     out = list(dict.fromkeys(f"{label(m)}: {m.lookalike}" for m in members if m.lookalike))
     worse = members and y_worse_caution(d.paper.heldout_misfit, d.extended.heldout_misfit)
-    return out + ([worse] if worse else [])
+    scale = scale_caution(d.extended.strain_scale, bool(d.runs_without_sense_voltage)
+                          and len(d.runs_without_sense_voltage) == len(d.context["features"]))
+    return out + ([worse] if worse else []) + ([scale] if scale else [])
+
+
+#: Strain scale s (K_lambda over Table 2's) that a fit without a sense voltage may reach
+#: before the report cautions: a rod's magnetostriction coefficient moves with its
+#: temperature and prestress (Engdahl (ed.), *Handbook of Giant Magnetostrictive
+#: Materials*, 2000, ch. 2); +-10 % is this project's assumed span of a lab's conditions.
+SCALE_SPAN = (0.9, 1.1)
+
+
+def scale_caution(strain_scale: float, without_b: bool) -> str | None:
+    """The caution for a strain scale outside :data:`SCALE_SPAN` fitted with no sense
+    voltage (``without_b``), else None.
+
+    Without B each run's B_m follows y's fundamental and s shows only in y's harmonics
+    against it (eq 25's square law), which hysteresis and saturation change too: outside
+    lab C without its sense voltage the paper's model took s = 1.82 and the Preisach
+    density 1.73 (with B: 0.99 and 1.00)."""
+    lo, hi = SCALE_SPAN
+    if not without_b or lo <= strain_scale <= hi:
+        return None
+    return (f"strain scale s = {strain_scale:.3g} (K_lambda over Table 2's) fitted without a "
+            "sense voltage, outside the span of a lab's temperature and prestress "
+            f"({lo:g}-{hi:g}): from y alone s is seen only in the harmonics' ratio to the "
+            "fundamental, which a magnetic nonlinearity also sets; a sense voltage would "
+            "pin it")
 
 
 def y_worse_caution(paper_misfit: float, extended_misfit: float) -> str | None:
