@@ -117,29 +117,43 @@ def paper_permeability(loss, frequency, field_amplitude, modulus, gain=1.0, adde
             mu = mu_of(a)
             return np.abs(mu * g + adder((mu - 1.0) * g * hm)) - modulus
 
-        a = _first_root(err, a, uncapped_limit(loss, frequency, hm, loss_flux_factor),
-                        modulus, np.abs(g))
+        a, converged = _secant(err, a, modulus, np.abs(g))
+        # a root where eq 16's loss angle is large may be the second one by the cap
+        # (_first_root): there, and where the secant did not converge, the least root
+        ratio = mu_imag_from_losses(loss, frequency, MU_0 * a * hm * loss_flux_factor, hm) / a
+        suspect = ~converged | (ratio > SECANT_TRUSTED)
+        if np.any(suspect):
+            first, found = _first_root(
+                err, modulus / np.abs(g),
+                uncapped_limit(loss, frequency, hm, loss_flux_factor), modulus)
+            a = np.where(suspect & found, first, a)
     return mu_of(a)
+
+
+#: mu''/|mu_p| of eq 16 up to which the secant's root is taken as it is, without the scan
+#: of :func:`_first_root` (a saving: the scan costs some 20 evaluations of the stage). The
+#: spurious roots seen lay at 0.999 (on the cap), the least roots beside them at 0.83 and
+#: 0.93 (labsim's Preisach density with saturation and with eddy diffusion, 200 Hz at 1 A);
+#: a heuristic bound, not a proof that no second root lies lower.
+SECANT_TRUSTED = 0.9
 
 
 #: Points of the scan for the first root of |mu_p g + p| - modulus (:func:`_first_root`).
 ROOT_SCAN = 12
 
 
-def _first_root(err, a0, a_cap, modulus, gain_modulus):
-    """The least a in (0, min(a_cap, 4 a0)] with err(a) = 0, per run; ``a0`` the closed
-    form modulus / |g| (arrays of runs).
+def _first_root(err, a0, a_cap, modulus):
+    """(a, found): the least a in (0, min(a_cap, 4 a0)] with err(a) = 0, per run, and
+    whether there is one; ``a0`` the closed form modulus / |g| (arrays of runs).
 
     |mu_p g + p| grows with a = |mu_p| while eq 16's mu'' is well below a, but near the
     cap (:data:`LOSS_ANGLE_CAP`) mu' = sqrt(a^2 - mu''^2) collapses and |mu_p g + p| can
-    fall again: a second, spurious root lies there, the loss angle near 90 degrees. An
-    iteration from the closed form found either (labsim's Preisach density with
-    saturation at 200 Hz and 1 A: it jumped to the second as M_b/M_s passed 0.006, y's
+    fall again: a second, spurious root lies there, the loss angle near 90 degrees. The
+    secant iteration from the closed form found either (labsim's Preisach density with
+    saturation at 200 Hz and 1 A: it stalled by the cap as M_b/M_s passed 0.006, y's
     fundamental by 11 um, and the combination's fit could not descend). So the first sign
     change on :data:`ROOT_SCAN` points is bracketed and refined by regula falsi with the
-    Illinois modification (Dowell & Jarratt, BIT 11 (1971) 168-174). Where err has no sign
-    change there (no root below the cap), a secant iteration from the closed form, as
-    before, gives the root wherever it is.
+    Illinois modification (Dowell & Jarratt, BIT 11 (1971) 168-174).
     """
     top = np.minimum(a_cap, 4.0 * a0)
     lo = np.full_like(a0, 1e-9 * np.max(a0))
@@ -155,9 +169,8 @@ def _first_root(err, a0, a_cap, modulus, gain_modulus):
         step_up = open_ & ~found & (e < 0.0)
         lo, e_lo = np.where(step_up, a, lo), np.where(step_up, e, e_lo)
     bracketed = ~np.isnan(hi)
-    out = _secant(err, a0, modulus, gain_modulus) if not np.all(bracketed) else a0
     if not np.any(bracketed):
-        return out
+        return a0, bracketed
     hi = np.where(bracketed, hi, lo)
     e_hi = np.where(bracketed, e_hi, e_lo)
     side = np.zeros(np.shape(a0))
@@ -175,48 +188,62 @@ def _first_root(err, a0, a_cap, modulus, gain_modulus):
         lo, e_lo = np.where(up, a, lo), np.where(up, e, e_lo)
         hi, e_hi = np.where(up, hi, a), np.where(up, e_hi, e)
         side = np.where(up, -1.0, 1.0)
-    return np.where(bracketed, a, out)
+    return a, bracketed
 
 
 def _secant(err, a, modulus, gain_modulus):
-    """The root of err by the secant method from ``a`` (steps within a factor 2, so that
-    a stays positive; a slope that is not positive replaced by |g|)."""
+    """(a, converged): the root of err by the secant method from the closed form ``a``,
+    a fixed-point step off it first (steps within a factor 2, so that a stays positive; a
+    slope that is not positive replaced by |g|), and whether |err| fell to 1e-13 of the
+    modulus, per run."""
     e0 = err(a)
     a1 = a * modulus / (e0 + modulus)
     for _ in range(30):
         e1 = err(a1)
         if np.all(np.abs(e1) <= 1e-13 * modulus):
-            break
+            return a1, np.full(np.shape(a1), True)
         slope = np.where(a1 != a, (e1 - e0) / np.where(a1 != a, a1 - a, 1.0), gain_modulus)
         slope = np.where(slope > 0.0, slope, gain_modulus)  # |mu_p g + p| grows with a
         a, e0, a1 = a1, e1, np.clip(a1 - e1 / slope, 0.5 * a1, 2.0 * a1)
-    return a1
+    return a1, np.abs(err(a1)) <= 1e-10 * modulus
 
 
 def uncapped_limit(loss, frequency, field_amplitude, loss_flux_factor=1.0):
     """a_cap: the |mu_p| at which eq 16's mu'' reaches :data:`LOSS_ANGLE_CAP` |mu_p|, [-].
 
-    mu''/|mu_p| of eq 16 at B_m = mu_0 |mu_p| H_m (times ``loss_flux_factor``) is
-    K_h-, K_e- and K_ex-terms in |mu_p|^(n-1), |mu_p| and |mu_p|^0.5, none decreasing
-    (n >= 1), so the limit is one root, found by bisection in ln |mu_p| between 1e-6 and
-    1e9 (inf where the cap is never reached there, the lower end where it always is).
-    Arrays of runs allowed.
+    At B_m = mu_0 a H_m (times ``loss_flux_factor``) eq 16 gives mu''/a = c_h a^(n-1) +
+    c_e a + c_x a^0.5, all c >= 0 and n >= 1: ln(mu''/a) is a convex, nondecreasing
+    function of ln a (a log-sum-exp), so Newton's method in ln a reaches its one crossing
+    of ln(cap) monotonically after its first step. inf where the cap is never reached
+    below a = 1e9, 1e-6 where it is reached already there. Arrays of runs allowed.
     """
+    kh, n, ke, kex = loss
     hm = np.asarray(field_amplitude, dtype=float)
     f = np.asarray(frequency, dtype=float)
-    flux = hm * loss_flux_factor
+    b1 = MU_0 * hm * loss_flux_factor  # B_m per unit a
+    d = math.pi * f * MU_0 * hm * hm
+    coef = (kh * b1 ** n * f / d, ke * (b1 * f) ** 2 / d, kex * (b1 * f) ** 1.5 / d)
+    powers = (n - 1.0, 1.0, 0.5)
+    u_lo, u_hi = math.log(1e-6), math.log(1e9)
+    target = math.log(LOSS_ANGLE_CAP)
 
-    def over(a):
-        return mu_imag_from_losses(loss, f, MU_0 * a * flux, hm) - LOSS_ANGLE_CAP * a
+    def g_and_slope(u):
+        terms = [c * np.exp(p * u) for c, p in zip(coef, powers)]
+        total = sum(terms)
+        slope = sum(p * t for p, t in zip(powers, terms))
+        with np.errstate(divide="ignore"):
+            return np.log(total) - target, slope / np.where(total > 0, total, 1.0)
 
-    shape = np.broadcast(hm, f, flux).shape
-    lo, hi = np.full(shape, math.log(1e-6)), np.full(shape, math.log(1e9))
-    never = over(np.exp(hi)) < 0.0
-    for _ in range(48):  # the bracket's width falls to 2^-48 of ln(1e15), 1e-13
-        mid = 0.5 * (lo + hi)
-        up = over(np.exp(mid)) < 0.0
-        lo, hi = np.where(up, mid, lo), np.where(up, hi, mid)
-    return np.where(never, np.inf, np.exp(lo))
+    never = g_and_slope(np.full(np.shape(d), u_hi))[0] < 0.0
+    always = g_and_slope(np.full(np.shape(d), u_lo))[0] >= 0.0
+    u = np.full(np.shape(d), 0.0)
+    for _ in range(60):
+        g, slope = g_and_slope(u)
+        step = np.where(slope > 0, g / np.where(slope > 0, slope, 1.0), 0.0)
+        u = np.clip(u - step, u_lo, u_hi)
+        if np.all(np.abs(step) <= 1e-12):
+            break
+    return np.where(never, np.inf, np.where(always, 1e-6, np.exp(u)))
 
 
 def complex_permeability(steady: Steady, adder=None):
