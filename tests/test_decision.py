@@ -139,6 +139,8 @@ def test_a_named_model_that_predicts_y_worse_is_cautioned():
     text = y_worse_caution(0.68e-6, 1.0e-6)
     assert text is not None and "0.68 -> 1 um" in text and "gain 0.68x" in text
     assert y_worse_caution(1.0e-6, 1.0e-6) is None
+    assert "fundamental" in y_worse_caution(0.68e-6, 1.0e-6, sense=False)
+    assert "in B or the drift" not in y_worse_caution(0.68e-6, 1.0e-6, sense=False)
     assert y_worse_caution(2.0e-6, 1.0e-6) is None
 
 
