@@ -285,7 +285,7 @@ def _joined(ev, train, held, joins, workers=None) -> list:
         own = dict(zip(current.candidate.members, current.candidate.split(current.x)))
         own[member] = single.x
         start = tuple(v for m in cand.members for v in own[m])
-        jobs.append((cand, current.base, [start], True))
+        jobs.append((cand, current.base, [start]))
     return [f for f in fit_all(ev, train, held, jobs, workers) if isinstance(f, Fit)]
 
 

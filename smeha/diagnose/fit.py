@@ -5,8 +5,7 @@ The unknowns are the base ones, the four loss coefficients of eq 16
 (:mod:`smeha.diagnose.candidates`; without a sense voltage too: each run's B_m then
 follows y's fundamental, and s shows in the harmonics' ratio to it, Y_2 / Y_1^2 going as
 1 / s by eq 25's square law, though every magnetic nonlinearity changes that ratio too:
-:func:`smeha.diagnose.report.scale_caution`; ``fit_scale`` False holds it), shared by all
-runs, and the
+:func:`smeha.diagnose.report.scale_caution`), shared by all runs, and the
 candidate's own (:class:`smeha.diagnose.candidates.Candidate`). Least squares
 (:func:`scipy.optimize.least_squares`, bounded) on the training features,
 each residual over its standard deviation; every start vector is tried and
@@ -180,18 +179,18 @@ def _split(z, nb, base0, factor):
 
 
 def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=None,
-                  fit_scale=True, residuals=None, max_evaluations=MAX_EVALUATIONS) -> tuple:
+                  residuals=None, max_evaluations=MAX_EVALUATIONS) -> tuple:
     """Least squares on the training features: (base, x, chi^2, residuals, cov).
 
-    ``base0`` is (K_h, n, K_e, K_ex, s) to start from (s held there when
-    ``fit_scale`` is False); ``starts`` replaces the candidate's own start
+    ``base0`` is (K_h, n, K_e, K_ex, s) to start from; ``starts`` replaces the
+    candidate's own start
     vectors (e.g. a combination started from its members' fitted values).
     ``cov`` is the covariance (J^T J)^-1 of the unknowns (the base ones over
     :func:`base_factor`, then the candidate's), [-]. ``residuals(base, x)``
     replaces the training residuals of ``cand`` (the linear family's fit holds
     its weights in it, :mod:`smeha.diagnose.linearfit`).
     """
-    nb = 5 if fit_scale else 4
+    nb = len(BASE_LOWER)
     factor = base_factor(base0)
     b0 = np.clip(np.asarray(base0, float), BASE_LOWER, BASE_UPPER) / factor
     b0[1] = min(max(base0[1], 1.0 + 1e-6), 3.0 - 1e-6)
@@ -284,22 +283,21 @@ def score(ev: Evaluator, cand: Candidate, base, x, chi2_train, n_train, held: Ba
                effective_params=k, heldout_n_parts=n_parts)
 
 
-def fit_and_score(ev, train, held, cand, base0, starts=None, fit_scale=True) -> Fit:
+def fit_and_score(ev, train, held, cand, base0, starts=None) -> Fit:
     """:func:`fit_candidate` (or, for a linear family, :func:`smeha.diagnose.linearfit.fit_linear`)
     then :func:`score`."""
     if linear_member(cand) is not None:
         base, x, chi2, n, cov, k = fit_linear(ev, train, cand, base0, fit_candidate,
-                                              start=starts[0] if starts else None,
-                                              fit_scale=fit_scale)
+                                              start=starts[0] if starts else None)
         return score(ev, cand, base, x, chi2, n, held, cov, k=k)
-    base, x, chi2, n, cov = fit_candidate(ev, train, cand, base0, starts, fit_scale)
+    base, x, chi2, n, cov = fit_candidate(ev, train, cand, base0, starts)
     return score(ev, cand, base, x, chi2, n, held, cov)
 
 
-def _fit_or_reason(ev, train, held, cand, base0, starts, fit_scale):
+def _fit_or_reason(ev, train, held, cand, base0, starts):
     """:func:`fit_and_score`, or the ValueError's message when the fit fails."""
     try:
-        return fit_and_score(ev, train, held, cand, base0, starts=starts, fit_scale=fit_scale)
+        return fit_and_score(ev, train, held, cand, base0, starts=starts)
     except ValueError as exc:
         return str(exc)
 
@@ -308,7 +306,7 @@ def fit_all(ev, train, held, jobs, workers=None) -> list:
     """:func:`fit_and_score` of independent candidates, side by side in ``workers``
     processes (:func:`smeha.pool.run_jobs`; default :func:`smeha.pool.default_workers`).
 
-    ``jobs`` holds (candidate, base0, starts, fit_scale) tuples; the result holds, in
+    ``jobs`` holds (candidate, base0, starts) tuples; the result holds, in
     job order, each one's :class:`Fit` or, where its fit failed, the reason (str). The
     fits do not depend on each other, so the result does not depend on ``workers``.
     """

@@ -161,7 +161,7 @@ class _Problem:
 
 
 def fit_linear(ev: Evaluator, train: Batch, cand: Candidate, base0, fit_candidate,
-               start=None, fit_scale=True) -> tuple:
+               start=None) -> tuple:
     """Fit a candidate with a linear member (module docstring).
 
     Returns (base, x, chi^2, n, cov, k): as :func:`smeha.diagnose.fit.fit_candidate`
@@ -175,8 +175,8 @@ def fit_linear(ev: Evaluator, train: Batch, cand: Candidate, base0, fit_candidat
     best = None
     rounds = ROUNDS if start is None else COMBINATION_ROUNDS
     for x0 in starts:
-        out = _alternate(ev, train, prob, base0, x0, fit_candidate, fit_scale, rounds)
-        out = _joint(prob, *out, fit_scale)
+        out = _alternate(ev, train, prob, base0, x0, fit_candidate, rounds)
+        out = _joint(prob, *out)
         if best is None or out[2] < best[2]:
             best = out
     base, w, chi2, other, lam = best
@@ -184,11 +184,11 @@ def fit_linear(ev: Evaluator, train: Batch, cand: Candidate, base0, fit_candidat
     jac = prob.jacobian(base, w, other, r0)
     free = w > 0
     k = effective_dof(jac, prob.penalty, lam, free) + other.size
-    cov = _covariance(ev, train, cand, prob, base, w, other, jac, lam, fit_scale)
+    cov = _covariance(ev, train, cand, prob, base, w, other, jac, lam)
     return base, prob.x_of(w, other), float(r0 @ r0), int(r0.size), cov, k
 
 
-def _alternate(ev, train, prob, base0, x0, fit_candidate, fit_scale, rounds=ROUNDS):
+def _alternate(ev, train, prob, base0, x0, fit_candidate, rounds=ROUNDS):
     """The alternation of the module docstring from ``x0``: (base, w, chi^2, other, lambda)."""
     w = np.maximum(x0[prob.lin_idx], 0.0)
     other = x0[prob.other_idx]
@@ -201,7 +201,7 @@ def _alternate(ev, train, prob, base0, x0, fit_candidate, fit_scale, rounds=ROUN
         # step 3: the nonlinear unknowns with the weights held
         held.w = w
         base, other, _, _, _ = fit_candidate(ev, train, held.unknowns(), base,
-                                             starts=[tuple(other)], fit_scale=fit_scale,
+                                             starts=[tuple(other)],
                                              residuals=held.residuals,
                                              max_evaluations=ROUND_EVALUATIONS)
         other = np.asarray(other, float)
@@ -229,7 +229,7 @@ def _alternate(ev, train, prob, base0, x0, fit_candidate, fit_scale, rounds=ROUN
     return base, w, float(r0 @ r0), other, lam
 
 
-def _joint(prob, base, w, chi2, other, lam, fit_scale, rounds=None):
+def _joint(prob, base, w, chi2, other, lam, rounds=None):
     """Step 4: damped Gauss-Newton steps on all unknowns together from the alternation's
     result, (base, w, chi^2, other, lambda) as :func:`_alternate`.
 
@@ -253,7 +253,7 @@ def _joint(prob, base, w, chi2, other, lam, fit_scale, rounds=None):
     from .fit import BASE_LOWER, BASE_UPPER, base_factor
 
     rounds = JOINT_ROUNDS if rounds is None else rounds
-    nb = 5 if fit_scale else 4
+    nb = len(BASE_LOWER)
     factor = base_factor(base)
     lo = np.concatenate((BASE_LOWER[:nb], np.asarray(prob.cand.lower, float)[prob.other_idx]))
     hi = np.concatenate((BASE_UPPER[:nb], np.asarray(prob.cand.upper, float)[prob.other_idx]))
@@ -400,12 +400,12 @@ def _choose_penalty(prob, jac, r0, w):
     return best[1]
 
 
-def _covariance(ev, train, cand, prob, base, w, other, jac_w, lam, fit_scale):
+def _covariance(ev, train, cand, prob, base, w, other, jac_w, lam):
     """(J^T J + P)^-1 of all unknowns (base scaled as in the fit, then x), the weights'
     block penalised as in the fit and the weights held at zero pinned."""
-    from .fit import base_factor
+    from .fit import BASE_LOWER, base_factor
 
-    nb = 5 if fit_scale else 4
+    nb = len(BASE_LOWER)
     factor = base_factor(base)
     r0 = prob.residuals(base, w, other)
     jz = _unknowns_jacobian(prob, base, w, other, factor[:nb], r0)

@@ -273,10 +273,9 @@ def cautions(d) -> list[str]:
     :data:`SCALE_SPAN` (:func:`scale_caution`)."""
     members = d.extended.candidate.members if d.extended.causes else ()
     out = list(dict.fromkeys(f"{label(m)}: {m.lookalike}" for m in members if m.lookalike))
-    without_b = len(d.runs_without_sense_voltage) == len(d.context["features"])
     worse = members and y_worse_caution(d.paper.heldout_misfit, d.extended.heldout_misfit,
-                                        sense=not without_b)
-    scale = scale_caution(d.extended.strain_scale, without_b)
+                                        sense=d.sense)
+    scale = scale_caution(d.extended.strain_scale, not d.sense)
     return out + ([worse] if worse else []) + ([scale] if scale else [])
 
 

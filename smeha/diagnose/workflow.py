@@ -75,6 +75,13 @@ class Diagnosis:
         return self.cause in CAUSES and self.extended.weak
 
     @property
+    def sense(self) -> bool:
+        """True when a training run has a sense voltage: the fit's B pins the strain
+        scale, and the decision's rules with B apply (:func:`diagnose`)."""
+        feats = self.context["features"]
+        return any(feats[name].has_b for name in self.training_runs)
+
+    @property
     def runs_without_sense_voltage(self) -> list:
         """Names of the runs without a sense voltage (B_m from the displacement)."""
         return [name for name, rf in self.context["features"].items() if not rf.has_b]
@@ -284,7 +291,7 @@ def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
     # within noise the answer is "none" whatever the candidates give (decision.select's
     # first rule): they are not fitted
     tried = () if within_noise(paper) else candidates()[1:]
-    jobs = [(cand, paper.base, None, True) for cand in tried if cand.cause in causes]
+    jobs = [(cand, paper.base, None) for cand in tried if cand.cause in causes]
     done = fit_all(ev, train, held, jobs, workers)
     # a candidate that cannot be fitted is left out, and said so
     fits = [f for f in done if isinstance(f, Fit)]

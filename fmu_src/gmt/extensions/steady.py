@@ -120,12 +120,10 @@ def paper_permeability(loss, frequency, field_amplitude, modulus, gain=1.0, adde
         a, converged = _secant(err, a, modulus, np.abs(g))
         # a root where eq 16's loss angle is large may be the second one by the cap
         # (_first_root): there, and where the secant did not converge, the least root
-        ratio = mu_imag_from_losses(loss, frequency, MU_0 * a * hm * loss_flux_factor, hm) / a
-        suspect = ~converged | (ratio > SECANT_TRUSTED)
+        suspect = ~converged | (-mu_of(a).imag / a > SECANT_TRUSTED)
         if np.any(suspect):
-            first, found = _first_root(
-                err, modulus / np.abs(g),
-                uncapped_limit(loss, frequency, hm, loss_flux_factor), modulus)
+            first, found = _first_root(err, modulus / np.abs(g), uncapped_limit(
+                loss, frequency, hm, loss_flux_factor), modulus)
             a = np.where(suspect & found, first, a)
     return mu_of(a)
 
