@@ -3,9 +3,9 @@
 :func:`gmt.extensions.steady.paper_permeability` solves |mu_p(a) + p| = |B_1| / (mu_0 H_m)
 for a = |mu_p|, mu'' from eq 16 and mu' from eq 20. Near the point where eq 16's mu''
 reaches |mu_p| (the cap) mu' collapses and a second, spurious root appears. The
-reference here is a brute-force scan of the same equation on a fine grid of a (no
-iteration), and the case is the one where the iteration used to stall by the cap:
-labsim's Preisach density with saturation, 200 Hz at 1 A (loss coefficients of that fit,
+reference here is a brute-force scan of the same equation, eq 16 written out in this
+file, on a fine grid of a (no iteration), and the case is the one where the iteration used
+to stall by the cap: labsim's Preisach density with saturation, 200 Hz at 1 A (loss coefficients of that fit,
 the adder p the density gave there).
 """
 import math
@@ -15,8 +15,7 @@ import pytest
 
 import gmt
 from gmt.constants import MU_0
-from gmt.extensions.steady import (LOSS_ANGLE_CAP, mu_imag_from_losses, paper_permeability,
-                                   uncapped_limit)
+from gmt.extensions.steady import LOSS_ANGLE_CAP, paper_permeability, uncapped_limit
 
 LOSS = (135421.88, 1.9105760, 4004.9444, 7.4208)
 FREQ = 200.0
@@ -25,8 +24,17 @@ MODULUS = 3.0549556
 P = 1.132 - 0.242j
 
 
+def _mu_imag(a, loss=LOSS, f=FREQ, hm=HM):
+    """mu'' of eq 16 written out here (not gmt's): pi f mu_0 mu'' H_m^2 = K_h B_m^n f +
+    K_e (B_m f)^2 + K_ex (B_m f)^1.5 at B_m = mu_0 |mu| H_m."""
+    kh, n, ke, kex = loss
+    bm = MU_0 * a * hm
+    return (kh * bm ** n * f + ke * (bm * f) ** 2 + kex * (bm * f) ** 1.5) / (
+        math.pi * f * MU_0 * hm * hm)
+
+
 def _mu(a):
-    mu_i = np.minimum(mu_imag_from_losses(LOSS, FREQ, MU_0 * a * HM, HM), LOSS_ANGLE_CAP * a)
+    mu_i = np.minimum(_mu_imag(a), LOSS_ANGLE_CAP * a)
     return np.sqrt(a * a - mu_i * mu_i) - 1j * mu_i
 
 
@@ -68,7 +76,7 @@ def test_no_root_below_the_cap():
 
 def test_uncapped_limit_is_where_mu_imag_reaches_the_cap():
     cap = float(uncapped_limit(LOSS, FREQ, HM))
-    ratio = mu_imag_from_losses(LOSS, FREQ, MU_0 * cap * HM, HM) / cap
+    ratio = _mu_imag(cap) / cap
     assert ratio == pytest.approx(LOSS_ANGLE_CAP, rel=1e-9)
     # without losses the cap is never reached
     assert math.isinf(float(uncapped_limit((0.0, 1.5, 0.0, 0.0), FREQ, HM)))
