@@ -154,3 +154,56 @@ def test_scale_caution_only_without_b_outside_the_span():
     assert scale_caution(0.5, True) is not None
     assert scale_caution(SCALE_SPAN[1], True) is None
     assert scale_caution(1.82, False) is None
+
+
+def test_a_drift_is_judged_in_the_drift_terms():
+    # the drift terms (drift of y's mean and fundamental within a run) are the thermal
+    # drift's evidence: no periodic form produces them. Beside a Preisach density that
+    # leaves 1e6 in y and 3e6 in B (labsim's rod 10 K warm, seed 100 at 800 a period, had
+    # 1.1e6 and 3.8e6), a drift that removes 5000 of the drift terms' 6000 passes there,
+    # though it removes 0.5 % of y's and the drift's together
+    hyst, drift = _cls("rate_independent_hysteresis", "preisach"), _cls("thermal_drift")
+    assert decision.evidence_channels(drift) == ("drift",)
+    assert decision.evidence_channels(hyst) == decision.channels(hyst)
+    before = fit((hyst,), y=1e6, b=3e6, drift=6000.0)
+    after = fit((hyst, drift), y=1e6 + 4000.0, b=3e6, drift=1000.0)
+    assert not decision.passes(before, after, decision.channels(drift))
+    assert decision.passes_in_own(before, after, ("drift",))
+    # its evidence is not y's harmonics: B's misfit does not make it wait
+    assert decision.downstream_identifiable(before, drift)
+    # y 4000 worse: within the margin at y's dispersion 1e4 (chi^2 per feature), 25 x 1e4
+    assert before.heldout_dispersion("y") == pytest.approx(1e4 + 1.0)
+    assert decision.no_channel_worse(before, after, drift)
+    assert not decision.no_channel_worse(before, fit((hyst, drift), y=1e6 + 3e5, b=3e6,
+                                                     drift=1000.0), drift)
+    # the paper's excess in the drift terms is the share's reference
+    paper = fit((), y=1e8, b=1e9, drift=6000.0)
+    assert decision.share(paper, before, after, drift) == pytest.approx(5000.0 / 6000.0)
+
+
+def test_a_drift_not_in_the_data_does_not_pass_on_ys_misfit():
+    # no drift: the drift terms within noise (excess 5 of 10 features). A drift form whose
+    # gain takes 500 of y's misfit and 8 of the drift terms' passes the rule over all
+    # channels, not in its own: the drop there must exceed MIN_BIC_DROP plus its 4
+    # unknowns' charge, 4 ln n
+    hyst, drift = _cls("rate_independent_hysteresis", "preisach"), _cls("thermal_drift")
+    before = fit((hyst,), y=1e6, b=3e6, drift=5.0)
+    after = fit((hyst, drift), y=1e6 - 500.0, b=3e6, drift=-3.0)
+    assert before.score - after.score > decision.MIN_BIC_DROP
+    assert not decision.passes_in_own(before, after, ("drift",))
+
+
+def test_a_combination_is_judged_against_the_model_refitted_by_the_same_steps():
+    # decision._settled: the model refitted from its own values replaces it as the
+    # reference where it fits the training runs better; a failed refit (its reason, a
+    # str) or a worse one leaves it
+    hyst = _cls("rate_independent_hysteresis", "preisach")
+    current = fit((hyst,), y=9.1e5, b=3e6, train=3.25e6)
+    again = fit((hyst,), y=1.14e6, b=3e6, train=2.55e6)
+    assert decision._settled(current, again) is again
+    assert decision._settled(current, "no start of the fit gave a finite chi^2") is current
+    assert decision._settled(current, fit((hyst,), train=3.3e6)) is current
+    # the one kept at the end is the better-ranked (training and held-out together)
+    assert decision._better(current, again) is again
+    # a refit that gains 5e4 in training and loses 2.9e5 held out is not
+    assert decision._better(current, fit((hyst,), y=1.2e6, b=3e6, train=3.2e6)) is current

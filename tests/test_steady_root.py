@@ -92,3 +92,40 @@ def test_arrays_of_runs():
     mu = paper_permeability(loss, f, hm, modulus, adder=lambda m1: p + 0.0 * m1)
     assert np.allclose(np.abs(mu + p), modulus, rtol=1e-12)
     assert abs(mu[0]) == pytest.approx(_roots_by_scan(P)[0], abs=5e-5)
+
+
+def _closest_by_scan(p):
+    """The a of the largest |mu(a) + p| - modulus on 2e5 points of a below the cap."""
+    a = np.linspace(1e-4, float(uncapped_limit(LOSS, FREQ, HM)), 200_001)
+    return a[np.argmax(np.abs(_mu(a) + p) - MODULUS)]
+
+
+# p turned 30 degrees and scaled 1.40-1.50 times the case's: |mu + p| - modulus rises to a
+# maximum below the cap that crosses zero near 1.465 (a tangency), so the first root
+# vanishes there and the next lies on the capped branch, |mu| ~ modulus
+TANGENCY = [1.40 + 0.005 * k for k in range(21)]
+
+
+@pytest.mark.parametrize("t", TANGENCY)
+def test_closest_approach_where_the_first_root_vanishes(t):
+    p = t * P * np.exp(1j * math.radians(30.0))
+    mu = paper_permeability(LOSS, FREQ, HM, MODULUS, adder=lambda m1: p + 0.0 * m1)
+    roots = _roots_by_scan(p)
+    below = roots[roots < float(uncapped_limit(LOSS, FREQ, HM))]
+    # tolerance: the scan's grid step (1.3e-5 in a) and, at the maximum, the flatness of
+    # the curve there (golden-section to 1e-7 of two scan steps)
+    expected = below[0] if below.size else _closest_by_scan(p)
+    assert abs(mu) == pytest.approx(expected, abs=5e-5)
+
+
+def test_the_choice_is_continuous_through_the_tangency():
+    # on a fine step of p through the tangency |mu| moves by no more than the square root
+    # law of a tangency allows (0.030 at most per 0.001 of the scale; bound 0.05), where the capped
+    # branch's root lay 0.9 away
+    mus = []
+    for t in np.linspace(1.455, 1.475, 21):
+        p = t * P * np.exp(1j * math.radians(30.0))
+        mus.append(abs(paper_permeability(LOSS, FREQ, HM, MODULUS,
+                                          adder=lambda m1, p=p: p + 0.0 * m1)))
+    assert max(np.abs(np.diff(mus))) < 0.05
+    assert _roots_by_scan(1.455 * P * np.exp(1j * math.radians(30.0)))[-1] - max(mus) > 0.5

@@ -112,6 +112,13 @@ class Fit:
         n = dict(zip(("y", "B", "drift"), self.heldout_n_parts))
         return sum(chi[c] - n[c] for c in channels)
 
+    def heldout_dispersion(self, channel) -> float:
+        """chi^2 per held-out feature of ``channel`` ("y", "B", "drift"): about 1 where the
+        model is within noise, the square of its misfit over the noise where its form is
+        off (0 for a channel without features)."""
+        n = dict(zip(("y", "B", "drift"), self.heldout_n_parts))[channel]
+        return (self.heldout_excess_in((channel,)) + n) / n if n else 0.0
+
     @property
     def loss(self):
         """(K_h, n, K_e, K_ex) of eq 16."""

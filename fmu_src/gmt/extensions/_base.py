@@ -222,6 +222,10 @@ class Extension:
         One of :data:`STAGES`.
     signals : str
         What it changes: "B and y" or "y only" (for the evidence text).
+    evidence : str
+        The held-out channel that tells it apart from the rest of the model: "" for the
+        channels of its ``signals``; "drift" for the drift terms of y, which no periodic
+        form (another cause's, or the paper's misfit) can produce.
     lookalike : str
         What else, outside the candidates, leaves the same signature in the
         data (for the report's caution), "" when nothing known does.
@@ -241,6 +245,7 @@ class Extension:
     form = ""
     stage = ""
     signals = ""
+    evidence = ""
     lookalike = ""
     parameters: tuple = ()
     fit = FitSpec()

@@ -111,6 +111,7 @@ class DriftForm(Extension):
     cause = "thermal_drift"
     stage = "strain"
     signals = "y only"
+    evidence = "drift"
     fit = FitSpec(("offset_rate_um_per_A2s", "gain_rate_pct_per_A2s", "log10_time_constant_s",
                    "I_s2_A2"),
                   ((0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 2.0, 0.0), (0.0, 0.0, 1.0, 0.3)),
