@@ -129,3 +129,19 @@ def test_the_choice_is_continuous_through_the_tangency():
                                           adder=lambda m1, p=p: p + 0.0 * m1)))
     assert max(np.abs(np.diff(mus))) < 0.05
     assert _roots_by_scan(1.455 * P * np.exp(1j * math.radians(30.0)))[-1] - max(mus) > 0.5
+
+
+def test_the_closest_approach_is_smooth_for_difference_quotients():
+    # a fit differentiates by steps ~1.5e-8 of its unknowns: |mu| at the closest approach
+    # must move smoothly at that scale. A golden-section end point alone moved in steps of
+    # its tolerance (quotients 0 or -1.37 here); the parabola's vertex gives -0.3139 within
+    # 2e-3 of each other (rounding of err at h = 1e-4 a)
+    quotients = []
+    for k in range(6):
+        t = 1.42 + k * 1.5e-8
+        p = t * P * np.exp(1j * math.radians(30.0))
+        quotients.append(abs(paper_permeability(LOSS, FREQ, HM, MODULUS,
+                                                adder=lambda m1, p=p: p + 0.0 * m1)))
+    q = np.diff(quotients) / 1.5e-8
+    assert np.all(q < 0.0)
+    assert np.ptp(q) < 2e-3 * np.max(np.abs(q))
