@@ -141,10 +141,8 @@ ROOT_SCAN = 12
 
 
 def _first_root(err, a0, a_cap, modulus):
-    """(a, found): the least a in (0, min(a_cap, 4 a0)] with err(a) = 0, per run, or where
-    err stays negative and has a maximum inside that range, the a of that maximum (the
-    closest approach); ``found`` says which runs got one. ``a0`` the closed form
-    modulus / |g| (arrays of runs).
+    """(a, found): the least a in (0, min(a_cap, 4 a0)] with err(a) = 0, per run, and
+    whether there is one; ``a0`` the closed form modulus / |g| (arrays of runs).
 
     |mu_p g + p| grows with a = |mu_p| while eq 16's mu'' is well below a, but near the
     cap (:data:`LOSS_ANGLE_CAP`) mu' = sqrt(a^2 - mu''^2) collapses and |mu_p g + p| can
@@ -154,21 +152,12 @@ def _first_root(err, a0, a_cap, modulus):
     fundamental by 11 um, and the combination's fit could not descend). So the first sign
     change on :data:`ROOT_SCAN` points is bracketed and refined by regula falsi with the
     Illinois modification (Dowell & Jarratt, BIT 11 (1971) 168-174).
-
-    Where the rise of |mu_p g + p| ends short of the modulus (the data ask the paper's
-    part for more loss than eqs 16 and 20 can give beside p), the first root has vanished
-    at a tangency and the next lies on the capped branch, far off: the closest approach
-    keeps |mu_p| continuous through that tangency (labsim's Preisach density with eddy
-    diffusion at 200 Hz and 1 A: a field-stage eddy form at its neutral point moved y of
-    that run by 7.3 um through the jump). Where err rises to the top of the range the root
-    lies above it and none is returned.
     """
     top = np.minimum(a_cap, 4.0 * a0)
     lo = np.full_like(a0, 1e-9 * np.max(a0))
     e_lo = err(lo)
     hi = np.full_like(a0, np.nan)
     e_hi = np.full_like(a0, np.nan)
-    best, e_best = lo, e_lo  # the scan's highest point, for the closest approach
     for k in range(1, ROOT_SCAN + 1):
         a = top * k / ROOT_SCAN
         e = err(a)
@@ -177,26 +166,12 @@ def _first_root(err, a0, a_cap, modulus):
         hi, e_hi = np.where(found, a, hi), np.where(found, e, e_hi)
         step_up = open_ & ~found & (e < 0.0)
         lo, e_lo = np.where(step_up, a, lo), np.where(step_up, e, e_lo)
-        higher = e > e_best
-        best, e_best = np.where(higher, a, best), np.where(higher, e, e_best)
     bracketed = ~np.isnan(hi)
-    # err negative on the whole scan, its highest point inside the range: a maximum
-    peak = ~bracketed & (e_lo < 0.0) & (best < top) & (best > 0.5 * top / ROOT_SCAN)
-    if not np.any(bracketed | peak):
+    if not np.any(bracketed):
         return a0, bracketed
-    a = _refine_root(err, lo, hi, e_lo, e_hi, bracketed, modulus) if np.any(bracketed) else a0
-    if np.any(peak):
-        step = top / ROOT_SCAN
-        a = np.where(peak, _golden_max(err, best - step, best + step), a)
-    return a, bracketed | peak
-
-
-def _refine_root(err, lo, hi, e_lo, e_hi, bracketed, modulus):
-    """The root of err in the brackets [lo, hi] (runs where ``bracketed``) by regula falsi
-    with the Illinois modification; elsewhere lo."""
     hi = np.where(bracketed, hi, lo)
     e_hi = np.where(bracketed, e_hi, e_lo)
-    side = np.zeros(np.shape(lo))
+    side = np.zeros(np.shape(a0))
     a = lo
     for _ in range(60):
         a = np.where(e_hi != e_lo, (lo * e_hi - hi * e_lo) / np.where(e_hi != e_lo,
@@ -211,42 +186,7 @@ def _refine_root(err, lo, hi, e_lo, e_hi, bracketed, modulus):
         lo, e_lo = np.where(up, a, lo), np.where(up, e, e_lo)
         hi, e_hi = np.where(up, hi, a), np.where(up, e_hi, e)
         side = np.where(up, -1.0, 1.0)
-    return a
-
-
-#: Golden-section steps for the closest approach (:func:`_golden_max`): the interval of two
-#: scan steps shrinks by 0.618 each, to 1e-3 of it; then :data:`VERTEX_STEPS` parabolic
-#: steps.
-GOLDEN_STEPS = 15
-#: Parabolic (Newton) steps on the maximum after the golden section, on three points 1e-4
-#: of a apart: the vertex moves smoothly with the parameters, as the fit's difference
-#: quotients need (a golden-section end point alone moves in steps of its tolerance).
-VERTEX_STEPS = 2
-
-
-def _golden_max(err, lo, hi):
-    """The a of err's maximum in [lo, hi], arrays of runs, err unimodal there: golden-section
-    search (Kiefer, Proc. AMS 4 (1953) 502-506) to the vertex's neighbourhood, then the
-    vertex of the parabola through three points, twice."""
-    r = 0.5 * (math.sqrt(5.0) - 1.0)
-    c, d = hi - r * (hi - lo), lo + r * (hi - lo)
-    e_c, e_d = err(c), err(d)
-    for _ in range(GOLDEN_STEPS):
-        left = e_c > e_d  # the maximum lies in [lo, d]: d becomes the upper inner point
-        lo, hi = np.where(left, lo, c), np.where(left, d, hi)
-        new = np.where(left, hi - r * (hi - lo), lo + r * (hi - lo))
-        e_new = err(new)
-        c, e_c, d, e_d = (np.where(left, new, d), np.where(left, e_new, e_d),
-                          np.where(left, c, new), np.where(left, e_c, e_new))
-    a = 0.5 * (lo + hi)
-    for _ in range(VERTEX_STEPS):
-        h = 1e-4 * a
-        e_m, e_0, e_p = err(a - h), err(a), err(a + h)
-        curvature = e_p - 2.0 * e_0 + e_m
-        step = np.where(curvature < 0.0, 0.5 * h * (e_p - e_m) / np.where(
-            curvature < 0.0, curvature, -1.0), 0.0)
-        a = np.clip(a - step, lo, hi)
-    return a
+    return a, bracketed
 
 
 def _secant(err, a, modulus, gain_modulus):
