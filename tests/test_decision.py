@@ -207,3 +207,21 @@ def test_a_combination_is_judged_against_the_model_refitted_by_the_same_steps():
     assert decision._better(current, again) is again
     # a refit that gains 5e4 in training and loses 2.9e5 held out is not
     assert decision._better(current, fit((hyst,), y=1.2e6, b=3e6, train=3.2e6)) is current
+
+
+def test_a_first_drift_is_judged_in_the_drift_terms_when_nothing_passes_over_all():
+    # decision._evident_first: a drift beside an effect outside the candidates (a joint's
+    # backlash that leaves 2e5 in y) removes 90 % of the drift terms' excess and 0.1 % of
+    # all: it passes in the drift terms, as a later drift would, where the drift terms go
+    # with time; not where they do not, nor when it is weak
+    drift = _cls("thermal_drift")
+    paper = fit((), y=2e5, b=1e3, drift=2000.0)
+    named = fit((drift,), y=2e5 - 100.0, b=1e3, drift=200.0)
+    assert not decision.passes(paper, named)
+    assert decision._evident_first(paper, [named], timelike=True) is named
+    assert decision._evident_first(paper, [named], timelike=False) is None
+    weak = dataclasses.replace(named, at_bounds=("thermal_drift.log10_time_constant_s",))
+    assert decision._evident_first(paper, [weak], timelike=True) is None
+    # a cause without an evidence channel is not judged this way
+    delay = fit((_cls("transport_delay"),), y=2e5 - 5e3, b=1e3, drift=2000.0)
+    assert decision._evident_first(paper, [delay], timelike=True) is None
