@@ -287,8 +287,9 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         # Preisach density with a rod 10 K warm, seed 100 at 800 a period) and the drift,
         # which removed 83 % of the drift terms' excess, was never tried
         evident = [f for f in firm if _added(current, f).evidence]
-        if evident and all(leader(evident) is not f for f in tries):
-            tries.append(leader(evident))
+        evident_leader = leader(evident) if evident else None
+        if evident_leader is not None and all(evident_leader is not f for f in tries):
+            tries.append(evident_leader)
         nxt = next((f for f in tries
                     if admitted(paper, reference, f, other_forms, sense, timelike)), None)
         if nxt is None:

@@ -105,19 +105,22 @@ class Fit:
     #: held-out features of y, of B and of the drift terms
     heldout_n_parts: tuple = (0, 0, 0)
 
+    def _heldout_part(self, channel) -> tuple:
+        """(chi^2, number of features) of the held-out ``channel`` ("y", "B", "drift")."""
+        chi = {"y": self.heldout_chi2_y, "B": self.heldout_chi2_b,
+               "drift": self.heldout_chi2_drift}[channel]
+        return chi, dict(zip(("y", "B", "drift"), self.heldout_n_parts))[channel]
+
     def heldout_excess_in(self, channels) -> float:
         """chi^2 - n over the held-out features of ``channels`` ("y", "B", "drift")."""
-        chi = {"y": self.heldout_chi2_y, "B": self.heldout_chi2_b,
-               "drift": self.heldout_chi2_drift}
-        n = dict(zip(("y", "B", "drift"), self.heldout_n_parts))
-        return sum(chi[c] - n[c] for c in channels)
+        return sum(chi - n for chi, n in map(self._heldout_part, channels))
 
     def heldout_dispersion(self, channel) -> float:
         """chi^2 per held-out feature of ``channel`` ("y", "B", "drift"): about 1 where the
         model is within noise, the square of its misfit over the noise where its form is
         off (0 for a channel without features)."""
-        n = dict(zip(("y", "B", "drift"), self.heldout_n_parts))[channel]
-        return (self.heldout_excess_in((channel,)) + n) / n if n else 0.0
+        chi, n = self._heldout_part(channel)
+        return chi / n if n else 0.0
 
     @property
     def loss(self):
