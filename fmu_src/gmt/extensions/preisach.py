@@ -190,14 +190,32 @@ def node_harmonics(coercive, interaction, field_amplitude, harmonics=PERIODIC_HA
 
 @functools.lru_cache(maxsize=32)
 def _runs_harmonics(coercive, interaction, field_amplitudes):
-    """(runs, nodes, K + 1) node harmonics of several runs (cached: the fit asks often)."""
-    return np.stack([node_harmonics(coercive, interaction, hm) for hm in field_amplitudes])
+    """(amplitudes, nodes, 2 (K + 1)) node harmonics at each of several field amplitudes,
+    real and imaginary parts interleaved (a real matrix, so that real weights multiply it
+    by a real product; cached: the fit asks often)."""
+    return np.stack([node_harmonics(coercive, interaction, hm).view(float)
+                     for hm in field_amplitudes])
 
 
 @functools.lru_cache(maxsize=8)
 def _synthesis(theta):
-    """e^{j k theta}, k = 1..K, (K, theta)."""
-    return np.exp(1j * np.outer(np.arange(1, PERIODIC_HARMONICS + 1), np.asarray(theta)))
+    """(cos k theta, sin k theta), k = 1..K, each (K, theta): Re(c e^{j k theta}) is
+    Re(c) cos k theta - Im(c) sin k theta."""
+    phase = np.outer(np.arange(1, PERIODIC_HARMONICS + 1), np.asarray(theta))
+    return np.cos(phase), np.sin(phase)
+
+
+def _weighted_harmonics(w, harmonics, which):
+    """Harmonics (rows, K + 1) of the densities ``w`` (one row of node weights per row, or
+    one density for all), row r at the amplitude ``which[r]`` of ``harmonics``
+    (:func:`_runs_harmonics`): one real product per amplitude, not one per row (the fit's
+    stacked Jacobian repeats each run's amplitude once per weight)."""
+    out = np.empty((which.size, harmonics.shape[-1]))
+    for u in range(harmonics.shape[0]):
+        rows = which == u
+        if np.any(rows):
+            out[rows] = (w if w.ndim == 1 else w[rows]) @ harmonics[u]
+    return out.view(complex)
 
 
 def synthesise(coefficients, theta):
@@ -325,10 +343,11 @@ class PreisachForm(MagnetizationStage, Extension):
         hms = np.atleast_1d(np.asarray(field_amplitudes, float))
         g = np.broadcast_to(cls.rate_factor(values, frequencies), hms.shape)
         # weights of one density, or one row per run (the fit's stacked Jacobian)
-        coeff = g[:, None] * np.einsum("n,rnk->rk" if w.ndim == 1 else "rn,rnk->rk", w,
-                                       _runs_harmonics(hc, hu, tuple(hms)))
-        return np.real(coeff[:, 1:] @ _synthesis(tuple(np.asarray(theta, float)))) \
-            + 0.5 * np.real(coeff[:, :1])
+        amplitudes, which = np.unique(hms, return_inverse=True)
+        coeff = g[:, None] * _weighted_harmonics(
+            w, _runs_harmonics(hc, hu, tuple(amplitudes)), which.ravel())
+        cos, sin = _synthesis(tuple(np.asarray(theta, float)))
+        return coeff[:, 1:].real @ cos - coeff[:, 1:].imag @ sin + 0.5 * coeff[:, :1].real
 
     @classmethod
     def steady_output(cls, values, steady, magnetization, theta, memo=None):
