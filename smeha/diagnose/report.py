@@ -9,7 +9,7 @@ from gmt import extensions as ext
 
 from .candidates import CAUSES, FORMS, Batch, Evaluator, label
 from . import remainder
-from .decision import (MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, channels, explained,
+from .decision import (MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, channels, explained, passes,
                        leader, within_noise)
 from .workflow import CONFUSABLE_WITHOUT_B
 
@@ -339,6 +339,10 @@ def _named_lines(d) -> list[str]:
                f"{100 * explained(p, first):.3g} % of the paper's excess chi^2 removed; "
                f"held-out misfit {p.heldout_misfit * 1e6:.4g} -> "
                f"{first.heldout_misfit * 1e6:.4g} um")
+    if len(e.causes) > 1 and not passes(p, first) and not first.candidate.members[0].evidence:
+        out.append(f"named together: neither {d.causes[0]} nor {d.causes[1]} alone removes "
+                   f"{100 * MIN_EXPLAINED:g} % of the paper's excess; the two fitted together "
+                   "do, and each passes the rule of a later cause against the other alone")
     if len(e.causes) > 1:
         out.append(f"forward selection: {_contribution_label(d)} together lower the "
                    f"held-out BIC by "
