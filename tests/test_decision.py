@@ -229,3 +229,22 @@ def test_a_first_drift_is_judged_in_the_drift_terms_when_nothing_passes_over_all
     # a cause without an evidence channel is not judged this way
     delay = fit((_cls("transport_delay"),), y=2e5 - 5e3, b=1e3, drift=2000.0)
     assert decision._evident_first(paper, [delay], timelike=True) is None
+
+
+def test_lookalikes_the_data_do_not_separate_are_told_apart_by_parsimony():
+    # a delay (1 unknown) and the one-mass mechanics (3), both linear filters on y (the
+    # same lookalike). Far outside noise (y's held-out chi^2 per feature ~38) a score 94
+    # better is within MIN_BIC_DROP x the dispersion (quasi-likelihood, McCullagh & Nelder
+    # 1989, sec. 9.2): the simpler is taken. Within noise the same 94 separates them
+    one_mass = _cls("mechanical_resonance", "one_dof")
+    delay = _cls("transport_delay")
+    assert one_mass.lookalike and one_mass.lookalike == delay.lookalike
+    far = fit((one_mass,), y=4000.0)
+    far_delay = fit((delay,), y=4094.0)
+    assert decision.simplest_lookalike(far, [far, far_delay]) is far_delay
+    near = fit((one_mass,), y=5.0)
+    near_delay = fit((delay,), y=99.0)
+    assert decision.simplest_lookalike(near, [near, near_delay]) is near
+    # a cause without a lookalike keeps its place
+    sat = fit((_cls("magnetization_saturation"),), y=4000.0)
+    assert decision.simplest_lookalike(sat, [sat, far_delay]) is sat
