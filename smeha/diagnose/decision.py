@@ -6,7 +6,9 @@
 * otherwise **forward selection** (:func:`select`): the best single
   candidate (every form of every cause, ranked over all the data by
   :attr:`smeha.diagnose.fit.Fit.total_score`, unless another predicts the held-out
-  runs better by more than the rule's margin: :func:`leader`) is named when it passes the rule
+  runs better by more than the rule's margin: :func:`leader`; a lookalike with fewer
+  unknowns the data do not separate from it takes its place: :func:`simplest_lookalike`)
+  is named when it passes the rule
   against the paper's model on the held-out runs (:func:`passes`): it lowers
   the held-out score by more than :data:`MIN_BIC_DROP` **and** removes at
   least :data:`MIN_EXPLAINED` of the paper's held-out excess chi^2 (chi^2 - n).
@@ -33,7 +35,10 @@
   and so on, up to :data:`MAX_CAUSES` causes,
   while the model is still outside noise on the held-out runs; after each added cause, an exchange step
   (:func:`_swap`) may replace a member by another cause that ranks better with the rest;
-* ``unexplained`` when even the best single candidate fails the rule
+* where no single candidate passes the rule, a drift that passes it in the drift terms
+  (:func:`_evident_first`), else two causes named at once (:func:`_pair_first`: a pair
+  that passes the rule, each of its causes admitted against the other alone);
+* ``unexplained`` when none of these does
   (structure beyond noise that no candidate removes).
 
 The causes are reported in the order they were added, which is the order of
@@ -56,7 +61,8 @@ from .fit import Fit, fit_all
 
 __all__ = ["WITHIN_NOISE", "MIN_BIC_DROP", "MIN_EXPLAINED", "MAX_CAUSES", "MIN_SHARE",
            "MIN_SHARE_WITH_B",
-           "SWAP_CANDIDATES", "FORMS_TRIED", "channels", "evidence_channels", "share", "significant",
+           "SWAP_CANDIDATES", "FORMS_TRIED", "channels", "evidence_channels", "share",
+           "significant",
            "explained", "passes", "passes_in_own",
            "downstream_identifiable", "firm_in", "no_channel_worse", "beyond_forms", "admitted",
            "within_noise", "leader", "simplest_lookalike", "select", "also_consistent"]
@@ -356,11 +362,10 @@ def _pair_first(ev, train, held, paper: Fit, singles, sense: bool, timelike: boo
     on different channels can each leave more than half of the paper's excess to the
     other (labsim's eddy diffusion with a one-mass resonance, seed 1 at 800 a period: the
     resonance removed 31 % of the excess, in y, and made B worse; the eddy form took B's
-    and left y's). Here the best-ranked firm form of each of the :data:`SWAP_CANDIDATES`
-    best-ranked causes is paired with each other (fitted together from their own values),
-    and a pair is named when it passes the rule against the paper over all channels and
-    each of its causes passes the rules of a later cause (:func:`admitted`) against the
-    other alone: neither is there only to make up for the other's form. Each cause comes
+    and left y's). Here the :data:`SWAP_CANDIDATES` best-ranked causes are paired with
+    each other (fitted together from their own values), and a pair is named when it
+    passes the rule against the paper over all channels and each of its causes passes the
+    rules of a later cause (:func:`admitted`) against the other alone: neither is there only to make up for the other's form. Each cause comes
     in its :data:`FORMS_TRIED` best-ranked forms, weak ones too (a form that is weak alone,
     making up for the other effect, may be firm beside it): alone, the resonance's
     one-mass form ranked before the two-mass one on labsim's two-mass mechanics, which
