@@ -33,7 +33,8 @@
   combinations whose added cause is firm, and when that one is not admitted the leader of
   all, if weak, may be, as a weak finding; without one a weak leader ends the selection);
   and so on, up to :data:`MAX_CAUSES` causes,
-  while the model is still outside noise on the held-out runs; after each added cause, an exchange step
+  while the model is still outside noise on the held-out runs; after each added cause, an
+  exchange step
   (:func:`_swap`) may replace a member by another cause that ranks better with the rest;
 * where no single candidate passes the rule, a drift that passes it in the drift terms
   (:func:`_evident_first`), else two causes named at once (:func:`_pair_first`: a pair
@@ -365,18 +366,14 @@ def _pair_first(ev, train, held, paper: Fit, singles, sense: bool, timelike: boo
     and left y's). Here the :data:`SWAP_CANDIDATES` best-ranked causes are paired with
     each other (fitted together from their own values), and a pair is named when it
     passes the rule against the paper over all channels and each of its causes passes the
-    rules of a later cause (:func:`admitted`) against the other alone: neither is there only to make up for the other's form. Each cause comes
-    in its :data:`FORMS_TRIED` best-ranked forms, weak ones too (a form that is weak alone,
-    making up for the other effect, may be firm beside it): alone, the resonance's
-    one-mass form ranked before the two-mass one on labsim's two-mass mechanics, which
-    sat on a bound; beside the eddy form the one-mass form took its stiffness ratio to a
-    bound."""
-    forms = {}
-    for f in sorted(singles, key=lambda f: f.total_score):
-        forms.setdefault(f.cause, [])
-        if len(forms[f.cause]) < FORMS_TRIED:
-            forms[f.cause].append(f)
-    causes = sorted(forms, key=lambda c: forms[c][0].total_score)[:SWAP_CANDIDATES]
+    rules of a later cause (:func:`admitted`) against the other alone: neither is there
+    only to make up for the other's form. Each cause comes in its :data:`FORMS_TRIED`
+    best-ranked forms, weak ones too (a form that is weak alone, making up for the other
+    effect, may be firm beside it): alone, the resonance's one-mass form ranked before the
+    two-mass one on labsim's two-mass mechanics, which sat on a bound; beside the eddy
+    form the one-mass form took its stiffness ratio to a bound."""
+    forms = _ranked_forms(singles, FORMS_TRIED)
+    causes = list(forms)[:SWAP_CANDIDATES]
     pairs = [(a, (), b) for i, c in enumerate(causes) for d in causes[i + 1:]
              for a in forms[c] for b in forms[d]]
     tried = _joined(ev, train, held, pairs, workers)
@@ -397,6 +394,17 @@ def _pair_first(ev, train, held, paper: Fit, singles, sense: bool, timelike: boo
         return None, [], tried
     fit, members = min(named, key=lambda t: t[0].total_score)
     return fit, [m.cause for m in members], tried
+
+
+def _ranked_forms(fits, count) -> dict:
+    """{cause: its best-ranked ``count`` fits in ``fits``, least total_score first}, the
+    causes in the order of their best fit's rank."""
+    out = {}
+    for f in sorted(fits, key=lambda f: f.total_score):
+        forms = out.setdefault(f.cause, [])
+        if len(forms) < count:
+            forms.append(f)
+    return out
 
 
 def _added(current: Fit, new: Fit):
@@ -437,10 +445,7 @@ def simplest_lookalike(best: Fit, fits) -> Fit:
     member = best.candidate.members[0] if len(best.candidate.members) == 1 else None
     if member is None or not member.lookalike:
         return best
-    chans = channels(member)
-    n = sum(dict(zip(("y", "B", "drift"), best.heldout_n_parts))[c] for c in chans)
-    dispersion = (best.heldout_excess_in(chans) + n) / max(n, 1)
-    margin = MIN_BIC_DROP * max(1.0, dispersion)
+    margin = MIN_BIC_DROP * max(1.0, best.heldout_dispersion_in(channels(member)))
     alike = [f for f in fits if len(f.candidate.members) == 1 and not f.weak
              and f.candidate.members[0].lookalike == member.lookalike
              and f.score - best.score <= margin]
@@ -512,7 +517,8 @@ def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, sens
     exchange is kept when it ranks better than the model it replaces and predicts the
     held-out runs better too, and the cause that comes in has none of its unknowns on a
     bound (without a sense voltage the Preisach density, its rate factor on its lower
-    bound, otherwise took the place of saturation on smeha.synthetic's saturated rod). The first cause is
+    bound, otherwise took the place of saturation on smeha.synthetic's saturated rod). The
+    first cause is
     chosen alone, before any other is there to share the misfit, and a cause that only
     imitates the first's share (a re-identified mechanics for an eddy lag plus a delay) is
     otherwise kept for good."""
@@ -522,20 +528,13 @@ def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, sens
     # single explains the data on its own (passes the rule against the paper), the best
     # SWAP_CANDIDATES of them
     inside = set(current.causes)
-    best = {}
-    for s in singles:
-        if s.cause not in inside and passes(paper, s) and (
-                s.cause not in best or s.total_score < best[s.cause].total_score):
-            best[s.cause] = s
-    useful = sorted(best.values(), key=lambda f: f.total_score)[:SWAP_CANDIDATES]
+    useful = [f[0] for f in _ranked_forms(
+        [s for s in singles if s.cause not in inside and passes(paper, s)], 1).values()]
+    useful = useful[:SWAP_CANDIDATES]
     # and each member's best-ranked other forms (FORMS_TRIED in all with its own)
-    forms = {}
-    for s in sorted(singles, key=lambda f: f.total_score):
-        member = s.candidate.members[0]
-        if member.cause in inside and member not in current.candidate.members:
-            forms.setdefault(member.cause, [])
-            if len(forms[member.cause]) < FORMS_TRIED - 1:
-                forms[member.cause].append(s)
+    forms = _ranked_forms([s for s in singles if s.cause in inside
+                           and s.candidate.members[0] not in current.candidate.members],
+                          FORMS_TRIED - 1)
     joins = []
     for out in current.candidate.members:
         keep = tuple(m for m in current.candidate.members if m is not out)

@@ -119,8 +119,14 @@ class Fit:
         """chi^2 per held-out feature of ``channel`` ("y", "B", "drift"): about 1 where the
         model is within noise, the square of its misfit over the noise where its form is
         off (0 for a channel without features)."""
-        chi, n = self._heldout_part(channel)
-        return chi / n if n else 0.0
+        return self.heldout_dispersion_in((channel,))
+
+    def heldout_dispersion_in(self, channels) -> float:
+        """chi^2 per held-out feature over ``channels`` together (as
+        :meth:`heldout_dispersion`; 0 where they have no features)."""
+        parts = [self._heldout_part(c) for c in channels]
+        n = sum(n for _, n in parts)
+        return sum(chi for chi, _ in parts) / n if n else 0.0
 
     @property
     def loss(self):
