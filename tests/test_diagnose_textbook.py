@@ -106,3 +106,16 @@ def test_a_cause_in_its_other_form_takes_no_extra_cause():
     d = _eddy_and_resonance(seed=4)
     assert set(d.causes) == {"eddy_current_diffusion", "mechanical_resonance"}, \
         "\n".join(d.evidence)
+
+
+@pytest.mark.integration
+def test_saturation_and_drift_end_in_their_joint_steps():
+    # the detection study's case (seed 5, 800 a period): a Preisach density combination's
+    # joint step, its bounded subproblem conditioned at 1.5e15 by a node whose relays barely
+    # switch, looped for good in scipy's trf line search (scipy issue #18908; the study was
+    # stopped after 13 min). Scaled by the damped column norms it ends (smeha.diagnose.
+    # linearfit._joint) and the two causes labsim hid are named
+    d = diagnose.diagnose(runs({"magnetization_saturation": 1.0, "thermal_drift": 1.0},
+                               seed=5, noise_um=0.05, samples_per_cycle=800))
+    assert set(d.causes) == {"magnetization_saturation", "thermal_drift"}, \
+        "\n".join(d.evidence)
