@@ -185,6 +185,25 @@ def test_forms_reduce_to_the_paper_model(form, extra):
     assert np.allclose(b1, b0, rtol=0, atol=1e-6 * abs(b0[0]))
 
 
+@pytest.mark.parametrize("cls", ext.EXTENSIONS, ids=lambda c: f"{c.cause}-{c.form}")
+def test_neutral_values_leave_the_paper_model_as_nearly_as_the_bounds_allow(cls):
+    # FitSpec.neutral: where the effect vanishes within its bounds (a refit starts there,
+    # smeha.diagnose.decision._rescued). The largest residue is a first-order lag's phase,
+    # omega tau = 2 pi 200 Hz x 1 us = 1.26e-3 at the lag form's least time constant; the
+    # diffusion forms' 0.1 us, a joint at 31.6 kHz ((200/31600)^2 = 4e-5) and a saturation
+    # magnetisation 1000 times M_b stay below it; the rest vanish exactly
+    y0, b0 = steady_state(P, 200.0, 1.0, 0.06, LOSS)
+    y1, b1 = steady_state(P, 200.0, 1.0, 0.06, LOSS,
+                          ((cls, cls.from_fit(cls.fit.neutral, CONTEXT)),))
+    assert np.max(np.abs(y1 - y0)) <= 1.3e-3 * abs(y0[0])
+    assert np.max(np.abs(b1 - b0)) <= 1.3e-3 * abs(b0[0])
+
+
+def test_a_neutral_start_outside_the_bounds_is_refused():
+    with pytest.raises(gmt.ParameterError, match="neutral"):
+        ext.FitSpec(("tau_ms",), ((1.0,),), (0.0,), (20.0,), neutral=(-1.0,))
+
+
 @pytest.mark.parametrize("geometry", GEOMETRIES)
 def test_diffusion_form_keeps_the_measured_flux_density(geometry):
     _, b = _steady(geometry, (-2.5,))

@@ -110,13 +110,27 @@ class FitSpec:
 
     The unknowns are scaled to be of order 1 (ratios to Table 2, logarithms of
     time constants); :meth:`Extension.from_fit` maps them to the SI parameters.
-    The fit tries every start vector and keeps the best.
+    The fit tries every start vector and keeps the best. ``neutral``: the unknowns
+    where the effect leaves the paper's model unchanged, or as nearly as its bounds
+    allow (a delay of 0, a saturation magnetisation 1000 times M_b, a time constant
+    of 0.1 us); a combination whose fit stopped short of the model it extends is
+    refitted from there (:mod:`smeha.diagnose.decision`). None where there is none.
     """
 
     names: tuple = ()
     starts: tuple = ((),)
     lower: tuple = ()
     upper: tuple = ()
+    neutral: tuple | None = None
+
+    def __post_init__(self):
+        if self.neutral is None:
+            return
+        if len(self.neutral) != len(self.names) or not all(
+                lo <= v <= hi for v, lo, hi in zip(self.neutral, self.lower, self.upper)):
+            raise ParameterError(f"FitSpec neutral = {self.neutral!r}: needs one value per "
+                                 f"unknown {self.names!r}, each within [{self.lower!r}, "
+                                 f"{self.upper!r}]")
 
     @property
     def size(self) -> int:

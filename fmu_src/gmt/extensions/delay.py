@@ -67,7 +67,7 @@ class DelayForm(Extension):
     stage = "sensor"
     signals = "y only"
     lookalike = Y_LINEAR_LOOKALIKE
-    fit = FitSpec(("tau_ms",), ((0.05,), (1.0,)), (0.0,), (20.0,))
+    fit = FitSpec(("tau_ms",), ((0.05,), (1.0,)), (0.0,), (20.0,), neutral=(0.0,))
     #: the line holds tau / h samples and is saved with every FMU state
     parameters = (Parameter("delay_s", "s", 0.0, 0.1, low_open=False, high_open=False),)
 

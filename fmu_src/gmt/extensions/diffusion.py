@@ -371,7 +371,8 @@ class EddyDiffusionForm(FilterBankState, Extension):
     cause = "eddy_current_diffusion"
     stage = "field"
     signals = "B and y"
-    fit = FitSpec(("log10_tau",), ((-4.0,), (-3.0,), (-2.0,)), (-7.0,), (0.0,))
+    fit = FitSpec(("log10_tau",), ((-4.0,), (-3.0,), (-2.0,)), (-7.0,), (0.0,),
+                  neutral=(-7.0,))
     parameters = (Parameter("time_constant_s", "s", 0.0, math.inf, low_open=False),
                   Parameter("skin_depth_equals_size_at_Hz", "Hz", 0.0, math.inf,
                             high_open=False, optional=True))
@@ -494,7 +495,7 @@ class MagnetizationDiffusionForm(EddyDiffusionForm):
 
     fit = FitSpec(("log10_tau", "unshielded_share"),
                   ((-4.0, 1.0), (-3.0, 1.0), (-2.0, 1.0), (-3.0, 0.3)),
-                  (-7.0, 0.0), (0.0, 1.0))
+                  (-7.0, 0.0), (0.0, 1.0), neutral=(-7.0, 1.0))
     parameters = EddyDiffusionForm.parameters + (
         Parameter("unshielded_share", "-", 0.0, 1.0, low_open=False, high_open=False),)
 

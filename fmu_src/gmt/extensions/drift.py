@@ -115,7 +115,8 @@ class DriftForm(Extension):
     fit = FitSpec(("offset_rate_um_per_A2s", "gain_rate_pct_per_A2s", "log10_time_constant_s",
                    "I_s2_A2"),
                   ((0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 2.0, 0.0), (0.0, 0.0, 1.0, 0.3)),
-                  (-math.inf, -math.inf, -1.5, 0.0), (math.inf, math.inf, 3.0, 4.0))
+                  (-math.inf, -math.inf, -1.5, 0.0), (math.inf, math.inf, 3.0, 4.0),
+                  neutral=(0.0, 0.0, 0.0, 0.0))
     parameters = (Parameter("offset_rate_m_per_A2s", "m/(A^2 s)"),
                   Parameter("gain_rate_per_A2s", "1/(A^2 s)"),
                   Parameter("thermal_time_constant_s", "s", 0.0, math.inf, high_open=False),

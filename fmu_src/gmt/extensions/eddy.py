@@ -246,7 +246,7 @@ class EddyLagForm(FilterBankState, Extension):
     parameters = (Parameter("time_constant_s", "s", 0.0, math.inf, low_open=False),
                   Parameter("order", "-", 0.0, 1.0, high_open=False))
     fit = FitSpec(("log10_tau", "order"), ((-4.0, 0.5), (-3.0, 1.0), (-2.5, 0.5)),
-                  (-6.0, 0.3), (-1.0, 1.0))
+                  (-6.0, 0.3), (-1.0, 1.0), neutral=(-6.0, 1.0))
 
     @classmethod
     def validate(cls, values):

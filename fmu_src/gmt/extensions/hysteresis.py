@@ -168,7 +168,7 @@ class HysteresisForm(MagnetizationStage, Extension):
                   Parameter("weights", "-", is_list=True))
     fit = FitSpec(("chi", "log10_r0_per_Hmax", "shape"),
                   ((0.2, -1.0, 1.0), (0.5, -0.5, 2.0), (0.1, -1.5, 1.0)),
-                  (0.0, -2.5, 0.3), (3.0, 1.0, 30.0))
+                  (0.0, -2.5, 0.3), (3.0, 1.0, 30.0), neutral=(0.0, -1.0, 1.0))
 
     @classmethod
     def validate(cls, values):

@@ -253,7 +253,8 @@ class PreisachForm(MagnetizationStage, Extension):
     fit = FitSpec(("log10_rate_frequency_Hz", "rate_exponent")
                   + tuple(f"w{j}" for j in range(_n)),
                   ((2.5, 2.0) + (0.0,) * _n,),
-                  (0.5, 0.5) + (0.0,) * _n, (4.5, 4.0) + (math.inf,) * _n)
+                  (0.5, 0.5) + (0.0,) * _n, (4.5, 4.0) + (math.inf,) * _n,
+                  neutral=(4.5, 4.0) + (0.0,) * _n)
     #: which of the unknowns are linear (the node weights)
     linear_unknowns = slice(2, None)
 

@@ -221,7 +221,7 @@ class MechanicsForm(Extension):
                   Parameter("stiffness_N_per_m", "N/m", 0.0, math.inf))
     fit = FitSpec(("m/m0", "c/c0", "K/K0"), ((1.0, 1.0, 1.0), (3.0, 0.5, 1.0),
                                              (0.5, 2.0, 1.0)),
-                  (0.02, 0.02, 0.3), (50.0, 50.0, 3.0))
+                  (0.02, 0.02, 0.3), (50.0, 50.0, 3.0), neutral=(1.0, 1.0, 1.0))
 
     @classmethod
     def validate(cls, values):
@@ -273,7 +273,7 @@ class TwoMassForm(Extension):
                             optional=True))
     fit = FitSpec(("m2/m", "log10_f_joint_Hz", "zeta_joint"),
                   ((0.5, 2.7, 0.1), (0.3, 3.0, 0.3), (0.7, 2.4, 0.05)),
-                  (0.02, 1.5, 0.005), (0.98, 4.5, 3.0))
+                  (0.02, 1.5, 0.005), (0.98, 4.5, 3.0), neutral=(0.02, 4.5, 0.1))
 
     @classmethod
     def validate(cls, values):

@@ -66,7 +66,7 @@ class SaturationForm(MagnetizationStage, Extension):
     stage = "magnetization"
     signals = "B and y"
     parameters = (Parameter("saturation_magnetization_A_per_m", "A/m", 0.0, math.inf),)
-    fit = FitSpec(("M_b/M_s",), ((0.3,), (0.6,)), (1e-3,), (0.97,))
+    fit = FitSpec(("M_b/M_s",), ((0.3,), (0.6,)), (1e-3,), (0.97,), neutral=(1e-3,))
 
     @classmethod
     def from_fit(cls, x, context):
