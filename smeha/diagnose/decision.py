@@ -569,12 +569,22 @@ def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, sens
     forms = _ranked_forms([s for s in singles if s.cause in inside
                            and s.candidate.members[0] not in current.candidate.members],
                           FORMS_TRIED - 1)
+    # and each member's lookalikes (a delay for a one-mass mechanics), firm, whether or not
+    # they pass alone: beside another cause two lookalikes may part where alone they did
+    # not (labsim's eddy diffusion + delay, seed 11 at 800 a period: the one-mass
+    # mechanics ranked first alone, the delay, taking half of what the eddy left, passed
+    # no rule alone, and the answer was mechanical_resonance + eddy)
+    alike = _ranked_forms([s for s in singles if s.cause not in inside and not s.weak
+                           and s.candidate.members[0].lookalike], 1)
     joins = []
     for out in current.candidate.members:
         keep = tuple(m for m in current.candidate.members if m is not out)
         joins += [(current, keep, single) for single in useful
                   if single.candidate.members[0].cause != out.cause]
         joins += [(current, keep, single) for single in forms.get(out.cause, [])]
+        joins += [(current, keep, f[0]) for f in alike.values()
+                  if out.lookalike and f[0].candidate.members[0].lookalike == out.lookalike
+                  and f[0] not in useful]
     fits = _joined(ev, train, held, joins, workers)
     # each fit's member left out and the one that came in
     swaps = [(fit, _added(fit, current).cause, _added(current, fit).cause) for fit in fits]
