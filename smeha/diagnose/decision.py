@@ -546,8 +546,9 @@ def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, sens
     Selection in Regression*, 2nd ed., 2002, sec. 3.4): with two or more causes, each member
     in turn is replaced by the best form of each of the :data:`SWAP_CANDIDATES` best-ranked
     other causes that explain the data on their own (pass the rule against the paper's
-    model), and by its own cause's best-ranked other form (:data:`FORMS_TRIED`), the others
-    refitted with it; the best-ranked
+    model), by its own cause's best-ranked other form (:data:`FORMS_TRIED`) and by its
+    firm lookalikes (a delay for a one-mass mechanics, whether or not they pass alone), the
+    others refitted with it; the best-ranked
     exchange is kept when it ranks better than the model it replaces and predicts the
     held-out runs better too, and the cause that comes in has none of its unknowns on a
     bound (without a sense voltage the Preisach density, its rate factor on its lower
