@@ -495,11 +495,8 @@ def _rescued(ev, train, held, current: Fit, reference: Fit, fits, workers=None) 
         return fits
     jobs = []
     for i in short:
-        cand = fits[i].candidate
-        own = dict(zip(reference.candidate.members,
-                       reference.candidate.split(reference.x)))
-        start = tuple(v for m in cand.members for v in own.get(m, m.fit.neutral))
-        jobs.append((cand, reference.base, [start]))
+        cand, added = fits[i].candidate, _added(current, fits[i])
+        jobs.append((cand, reference.base, [_start(cand, reference, added, added.fit.neutral)]))
     out = list(fits)
     for i, again in zip(short, fit_all(ev, train, held, jobs, workers)):
         if isinstance(again, Fit) and again.train_chi2 < fits[i].train_chi2:
@@ -533,11 +530,16 @@ def _join_jobs(joins) -> list:
         if not cand.combinable(member):
             continue
         cand = cand.plus(member)
-        own = dict(zip(current.candidate.members, current.candidate.split(current.x)))
-        own[member] = single.x
-        start = tuple(v for m in cand.members for v in own[m])
-        jobs.append((cand, current.base, [start]))
+        jobs.append((cand, current.base, [_start(cand, current, member, single.x)]))
     return jobs
+
+
+def _start(cand: Candidate, fit: Fit, added, values) -> tuple:
+    """The start vector of ``cand``: ``fit``'s fitted values for the members it holds,
+    ``values`` for the member ``added``."""
+    own = dict(zip(fit.candidate.members, fit.candidate.split(fit.x)))
+    own[added] = tuple(values)
+    return tuple(v for m in cand.members for v in own[m])
 
 
 def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, sense=True,
@@ -585,7 +587,7 @@ def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, sens
         joins += [(current, keep, single) for single in forms.get(out.cause, [])]
         joins += [(current, keep, f[0]) for f in alike.values()
                   if out.lookalike and f[0].candidate.members[0].lookalike == out.lookalike
-                  and f[0] not in useful]
+                  and all(f[0] is not u for u in useful)]
     fits = _joined(ev, train, held, joins, workers)
     # each fit's member left out and the one that came in
     swaps = [(fit, _added(fit, current).cause, _added(current, fit).cause) for fit in fits]
