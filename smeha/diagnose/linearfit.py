@@ -293,8 +293,9 @@ def _joint(prob, base, w, chi2, other, lam, rounds=None):
         # Scaled by the floored norms every column's damping entry is sqrt(mu) (that
         # problem's condition number: 113). On labsim's Preisach hysteresis (seed 100, 800
         # a period), 183 such problems: trf in the columns scaled by their own norms ended
-        # on its 100-iteration cap in 34 of them, its cost up to 72 times bvls's (70 and
-        # 4.5 times in these columns); bvls was never higher, in a third of trf's time
+        # on its 100-iteration cap in 34 of them, its cost up to 72 times bvls's (trf in
+        # the floored columns: the cap in 70, cost up to 4.5 times); bvls was never higher,
+        # in a third of trf's time
         # ||a v - rhs|| reduced to its triangular factor (a QR decomposition): the same
         # minimiser, with as many rows as unknowns
         a, rhs = _reduced(a, jw @ w - r0)
