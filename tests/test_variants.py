@@ -577,6 +577,10 @@ COMBINED = {
     ("magnetization_saturation", ""): (0.625,),
     ("eddy_current_diffusion", "lag"): (math.log10(1.6e-3), 0.5),
     ("eddy_current_diffusion", "slab"): (-3.0,),
+    ("eddy_current_diffusion", "cylinder"): (-3.0,),
+    ("eddy_current_diffusion", "cylinder_magnetization"): (-3.0, 0.6),
+    ("rate_independent_hysteresis", "preisach"): FORM_CASES["rate_independent_hysteresis",
+                                                            "preisach"],
     ("transport_delay", ""): (0.337,),
     ("mechanical_resonance", "one_dof"): (0.5, 0.3, 0.95),
     ("mechanical_resonance", "two_dof"): (0.5, 3.0, 0.1),
@@ -610,9 +614,16 @@ def test_a_combination_is_one_variant_by_name_json_and_fmu_parameters():
 
 #: pairs of extensions at different stages, and the pair of the magnetisation stage;
 #: tolerance as the larger of the members' in tests/test_variants.py (section banks 2e-4,
-#: the plays 1e-4, (w h)^2/12 of the held means 3.3e-6, the delay line (w h)^2/8)
+#: the plays 1e-4, the relays 3e-4, (w h)^2/12 of the held means 3.3e-6, the delay line
+#: (w h)^2/8). Beside a field form the hysteresis switches on the section's mean field
+#: (stepped: the modal bank's held mean; periodic: the closed-form relays at |<g>| H_m,
+#: phase arg <g>), beside a magnetisation form on H.
 PAIRS = [
     ((("eddy_current_diffusion", "slab"), ("rate_independent_hysteresis", "")), 1e-4),
+    ((("eddy_current_diffusion", "cylinder"), ("rate_independent_hysteresis", "preisach")),
+     3e-4),
+    ((("eddy_current_diffusion", "cylinder_magnetization"),
+      ("rate_independent_hysteresis", "preisach")), 3e-4),
     ((("transport_delay", ""), ("magnetization_saturation", "")), 1e-5),
     ((("rate_independent_hysteresis", ""), ("magnetization_saturation", "")), 1e-4),
     ((("eddy_current_diffusion", "lag"), ("mechanical_resonance", "two_dof")), 2e-4),

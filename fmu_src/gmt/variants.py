@@ -350,8 +350,13 @@ class Chain:
 
         self.field = self.mechanical = self.sensor = None
         self.adjusting = []
+        from .extensions.steady import switching_gain
+
+        switching = complex(switching_gain(components, np.array([point.angular_frequency]))[0])
         for cls, values in components:
             form = cls(values, params, point, upstream)
+            if cls.stage == "magnetization":  # switching on the field stage's field
+                form.switching_gain, form.field_stage = switching, self.field
             self.forms.append(form)
             if cls.stage == "field":
                 point = form.point
@@ -381,7 +386,7 @@ class Chain:
         periodic forms). Otherwise the point is returned as it is.
         """
         from .extensions._base import Steady
-        from .extensions.steady import paper_permeability, stage_adder
+        from .extensions.steady import paper_permeability, stage_adder, switching_gain
 
         field = [(c, v) for c, v in components if c.stage == "field"]
         magnetic = [(c, v) for c, v in components if c.stage == "magnetization"]
@@ -398,7 +403,8 @@ class Chain:
         hm = point.field_amplitude
         steady = Steady(params, np.array([point.frequency]), np.array([w]),
                         np.array([point.current_amplitude]), np.array([hm]),
-                        np.array([point.flux_density_amplitude]), loss)
+                        np.array([point.flux_density_amplitude]), loss, None,
+                        switching_gain(components, np.array([w])))
         modulus = point.flux_density_amplitude / (MU_0 * hm)
         mu = complex(np.ravel(paper_permeability(loss, point.frequency, hm, modulus, gain,
                                                  stage_adder(magnetic, steady), factor,

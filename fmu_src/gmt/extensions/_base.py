@@ -159,7 +159,9 @@ class Steady(NamedTuple):
     [rad/s], ``current_amplitude`` [A], ``field_amplitude`` H_m [A/m],
     ``flux_density_amplitude`` B_m [T] (what the coil measures), ``loss`` the
     coefficients (K_h, n, K_e, K_ex) of eq 16, ``step`` None for the
-    continuous model or h [s] for the ZOH-sampled one. Arrays of runs or
+    continuous model or h [s] for the ZOH-sampled one, ``switching_gain`` the field
+    the magnetisation stage's hysteresis switches on per unit applied field at the
+    fundamental (the field stage's :meth:`Extension.switching_gain`). Arrays of runs or
     scalars.
     """
 
@@ -171,6 +173,7 @@ class Steady(NamedTuple):
     flux_density_amplitude: float
     loss: tuple
     step: float | None = None
+    switching_gain: complex = 1.0
 
 
 def harmonic_remainder(values):
@@ -339,6 +342,19 @@ class Extension:
         """Mean field in the rod per applied field at the fundamental, [-] (1 without eddies)."""
         return 1.0
 
+    @classmethod
+    def switching_gain(cls, values, angular_frequency) -> complex:
+        """Field stage: the field the magnetisation stage's hysteresis switches on, per
+        applied field at the fundamental, [-] (1: the applied field H).
+
+        Relays and plays switch on the field in the material. Where the eddy currents
+        shield the rod's field (the field forms), that is the field inside, taken as its
+        section mean <g> H: one field switches the whole population (the spread of the
+        switching field across the section is not resolved); where they act on the
+        magnetisation, the applied field reaches the section and the hysteresis switches
+        on H."""
+        return 1.0
+
     # ------------------------------------------------------------------ time-stepped form
 
     def __init__(self, values, params, point, upstream=None):
@@ -350,6 +366,9 @@ class Extension:
     #: The stepper class the form runs in (None: the extended stepper; two masses need
     #: their own, :class:`gmt.variants.TwoMassStepper`).
     stepper = None
+    #: Field stage: the field the hysteresis switches on over the last step of
+    #: :meth:`magnetics`, [A/m] (None: the applied H; :meth:`switching_gain`).
+    switching_field = None
 
     def magnetics(self, current, quadrature, step, time) -> Magnetics:
         """Field stage: H, H_q, B, M, lambda, F held over the step; may advance memory."""

@@ -401,6 +401,11 @@ class EddyDiffusionForm(FilterBankState, Extension):
         return cls.diffusion_of(values).transfer(angular_frequency)
 
     @classmethod
+    def switching_gain(cls, values, angular_frequency):
+        # the hysteresis switches on the section's mean field (Extension.switching_gain)
+        return cls.field_gain(values, angular_frequency)
+
+    @classmethod
     def steady_field(cls, values, steady, adder=None):
         """M_1, B_1, F_1, F_2 with the field diffusing into the rod.
 
@@ -456,6 +461,7 @@ class EddyDiffusionForm(FilterBankState, Extension):
         lam = (magnetostriction(m, p.bias_magnetization, p.magnetostriction_coefficient)
                + p.magnetostriction_coefficient * float(r @ (spread * spread)))
         b = flux_density(float(r @ held[0]), float(r @ held[1]), pt.mu_real, pt.mu_imag)
+        self.switching_field = float(r @ held[0])  # the section's mean field
         return Magnetics(h, hq, b, m, lam, magnetostrictive_force(lam, p.rod_area,
                                                                   p.youngs_modulus))
 
@@ -488,9 +494,11 @@ class MagnetizationDiffusionForm(EddyDiffusionForm):
         B = mu_0 (kappa H + (1 - kappa) <H_in> + M),   M = (mu - 1) <H_in>,
 
     kappa in [0, 1] an unknown of the B channel (kappa = 0 is
-    :class:`EddyDiffusionForm`; kappa = 1 the magnetisation alone lags). y does
+    :class:`EddyDiffusionForm` alone; kappa = 1 the magnetisation alone lags). y does
     not depend on kappa (eq 25 takes M), B does: so kappa is identified by the
-    sense voltage, and left at its start without one.
+    sense voltage, and left at its start without one. The applied field reaches the
+    section, so a hysteresis beside this form switches on H (:meth:`switching_gain`;
+    beside :class:`EddyDiffusionForm` on <g> H).
     """
 
     fit = FitSpec(("log10_tau", "unshielded_share"),
@@ -509,6 +517,11 @@ class MagnetizationDiffusionForm(EddyDiffusionForm):
         return tuple(n for n in super().at_bounds(x, tolerance) if n != "unshielded_share")
 
     @classmethod
+    def switching_gain(cls, values, angular_frequency):
+        # the applied field reaches the section: the hysteresis switches on H
+        return 1.0
+
+    @classmethod
     def vacuum_share(cls, values, angular_frequency):
         """kappa (1 - <g>): the unshielded vacuum field per H_m in B_1 / mu_0, [-]."""
         g1 = cls.diffusion_of(values).transfer(angular_frequency)
@@ -520,6 +533,7 @@ class MagnetizationDiffusionForm(EddyDiffusionForm):
             return mag
         h = self.params.field_per_ampere * current
         mean_in = float(self.bank.weights @ self._held_field)  # the modes' held field
+        self.switching_field = None  # the applied field reaches the section
         return mag._replace(flux_density=mag.flux_density + MU_0 * self.values[
             "unshielded_share"] * (h - mean_in))
 

@@ -272,6 +272,11 @@ class EddyLagForm(FilterBankState, Extension):
         return cls.lag_of(values).transfer(angular_frequency)
 
     @classmethod
+    def switching_gain(cls, values, angular_frequency):
+        # the hysteresis switches on the lagging field inside (Extension.switching_gain)
+        return cls.field_gain(values, angular_frequency)
+
+    @classmethod
     def loss_flux_factor(cls, values, angular_frequency):
         # the lag form evaluates eq 16 at the section-mean flux density, the measured B_m
         return np.abs(cls.field_gain(values, angular_frequency))
@@ -309,5 +314,6 @@ class EddyLagForm(FilterBankState, Extension):
         h_in, hq_in = float(h_in), float(hq_in)
         m = magnetization(h_in, hq_in, pt.mu_real, pt.mu_imag)
         lam = magnetostriction(m, p.bias_magnetization, p.magnetostriction_coefficient)
+        self.switching_field = h_in
         return Magnetics(h, hq, flux_density(h_in, hq_in, pt.mu_real, pt.mu_imag), m, lam,
                          magnetostrictive_force(lam, p.rod_area, p.youngs_modulus))

@@ -201,8 +201,9 @@ class HysteresisForm(MagnetizationStage, Extension):
     def steady_output(cls, values, steady, magnetization, theta, memo=None):
         if memo is not None and "output" in memo:
             return magnetization + memo["output"]
+        sw = np.asarray(steady.switching_gain)[..., None]  # the field stage's
         hm = np.asarray(steady.field_amplitude)[..., None]
-        out = cls.operator_of(values).periodic(hm, theta)
+        out = cls.operator_of(values).periodic(np.abs(sw) * hm, theta + np.angle(sw))
         if memo is not None:
             memo["output"] = out
         return magnetization + out
@@ -214,11 +215,13 @@ class HysteresisForm(MagnetizationStage, Extension):
         self.plays = np.zeros(len(self.operator.thresholds))
 
     def adjust(self, mag, step, time):
-        out, self.plays = self.operator.step(mag.field, self.plays)
+        out, self.plays = self.operator.step(self.switching_field(mag), self.plays)
         return self.with_magnetization(mag, out)
 
     def waveform(self, theta, upstream):
-        return upstream(theta) + self.operator.periodic(self.point.field_amplitude, theta)
+        sw = self.switching_gain
+        return upstream(theta) + self.operator.periodic(abs(sw) * self.point.field_amplitude,
+                                                        theta + np.angle(sw))
 
     def reset(self, rest_displacement):
         self.plays = np.zeros(len(self.operator.thresholds))

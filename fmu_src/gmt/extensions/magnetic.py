@@ -17,6 +17,20 @@ from ..magnetostriction import magnetostrictive_force
 class MagnetizationStage:
     """Mixin of the magnetisation-stage step forms (module docstring)."""
 
+    #: The field the form switches on per unit applied field at the fundamental, [-]
+    #: (:meth:`gmt.extensions.Extension.switching_gain` of the field stage; set by
+    #: :class:`gmt.variants.Chain`): the periodic waveform of the operating point.
+    switching_gain = 1.0
+    #: The field stage's time-stepped form (set by :class:`gmt.variants.Chain`; None
+    #: without one): its ``switching_field`` of the step is what the form switches on.
+    field_stage = None
+
+    def switching_field(self, mag: Magnetics) -> float:
+        """The field the form's relays or plays switch on this step, [A/m]: the field
+        stage's (the rod's section-mean field where eddy currents shield it), else H."""
+        held = None if self.field_stage is None else self.field_stage.switching_field
+        return mag.field if held is None else held
+
     def with_magnetization(self, base: Magnetics, delta) -> Magnetics:
         """``base`` with ``delta`` [A/m] added to M (and mu_0 delta to B), eqs 4-5, 25, 28.
 

@@ -23,7 +23,8 @@ The stages (:data:`gmt.extensions.STAGES`):
    A_r E^H K_lambda (M_b + M)^2, has F_1 = 2 c M_b M_1 and F_2 = c M_1^2 / 2
    (c = A_r E^H K_lambda). An eddy-current extension replaces this stage (the
    field inside the rod lags the applied field).
-2. **magnetisation**: hysteresis adds its output to M, saturation maps M
+2. **magnetisation**: hysteresis adds its output to M (switching on the field
+   the field stage passes on, :func:`switching_gain`), saturation maps M
    through its law; the whole change r(theta) of M over one period (its
    fundamental too) is added to M and mu_0 r to B, and the force gains
    c (2 (M_b + M) r + r^2), all sampled over one period on :data:`GRID` points
@@ -278,6 +279,17 @@ def magnetization_stage(magnetic, steady: Steady, paper_magnetization, theta, me
     return m, out
 
 
+def switching_gain(components, angular_frequency):
+    """The field the magnetisation stage's hysteresis switches on, per applied field at
+    the fundamental: the field stage's :meth:`gmt.extensions.Extension.switching_gain`,
+    1 without one, [-] (arrays of runs)."""
+    w = np.asarray(angular_frequency, dtype=float)
+    for cls, values in components:
+        if cls.stage == "field":
+            return np.asarray(cls.switching_gain(values, w), dtype=complex) * np.ones_like(w)
+    return np.ones_like(w, dtype=complex)
+
+
 def stage_adder(magnetic, steady: Steady):
     """p(M_1): the fundamental the magnetisation stage adds per unit H_m, for
     :func:`paper_permeability` (None without a magnetisation-stage extension)."""
@@ -398,8 +410,8 @@ def steady_state(params, frequency, current_amplitude, flux_density_amplitude, l
     bm = np.broadcast_to(np.asarray(flux_density_amplitude, dtype=float), f.shape)
     w = 2.0 * math.pi * f
     hm = params.field_per_ampere * im
-    st = Steady(params, f, w, im, hm, bm, tuple(loss), step)
     comps = _ordered(components)
+    st = Steady(params, f, w, im, hm, bm, tuple(loss), step, switching_gain(comps, w))
     magnetic = [(cls, v) for cls, v in comps if cls.stage == "magnetization"]
     adder = stage_adder(magnetic, st)
     k = np.arange(1, harmonics + 1)
