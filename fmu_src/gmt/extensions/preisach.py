@@ -77,7 +77,7 @@ from .magnetic import MagnetizationStage
 #: bimodal density (seed 100 at 800 samples a period, log-spreads 0.20 and 0.29) the
 #: density's held-out excess chi^2 stayed 1.2e6 in y and 3.9e6 in B; at 11 nodes 6.2e3 and
 #: 7.9e4, and an eddy form beside it then removed 64 % of what the density left where
-#: at 6 nodes it had bought B with y (2026-11-28).
+#: at 6 nodes it had bought B with y (2026-11-27).
 COERCIVE_GRID = (0.03, 1.0, 11)
 #: Interaction nodes: (first, last, count), uniform, in units of H_max. 19 nodes space them
 #: H_max/9 apart, 1.6 kA/m at the 14.8 kA/m of a 1 A drive: the order of Terfenol-D's
