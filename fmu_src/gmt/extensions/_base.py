@@ -352,8 +352,13 @@ class Extension:
         section mean <g> H: one field switches the whole population (the spread of the
         switching field across the section is not resolved); where they act on the
         magnetisation, the applied field reaches the section and the hysteresis switches
-        on H."""
-        return 1.0
+        on H. :attr:`shields_field` says which: the field stage's :meth:`field_gain`, or 1."""
+        return cls.field_gain(values, angular_frequency) if cls.shields_field else 1.0
+
+    #: Field stage: the eddy currents shield the field inside the rod, so the
+    #: magnetisation stage's hysteresis switches on the mean field inside
+    #: (:meth:`switching_gain`); False where they act on the magnetisation.
+    shields_field = False
 
     # ------------------------------------------------------------------ time-stepped form
 

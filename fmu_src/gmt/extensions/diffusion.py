@@ -400,10 +400,8 @@ class EddyDiffusionForm(FilterBankState, Extension):
     def field_gain(cls, values, angular_frequency):
         return cls.diffusion_of(values).transfer(angular_frequency)
 
-    @classmethod
-    def switching_gain(cls, values, angular_frequency):
-        # the hysteresis switches on the section's mean field (Extension.switching_gain)
-        return cls.field_gain(values, angular_frequency)
+    # the hysteresis switches on the section's mean field (Extension.switching_gain)
+    shields_field = True
 
     @classmethod
     def steady_field(cls, values, steady, adder=None):
@@ -516,10 +514,8 @@ class MagnetizationDiffusionForm(EddyDiffusionForm):
         # kappa's bounds are its physical limits (class docstring), not bounds pressed on
         return tuple(n for n in super().at_bounds(x, tolerance) if n != "unshielded_share")
 
-    @classmethod
-    def switching_gain(cls, values, angular_frequency):
-        # the applied field reaches the section: the hysteresis switches on H
-        return 1.0
+    # the applied field reaches the section: the hysteresis switches on H
+    shields_field = False
 
     @classmethod
     def vacuum_share(cls, values, angular_frequency):

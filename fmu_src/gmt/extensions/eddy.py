@@ -271,10 +271,8 @@ class EddyLagForm(FilterBankState, Extension):
     def field_gain(cls, values, angular_frequency):
         return cls.lag_of(values).transfer(angular_frequency)
 
-    @classmethod
-    def switching_gain(cls, values, angular_frequency):
-        # the hysteresis switches on the lagging field inside (Extension.switching_gain)
-        return cls.field_gain(values, angular_frequency)
+    # the hysteresis switches on the lagging field inside (Extension.switching_gain)
+    shields_field = True
 
     @classmethod
     def loss_flux_factor(cls, values, angular_frequency):
