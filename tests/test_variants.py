@@ -91,7 +91,7 @@ FORM_TOLERANCE = {"slab": 1e-5, "cylinder": 1e-5, "two_dof": 1e-10, "preisach": 
                   "slab_magnetization": 1e-5, "cylinder_magnetization": 1e-5}
 #: The Preisach relays switch at the first sample past their field, late by up to one step
 #: (w h = 6.3e-3 rad at 100 Hz, 10 us), against the periodic form's exact Fourier series of
-#: the switched relays (48 harmonics): on the interaction grid out to +-H_max 1.2e-4
+#: the switched relays (24 harmonics): on the interaction grid out to +-H_max 1.2e-4
 #: measured for y (2.0e-5 on the earlier +-0.6 H_max grid, whose nodes put these four
 #: weights on other relays), while the density changes y's harmonics by up to 29 % of Y_1
 #: (measured on the earlier grid):
