@@ -109,16 +109,19 @@ def test_a_later_cause_with_b_needs_a_share_of_the_papers_excess():
     # channels the cause acts on; without one MIN_SHARE
     hyst, lag = _cls("rate_independent_hysteresis", "preisach"), _cls("eddy_current_diffusion",
                                                                       "lag")
-    paper = fit((), y=1e5, b=1e6)
-    before = fit((hyst,), y=200.0, b=300.0)
-    trace = fit((hyst, lag), y=50.0, b=50.0)             # removes 400 of 1.1e6: 0.036 %
+    paper = fit((), y=1e8, b=1e9)
+    # the share of the 11-node Preisach density's trace that a flexible form fitted beside
+    # labsim's hysteresis alone took (seeds 101-104 at 800 a period: 4e-7 to 7e-7)
+    before = fit((hyst,), y=1000.0, b=2000.0)
+    trace = fit((hyst, lag), y=500.0, b=500.0)            # removes 2000 of 1.1e9: 1.8e-6
     assert decision.passes(before, trace, decision.channels(lag))
     assert not decision.significant(paper, before, trace, lag, sense=True)
-    # an eddy form after a one-mass mechanics and a delay at 100 samples a period (labsim,
-    # seeds 0-2 and 100-102) removed 0.052-0.062 %: below the floor (0.12 %)
-    eddy_like = fit((hyst,), y=432.0, b=350.0)            # removes 682: 0.062 %
-    assert not decision.significant(paper, eddy_like, trace, lag, sense=True)
-    bigger = fit((hyst,), y=3000.0, b=7000.0)             # removes 9900: 0.9 %
+    # a true eddy diffusion on the magnetisation beside the density (labsim seed 100 at
+    # 800 a period): 3.6e-5, a factor 3.6 above the floor
+    true_eddy = fit((hyst,), y=10000.0, b=30600.0)        # removes 39600: 3.6e-5
+    assert decision.significant(paper, true_eddy, trace, lag, sense=True)
+    assert not decision.significant(paper, true_eddy, trace, lag, sense=False)
+    bigger = fit((hyst,), y=3e6, b=6.9e6)                 # removes 9.9e6: 0.9 %
     assert decision.significant(paper, bigger, trace, lag, sense=True)
     assert not decision.significant(paper, bigger, trace, lag, sense=False)
 
