@@ -45,18 +45,9 @@ PENALTY_GRID = (1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2)
 #: Rounds of the alternation at most, and the relative change of chi^2 that ends it; a
 #: combination starts from its members' fitted values and takes fewer.
 ROUNDS, SETTLED = 4, 1e-4
-#: A combination's rounds: its start is its members' fitted values, but the alternation and
-#: the joint steps from there still move the density with the added member. At 2 rounds
-#: and 10 joint steps labsim's Preisach hysteresis + eddy diffusion on the magnetisation
-#: (seed 14 at 800 a period) stopped with the eddy forms explaining 47.7 % of what the
-#: density left (the rule asks half), at 6 and 30 70 %, and seeds 5 and 16 were named whole
-#: the same way (2026-11-27). Both end earlier where the fit settles (SETTLED; a joint step
-#: that does not lower chi^2); the model a combination is judged against is refitted by the
-#: same steps (smeha.diagnose.decision._settled).
-COMBINATION_ROUNDS = 6
-#: Joint damped Gauss-Newton steps at most after the alternation (:func:`_joint`): a single
-#: family's, and a combination's.
-JOINT_ROUNDS, COMBINATION_JOINT_ROUNDS = 10, 30
+COMBINATION_ROUNDS = 2
+#: Joint damped Gauss-Newton steps at most after the alternation (:func:`_joint`).
+JOINT_ROUNDS = 10
 #: Tenfold raises of the joint steps' damping before the steps end.
 DAMPING_TRIES = 8
 #: Least damping scale of a joint step's unknown, times the largest column norm of the
@@ -185,10 +176,9 @@ def fit_linear(ev: Evaluator, train: Batch, cand: Candidate, base0, fit_candidat
         starts = [_screened_members(prob, base0, starts[0])]
     best = None
     rounds = ROUNDS if start is None else COMBINATION_ROUNDS
-    joint = JOINT_ROUNDS if start is None else COMBINATION_JOINT_ROUNDS
     for x0 in starts:
         out = _alternate(ev, train, prob, base0, x0, fit_candidate, rounds)
-        out = _joint(prob, *out, rounds=joint)
+        out = _joint(prob, *out)
         if best is None or out[2] < best[2]:
             best = out
     base, w, chi2, other, lam = best
