@@ -350,13 +350,10 @@ class Chain:
 
         self.field = self.mechanical = self.sensor = None
         self.adjusting = []
-        from .extensions.steady import switching_gain
-
-        switching = complex(switching_gain(components, np.array([point.angular_frequency]))[0])
         for cls, values in components:
             form = cls(values, params, point, upstream)
             if cls.stage == "magnetization":  # switching on the field stage's field
-                form.switching_gain, form.field_stage = switching, self.field
+                form.field_stage = self.field
             self.forms.append(form)
             if cls.stage == "field":
                 point = form.point

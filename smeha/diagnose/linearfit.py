@@ -417,9 +417,9 @@ def _screened_members(prob, base0, x0):
     penalty chosen as in step 2) and the chi^2 evaluated; the least starts the
     alternation."""
     x0 = np.asarray(x0, float)
-    options = [x0]
     if not any(m.shields_field for m in prob.cand.members):
         return x0
+    options = [x0]
     k = 0
     for m in prob.cand.members:
         if m.shields_field:

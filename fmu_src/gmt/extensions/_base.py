@@ -371,9 +371,10 @@ class Extension:
     #: The stepper class the form runs in (None: the extended stepper; two masses need
     #: their own, :class:`gmt.variants.TwoMassStepper`).
     stepper = None
-    #: Field stage: the field the hysteresis switches on over the last step of
-    #: :meth:`magnetics`, [A/m] (None: the applied H; :meth:`switching_gain`).
-    switching_field = None
+    #: Field stage that shields the field: the section-mean field inside over the last step
+    #: of :meth:`magnetics`, [A/m], what the hysteresis switches on (None before the first
+    #: step or without diffusion; :meth:`switching_gain`).
+    held_switching_field = None
 
     def magnetics(self, current, quadrature, step, time) -> Magnetics:
         """Field stage: H, H_q, B, M, lambda, F held over the step; may advance memory."""

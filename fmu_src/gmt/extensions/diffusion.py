@@ -459,7 +459,7 @@ class EddyDiffusionForm(FilterBankState, Extension):
         lam = (magnetostriction(m, p.bias_magnetization, p.magnetostriction_coefficient)
                + p.magnetostriction_coefficient * float(r @ (spread * spread)))
         b = flux_density(float(r @ held[0]), float(r @ held[1]), pt.mu_real, pt.mu_imag)
-        self.switching_field = float(r @ held[0])  # the section's mean field
+        self.held_switching_field = float(r @ held[0])  # the section's mean field
         return Magnetics(h, hq, b, m, lam, magnetostrictive_force(lam, p.rod_area,
                                                                   p.youngs_modulus))
 
@@ -529,7 +529,6 @@ class MagnetizationDiffusionForm(EddyDiffusionForm):
             return mag
         h = self.params.field_per_ampere * current
         mean_in = float(self.bank.weights @ self._held_field)  # the modes' held field
-        self.switching_field = None  # the applied field reaches the section
         return mag._replace(flux_density=mag.flux_density + MU_0 * self.values[
             "unshielded_share"] * (h - mean_in))
 

@@ -312,6 +312,6 @@ class EddyLagForm(FilterBankState, Extension):
         h_in, hq_in = float(h_in), float(hq_in)
         m = magnetization(h_in, hq_in, pt.mu_real, pt.mu_imag)
         lam = magnetostriction(m, p.bias_magnetization, p.magnetostriction_coefficient)
-        self.switching_field = h_in
+        self.held_switching_field = h_in
         return Magnetics(h, hq, flux_density(h_in, hq_in, pt.mu_real, pt.mu_imag), m, lam,
                          magnetostrictive_force(lam, p.rod_area, p.youngs_modulus))

@@ -219,7 +219,7 @@ class HysteresisForm(MagnetizationStage, Extension):
         return self.with_magnetization(mag, out)
 
     def waveform(self, theta, upstream):
-        sw = self.switching_gain
+        sw = self.point_switching_gain
         return upstream(theta) + self.operator.periodic(abs(sw) * self.point.field_amplitude,
                                                         theta + np.angle(sw))
 

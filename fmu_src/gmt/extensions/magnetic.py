@@ -9,6 +9,8 @@ the part whose total, with the extension's change, gives the measured B_m.
 """
 from __future__ import annotations
 
+import numpy as np
+
 from ..constants import MU_0
 from ..forward import Magnetics
 from ..magnetostriction import magnetostrictive_force
@@ -17,18 +19,27 @@ from ..magnetostriction import magnetostrictive_force
 class MagnetizationStage:
     """Mixin of the magnetisation-stage step forms (module docstring)."""
 
-    #: The field the form switches on per unit applied field at the fundamental, [-]
-    #: (:meth:`gmt.extensions.Extension.switching_gain` of the field stage; set by
-    #: :class:`gmt.variants.Chain`): the periodic waveform of the operating point.
-    switching_gain = 1.0
     #: The field stage's time-stepped form (set by :class:`gmt.variants.Chain`; None
-    #: without one): its ``switching_field`` of the step is what the form switches on.
+    #: without one): where it shields the field, the form switches on the field inside.
     field_stage = None
 
+    @property
+    def point_switching_gain(self) -> complex:
+        """The field the form switches on per applied field at the operating point's
+        fundamental, [-]: the field stage's
+        :meth:`gmt.extensions.Extension.switching_gain`, 1 without one (the periodic
+        waveform)."""
+        stage = self.field_stage
+        if stage is None:
+            return 1.0
+        return complex(np.ravel(stage.switching_gain(stage.values,
+                                                     self.point.angular_frequency))[0])
+
     def switching_field(self, mag: Magnetics) -> float:
-        """The field the form's relays or plays switch on this step, [A/m]: the field
-        stage's (the rod's section-mean field where eddy currents shield it), else H."""
-        held = None if self.field_stage is None else self.field_stage.switching_field
+        """The field the form's relays or plays switch on this step, [A/m]: the section-mean
+        field inside where the field stage shields it (``shields_field``), else H."""
+        stage = self.field_stage
+        held = stage.held_switching_field if stage is not None and stage.shields_field else None
         return mag.field if held is None else held
 
     def with_magnetization(self, base: Magnetics, delta) -> Magnetics:

@@ -422,7 +422,7 @@ class PreisachForm(MagnetizationStage, Extension):
         return self.with_magnetization(mag, float(self.relay_weights @ self.states))
 
     def waveform(self, theta, upstream):
-        sw = self.switching_gain
+        sw = self.point_switching_gain
         return upstream(theta) + self.periodic_output(
             self.values, abs(sw) * self.point.field_amplitude, theta, self.point.frequency,
             np.angle(sw))[0]
