@@ -185,7 +185,7 @@ def test_compensator_tracks_demand(f, a, record_property):
     print(f"\n{f:.0f} Hz demand-rule tracking error: max {err.max() * 1e6:.4f} um "
           f"(ZOH half-step estimate {math.pi * a / 200:.4f} um), "
           f"saturated samples {run['transducer'].saturation_count}")
-    record_property(f"tracking_um_{f:.0f}Hz", round(err.max() * 1e6, 5))
+    record_property(f"tracking_um_{f:.0f}Hz", round(float(err.max()) * 1e6, 5))
     assert err.max() < 0.1e-6
     # The demand spans the paper's 0 to 20 a um above the bottom of the stroke.
     d = run["demand"]
@@ -232,7 +232,7 @@ def test_compensated_dy_exceeds_uncompensated(record_property):
         ratios.append(dy_comp / dy_unc)
         print(f"\n{f:.0f} Hz: dy compensated (control rule) {dy_comp * 1e6:.2f} um, "
               f"uncompensated {dy_unc * 1e6:.2f} um, ratio {dy_comp / dy_unc:.3f}")
-        record_property(f"dy_ratio_{f:.0f}Hz", round(dy_comp / dy_unc, 4))
+        record_property(f"dy_ratio_{f:.0f}Hz", round(float(dy_comp / dy_unc), 4))
         assert dy_comp > dy_unc
     assert np.all(np.diff(ratios) > 0)
 
@@ -263,8 +263,8 @@ def test_linearity_eq38(f, a, record_property):
     print(f"\n{f:.0f} Hz linearity (max deviation from diagonal): compensated demand "
           f"rule {lin_comp:.4f}, control rule {lin_ctrl:.4f}, uncompensated {lin_unc:.4f}")
     record_property(f"linearity_{f:.0f}Hz",
-                    {"demand": round(lin_comp, 5), "control": round(lin_ctrl, 5),
-                         "uncompensated": round(lin_unc, 5)})
+                    {"demand": round(float(lin_comp), 5), "control": round(float(lin_ctrl), 5),
+                         "uncompensated": round(float(lin_unc), 5)})
     assert lin_comp < 0.01
     assert lin_unc > 0.1
     assert lin_ctrl < lin_unc

@@ -105,7 +105,7 @@ def test_dy_against_table_3(params, table3, record_property):
         model = gmt.loop_metrics(params, _point(params, f))["dy"] * 1e6
         print(f"\ndy {f:.0f} Hz: model {model:.2f} um, Table 3 {measured:.1f} um, "
               f"diff {model - measured:+.2f} um")
-        record_property(f"dy_model_um_{f:.0f}Hz", round(model, 3))
+        record_property(f"dy_model_um_{f:.0f}Hz", round(float(model), 3))
         assert 0 < model < measured
 
 
@@ -179,7 +179,7 @@ def test_zoh_first_order_convergence(params, record_property):
     ratio = errors[0] / errors[1]
     print(f"\nZOH error vs continuous: {errors[0]:.2e} pp at T/2000, "
           f"{errors[1]:.2e} pp at T/4000, ratio {ratio:.3f}")
-    record_property("zoh_convergence_ratio", round(ratio, 4))
+    record_property("zoh_convergence_ratio", round(float(ratio), 4))
     assert errors[0] < 2e-3
     assert 1.8 < ratio < 2.2
 
