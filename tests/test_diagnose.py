@@ -101,6 +101,45 @@ def test_features_recover_noise_and_flux_density():
     assert rf.flux_density_amplitude == pytest.approx(0.0637, rel=2e-3)
 
 
+def test_mains_pickup_between_the_harmonics_stays_out_of_the_features_and_the_noise():
+    """A 50 Hz tone and its third harmonic (0.3 um and 0.09 um, random phase) on a 100 Hz
+    run of 6 periods. Fitted beside the harmonics (features.MAINS_TONES) it lies in the
+    span of its own columns, so least squares leaves every other coefficient as on the run
+    without it: harmonics, drift terms and noise equal to rounding (1e-6 of a standard
+    error). Not fitted, the tone changes sign from one period to the next and counts as
+    noise (five times the 0.05 um), and it moves y's fundamental by several standard
+    errors (Ott, Electromagnetic Compatibility Engineering, 2009, ch. 3, for the
+    pickup)."""
+    from smeha.diagnose import features
+    run = generate_runs(None, seed=3, frequencies=(100,), amplitudes=(1.0,), noise_um=0.05,
+                        cycles=6)[0]
+    t = np.asarray(run.time)
+    hum = (0.3e-6 * np.cos(2 * math.pi * 50 * t + 0.7)
+           + 0.09e-6 * np.cos(2 * math.pi * 150 * t + 2.1))
+    hummed = dataclasses.replace(run, displacement=run.displacement + hum)
+    clean, fitted = diagnose.run_features(run), diagnose.run_features(hummed)
+    se_y = np.sqrt(clean.y_var)
+    assert np.all(np.abs(fitted.y - clean.y) < 1e-6 * se_y)
+    assert abs(fitted.offset_slope - clean.offset_slope) < 1e-6 * math.sqrt(
+        clean.offset_slope_var)
+    assert abs(fitted.y1_slope - clean.y1_slope) < 1e-6 * math.sqrt(clean.y1_slope_var)
+    assert fitted.noise_y == pytest.approx(clean.noise_y, rel=1e-6)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(features.mains_tones, "__defaults__", ((),))
+        unfitted = diagnose.run_features(hummed)
+    assert unfitted.noise_y > 3 * clean.noise_y
+    assert abs(unfitted.y[0] - clean.y[0]) > 5 * se_y[0]
+
+
+def test_mains_tones_are_fitted_only_where_the_record_tells_them_from_the_harmonics():
+    from smeha.diagnose.features import mains_tones
+    assert mains_tones(100.0, 8, 0.06) == (50.0, 150.0, 60.0, 180.0)
+    assert mains_tones(50.0, 8, 0.12) == (60.0, 180.0)  # 50 and 150 on harmonics 1 and 3
+    # 1 / duration is the resolution: 180 Hz is 20 Hz from 200 Hz
+    assert mains_tones(200.0, 8, 0.06) == (50.0, 150.0, 60.0, 180.0)
+    assert mains_tones(200.0, 8, 0.04) == (50.0, 150.0, 60.0)
+
+
 # -- the extensions' physics ------------------------------------------------------------
 
 

@@ -56,6 +56,13 @@ MIN_CYCLES = 2
 #: Most harmonics of the noise estimate's fit when the samples of a period are not a
 #: whole number (module docstring); fewer when the sampling resolves fewer.
 NOISE_HARMONICS = 30
+#: Mains pickup [Hz]: the 50 Hz and 60 Hz mains and their third harmonics, which a
+#: ground loop or an unshielded lead puts on the displacement and sense-voltage lines
+#: (Ott, Electromagnetic Compatibility Engineering, 2009, ch. 3). Each is fitted beside
+#: the harmonics where the record tells it apart from them (:func:`mains_tones`): not
+#: fitted, a tone between the drive's harmonics leaks into the drift terms, which then
+#: carry a scatter no cause explains.
+MAINS_TONES = (50.0, 150.0, 60.0, 180.0)
 #: z-score of the first period's misfit to the later ones above which it is transient.
 TRANSIENT_Z = 4.0
 
@@ -129,15 +136,46 @@ class RunFeatures:
         return self.angular_frequency * np.asarray(time) + self.current_phase
 
 
-def _basis(t, w, harmonics, t_mid, quadratic=False):
+def _basis(t, w, harmonics, t_mid, quadratic=False, tones=()):
+    """Columns: offset, its drift, the harmonics' cos and sin, the ``tones`` [Hz] (cos
+    and sin each), the fundamental's drift (cos, sin); with ``quadratic`` the second-order
+    drift of offset and fundamental after them."""
     tau = t - t_mid
     cols = [np.ones_like(t), tau]
     for k in range(1, harmonics + 1):
         cols += [np.cos(k * w * t), np.sin(k * w * t)]
+    for tone in tones:
+        cols += [np.cos(2.0 * math.pi * tone * t), np.sin(2.0 * math.pi * tone * t)]
     cols += [tau * np.cos(w * t), tau * np.sin(w * t)]
     if quadratic:
         cols += [tau * tau, tau * tau * np.cos(w * t), tau * tau * np.sin(w * t)]
     return np.column_stack(cols)
+
+
+def mains_tones(frequency, harmonics, duration, tones=MAINS_TONES):
+    """The ``tones`` [Hz] a record of ``duration`` [s] at the drive ``frequency`` [Hz]
+    tells apart from the offset and the harmonics 1 ... ``harmonics``: at least one
+    resolution bin (1 / duration) from each (Rayleigh's criterion).
+
+    >>> mains_tones(100.0, 8, 0.06)
+    (50.0, 150.0, 60.0, 180.0)
+    >>> mains_tones(50.0, 8, 0.12)  # on the fundamental and the third harmonic
+    (60.0, 180.0)
+    """
+    k = np.arange(harmonics + 1) * frequency
+    return tuple(tone for tone in tones if np.min(np.abs(tone - k)) >= 1.0 / duration)
+
+
+def _without_tones(t, x, coef, harmonics, tones):
+    """``x`` less the ``tones`` of the fit ``coef`` (:func:`_basis`'s order): the noise is
+    the scatter about the drive's periodic response, and a mains tone between its harmonics
+    would otherwise count as noise (a 50 Hz tone on a 100 Hz run changes sign from one
+    period to the next)."""
+    out = np.array(x, float)
+    for n, tone in enumerate(tones):
+        a, b = coef[2 + 2 * harmonics + 2 * n], coef[3 + 2 * harmonics + 2 * n]
+        out -= a * np.cos(2.0 * math.pi * tone * t) + b * np.sin(2.0 * math.pi * tone * t)
+    return out
 
 
 def _lstsq(basis, x):
@@ -394,13 +432,15 @@ def run_features(run: Run, params: gmt.TransducerParameters | None = None,
         raise SkippedRun(run.name, f"the current has no fundamental at {f:g} Hz")
     ts, ys = t[mask], run.displacement[mask]
     t_mid = float(ts.mean())
-    basis = _basis(ts, w, harmonics, t_mid)
+    tones = mains_tones(f, harmonics, cycles / f)
+    basis = _basis(ts, w, harmonics, t_mid, tones=tones)
     if ts.size < 2 * basis.shape[1]:
         raise SkippedRun(run.name, f"{ts.size} samples in {cycles} periods; the features need "
                                    f"at least {2 * basis.shape[1]}")
     gram_inv = np.linalg.pinv(basis.T @ basis)
     cy = gram_inv @ (basis.T @ ys)  # normal equations: near-orthogonal columns
-    noise_y, source = _noise(t, run.displacement, f, t0, cycles, pooled_y)
+    noise_y, source = _noise(t, _without_tones(t, run.displacement, cy, harmonics, tones),
+                             f, t0, cycles, pooled_y)
     if noise_y is None:
         raise SkippedRun(run.name, "too few samples to estimate the noise")
     k = np.arange(1, harmonics + 1)
@@ -411,7 +451,8 @@ def run_features(run: Run, params: gmt.TransducerParameters | None = None,
     ratio = None
     if run.sense_voltage is not None:  # B_k = j E_k / (k w N_c A_c), eq 21
         ce = gram_inv @ (basis.T @ run.sense_voltage[mask])
-        noise_e, _ = _noise(t, run.sense_voltage, f, t0, cycles, pooled_e)
+        noise_e, _ = _noise(t, _without_tones(t, run.sense_voltage, ce, harmonics, tones),
+                            f, t0, cycles, pooled_e)
         ek = _phasors(ce, harmonics) * rot
         na = params.sense_turns * params.sense_area
         bk = 1j * ek / (k * w * na)
