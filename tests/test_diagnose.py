@@ -103,7 +103,8 @@ def test_features_recover_noise_and_flux_density():
 
 def test_mains_pickup_between_the_harmonics_stays_out_of_the_features_and_the_noise():
     """A 50 Hz tone and its third harmonic (0.3 um and 0.09 um, random phase) on a 100 Hz
-    run of 6 periods. Fitted beside the harmonics (features.MAINS_TONES) it lies in the
+    run of 10 periods (features.mains_tones: 50 and 150 Hz 5 bins from the harmonics).
+    Fitted beside the harmonics (features.MAINS_TONES) it lies in the
     span of its own columns, so least squares leaves every other coefficient as on the run
     without it: harmonics, drift terms and noise equal to rounding (1e-6 of a standard
     error). Not fitted, the tone changes sign from one period to the next and counts as
@@ -112,7 +113,7 @@ def test_mains_pickup_between_the_harmonics_stays_out_of_the_features_and_the_no
     pickup)."""
     from smeha.diagnose import features
     run = generate_runs(None, seed=3, frequencies=(100,), amplitudes=(1.0,), noise_um=0.05,
-                        cycles=6)[0]
+                        cycles=10)[0]
     t = np.asarray(run.time)
     hum = (0.3e-6 * np.cos(2 * math.pi * 50 * t + 0.7)
            + 0.09e-6 * np.cos(2 * math.pi * 150 * t + 2.1))
@@ -133,11 +134,11 @@ def test_mains_pickup_between_the_harmonics_stays_out_of_the_features_and_the_no
 
 def test_mains_tones_are_fitted_only_where_the_record_tells_them_from_the_harmonics():
     from smeha.diagnose.features import mains_tones
-    assert mains_tones(100.0, 8, 0.06) == (50.0, 150.0, 60.0, 180.0)
-    assert mains_tones(50.0, 8, 0.12) == (60.0, 180.0)  # 50 and 150 on harmonics 1 and 3
-    # 1 / duration is the resolution: 180 Hz is 20 Hz from 200 Hz
-    assert mains_tones(200.0, 8, 0.06) == (50.0, 150.0, 60.0, 180.0)
-    assert mains_tones(200.0, 8, 0.04) == (50.0, 150.0, 60.0)
+    # 3 bins of 1 / duration from the offset and every harmonic (features.MAINS_SEPARATION)
+    assert mains_tones(100.0, 8, 0.06) == (50.0, 150.0)  # 60 Hz 2.4 bins from 100 Hz
+    assert mains_tones(50.0, 8, 0.12) == ()  # 50, 150 on harmonics; 60, 180 Hz 1.2, 2.4 off
+    assert mains_tones(200.0, 8, 0.3) == (50.0, 150.0, 60.0, 180.0)  # 20 Hz = 6 bins
+    assert mains_tones(200.0, 8, 0.06) == (50.0, 150.0, 60.0)  # 180 Hz 1.2 bins off
 
 
 # -- the extensions' physics ------------------------------------------------------------
