@@ -65,8 +65,8 @@ from .linearfit import linear_member
 
 __all__ = ["WITHIN_NOISE", "MIN_BIC_DROP", "MIN_EXPLAINED", "MAX_CAUSES", "MIN_SHARE",
            "MIN_SHARE_WITH_B",
-           "SWAP_CANDIDATES", "FORMS_TRIED", "CONTINUATIONS", "CONTINUE_SETTLED", "channels", "evidence_channels", "share",
-           "significant",
+           "SWAP_CANDIDATES", "FORMS_TRIED", "CONTINUATIONS", "CONTINUE_SETTLED", "channels",
+           "evidence_channels", "share", "significant",
            "explained", "passes", "passes_in_own",
            "downstream_identifiable", "firm_in", "no_channel_worse", "beyond_forms", "admitted",
            "within_noise", "leader", "simplest_lookalike", "select", "also_consistent"]
@@ -544,7 +544,6 @@ def _continued(ev, train, held, reference: Fit, fits, workers=None) -> tuple:
     1.223e5 -> 1.222e5). Only the combinations the selection would name, if admitted, are
     continued, and only when none is: the extra fits are paid where the decision turns on
     them."""
-    continued = {}
     current = {id(f): f for f in fits if _stops_short(f)}
     for _ in range(CONTINUATIONS):
         keys = list(current)
@@ -560,10 +559,8 @@ def _continued(ev, train, held, reference: Fit, fits, workers=None) -> tuple:
                                                                   * again.train_chi2)
         if not gained:
             break
-    for f in fits:
-        if id(f) in current and current[id(f)] is not f:
-            continued[id(f)] = current[id(f)]
-    return reference, continued
+    return reference, {id(f): current[id(f)] for f in fits
+                       if current.get(id(f), f) is not f}
 
 
 def _better(current: Fit, reference: Fit) -> Fit:
