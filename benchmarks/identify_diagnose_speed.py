@@ -19,7 +19,7 @@ one core"); on a shared machine read the figures as upper bounds.
 
     python benchmarks/identify_diagnose_speed.py [--repeats 3] [--cli-repeats 1]
         [--effect eddy_current_diffusion] [--samples-per-cycle 800] [--cycles 6]
-        [--seed 3] [--workers N] [--json]
+        [--seed 3] [--workers N] [--formulations EFFECT=NAME,...] [--json]
 """
 from __future__ import annotations
 
@@ -40,15 +40,16 @@ from pathlib import Path  # noqa: E402
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 
 
-def dataset(effect, seed, cycles, samples_per_cycle):
-    """labsim's dataset (the truth stays with it) and its runs as smeha reads them."""
+def dataset(effect, seed, cycles, samples_per_cycle, formulations=None):
+    """labsim's dataset (the truth stays with it) and its runs as smeha reads them;
+    ``formulations`` {effect: name} as labsim's ``make_dataset``."""
     sys.path.insert(0, str(TESTS))
     import labsim
     from labsim_runs import smeha_runs
 
     effects = None if effect == "none" else {e: 1.0 for e in effect.split("+")}
     ds = labsim.make_dataset(effects, seed=seed, cycles=cycles,
-                             samples_per_cycle=samples_per_cycle)
+                             samples_per_cycle=samples_per_cycle, formulations=formulations)
     return ds, smeha_runs(ds)
 
 
@@ -69,12 +70,16 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=3)
     ap.add_argument("--workers", type=int, default=None,
                     help="diagnose's worker processes (default smeha.pool.default_workers)")
+    ap.add_argument("--formulations", default="", metavar="EFFECT=NAME,...",
+                    help="labsim's formulation of named effects (tests/labsim/README.md), "
+                         "e.g. rate_independent_hysteresis=preisach_random")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    forms = dict(kv.split("=", 1) for kv in args.formulations.split(",") if kv) or None
     from smeha import diagnose, identify
 
     t_gen, (ds, runs) = _timed(lambda: dataset(args.effect, args.seed, args.cycles,
-                                               args.samples_per_cycle))
+                                               args.samples_per_cycle, forms))
     walls = {"identify": [], "diagnose": [], "cli": []}
     result = None
     cli_cause = None
@@ -103,7 +108,8 @@ def main(argv=None):
     out = {
         "dataset": {"generator": "labsim", "runs": len(runs), "cycles": args.cycles,
                     "samples_per_cycle": args.samples_per_cycle, "samples": n_samples,
-                    "effect": args.effect, "seed": args.seed, "generation_s": t_gen},
+                    "effect": args.effect, "seed": args.seed, "formulations": forms,
+                    "generation_s": t_gen},
         "wall_s": walls, "median_s": med,
         "diagnosis": {"cause": result.cause, "causes": result.causes, "gain": result.gain,
                       "cli_causes": cli_cause},
@@ -114,7 +120,8 @@ def main(argv=None):
         return 0
     d = out["dataset"]
     print(f"labsim: {d['runs']} runs x {d['cycles']} cycles x {d['samples_per_cycle']} samples "
-          f"a period ({n_samples} samples), effect {d['effect']}, seed {d['seed']} "
+          f"a period ({n_samples} samples), effect {d['effect']}, seed {d['seed']}, "
+          f"formulations {forms or 'labsim default'} "
           f"(generated in {t_gen:.1f} s); diagnose's workers {args.workers or 'default'}, "
           f"load average {os.getloadavg()[0]:.2f}")
     for k, label in (("identify", "identify (function)"), ("diagnose", "diagnose (function)"),
