@@ -253,6 +253,31 @@ def test_lookalikes_the_data_do_not_separate_are_told_apart_by_parsimony():
     assert decision.simplest_lookalike(sat, [sat, far_delay]) is sat
 
 
+def test_the_exchange_step_keeps_the_parsimony_between_lookalikes():
+    # decision.earned: in the exchange step a lookalike with more unknowns (the one-mass
+    # mechanics, 3) takes a delay's (1) place only where its held-out score is lower by
+    # more than MIN_BIC_DROP x the dispersion of the model it would replace in the channels
+    # they act on (y, drift), the margin simplest_lookalike uses for the first cause
+    one_mass, delay = _cls("mechanical_resonance", "one_dof"), _cls("transport_delay")
+    drift = _cls("thermal_drift")
+    current = fit((drift, delay), y=1300.0, drift=2500.0)
+    # dispersion (1400 + 2510) / 110 = 35.5: margin 889
+    margin = decision.MIN_BIC_DROP * (N_PARTS[0] + 1300.0 + N_PARTS[2] + 2500.0) / (
+        N_PARTS[0] + N_PARTS[2])
+    assert margin == pytest.approx(888.6, abs=0.1)
+    close = fit((drift, one_mass), y=1500.0, drift=1890.0)  # 410 lower: within the margin
+    assert current.score - close.score == pytest.approx(410.0)
+    assert not decision.earned(current, close, delay, one_mass)
+    clear = fit((drift, one_mass), y=300.0, drift=2000.0)  # 1500 lower: separated
+    assert decision.earned(current, clear, delay, one_mass)
+    # the simpler lookalike coming in, or a cause that is no lookalike, needs no margin
+    back = fit((drift, delay), y=1500.0, drift=1890.0)
+    assert decision.earned(fit((drift, one_mass), y=1300.0, drift=2500.0), back, one_mass,
+                           delay)
+    sat = _cls("magnetization_saturation")
+    assert decision.earned(current, fit((drift, sat), y=1500.0, drift=1890.0), delay, sat)
+
+
 def test_a_density_combination_that_stopped_short_is_continued_while_it_gains(monkeypatch):
     # decision._continued: a combination holding the Preisach density (its fit ends on a
     # round limit) is refitted from its own values beside the model it extends, up to
