@@ -37,7 +37,8 @@
   and so on, up to :data:`MAX_CAUSES` causes,
   while the model is still outside noise on the held-out runs; after each added cause, an
   exchange step
-  (:func:`_swap`) may replace a member by another cause that ranks better with the rest;
+  (:func:`_swap`) may replace a member by another cause that ranks better with the rest
+  (a lookalike with more unknowns only where the data separate the two: :func:`earned`);
 * where no single candidate passes the rule, a drift that passes it in the drift terms
   (:func:`_evident_first`), else two causes named at once (:func:`_pair_first`: a pair
   that passes the rule, each of its causes admitted against the other alone);
