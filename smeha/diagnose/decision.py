@@ -70,8 +70,8 @@ __all__ = ["WITHIN_NOISE", "MIN_BIC_DROP", "MIN_EXPLAINED", "MAX_CAUSES", "MIN_S
            "evidence_channels", "share", "significant",
            "explained", "passes", "passes_in_own",
            "downstream_identifiable", "firm_in", "no_channel_worse", "beyond_forms", "admitted",
-           "within_noise", "leader", "simplest_lookalike", "earned", "select",
-           "also_consistent"]
+           "within_noise", "leader", "lookalike_margin", "simplest_lookalike", "earned",
+           "select", "also_consistent"]
 
 #: Reduced chi^2 at or below which a model "explains the data within noise".
 WITHIN_NOISE = 2.0
@@ -450,6 +450,14 @@ def leader(fits) -> Fit:
     return held if held.score < ranked.score - MIN_BIC_DROP else ranked
 
 
+def lookalike_margin(fit: Fit, member) -> float:
+    """The held-out score difference within which the data do not separate ``member``'s
+    lookalikes beside ``fit``: :data:`MIN_BIC_DROP` times ``fit``'s dispersion in the
+    channels ``member`` acts on (chi^2 per feature, at least 1; quasi-likelihood, McCullagh
+    & Nelder 1989, sec. 9.2). Read by :func:`simplest_lookalike` and :func:`earned`."""
+    return MIN_BIC_DROP * max(1.0, fit.heldout_dispersion_in(channels(member)))
+
+
 def simplest_lookalike(best: Fit, fits) -> Fit:
     """Of ``best`` (one cause) and the firm single forms that leave the same signature
     (the same ``lookalike``: a delay and a re-identified mechanics, linear filters on y)
@@ -466,7 +474,7 @@ def simplest_lookalike(best: Fit, fits) -> Fit:
     member = best.candidate.members[0] if len(best.candidate.members) == 1 else None
     if member is None or not member.lookalike:
         return best
-    margin = MIN_BIC_DROP * max(1.0, best.heldout_dispersion_in(channels(member)))
+    margin = lookalike_margin(best, member)
     alike = [f for f in fits if len(f.candidate.members) == 1 and not f.weak
              and f.candidate.members[0].lookalike == member.lookalike
              and f.score - best.score <= margin]
@@ -653,8 +661,9 @@ def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, sens
     tried += fits
     # each fit's member left out and the one that came in; a lookalike with more unknowns
     # than the member it would replace only where the data tell them apart (:func:`earned`)
-    swaps = [(fit, _added(fit, current).cause, _added(current, fit).cause) for fit in fits
-             if earned(current, fit, _added(fit, current), _added(current, fit))]
+    exchanges = [(fit, _added(fit, current), _added(current, fit)) for fit in fits]
+    swaps = [(fit, gone.cause, came.cause) for fit, gone, came in exchanges
+             if earned(current, fit, gone, came)]
     if not swaps:
         return current, order
     fit, gone, came = min(swaps, key=lambda t: t[0].total_score)
@@ -688,8 +697,7 @@ def earned(current: Fit, new: Fit, gone, came) -> bool:
     if not (gone.lookalike and came.lookalike == gone.lookalike
             and came.fit.size > gone.fit.size):
         return True
-    margin = MIN_BIC_DROP * max(1.0, current.heldout_dispersion_in(channels(came)))
-    return current.score - new.score > margin
+    return current.score - new.score > lookalike_margin(current, came)
 
 
 def also_consistent(paper: Fit, fits, chosen: Fit, first_cause: str) -> list:
