@@ -133,7 +133,7 @@ def test_a_later_cause_must_do_more_than_another_form_of_the_causes_named():
                      _cls("mechanical_resonance", "two_dof"))
     with_delay = fit((sat, one, _cls("transport_delay")), y=4000.0, b=170.0)
     other_form = dataclasses.replace(fit((sat, two), y=60.0, b=250.0),
-                                     at_bounds=("mechanical_resonance.m2/m",))
+                                     at_bounds=("mechanical_resonance.m2/M",))
     assert not decision.beyond_forms([other_form], with_delay)
     assert decision.beyond_forms([fit((sat, two), y=6000.0, b=250.0)], with_delay)
     assert decision.beyond_forms([], with_delay)

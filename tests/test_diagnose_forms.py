@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import json
 import math
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -162,6 +161,25 @@ def test_stiff_joint_reduces_to_one_degree_of_freedom(step):
     assert abs(soft[2]) / abs(one[2]) > 1.1
 
 
+def test_the_fitted_two_mass_form_carries_an_added_load_mass():
+    # the diagnosis' two-mass form with M/m = 3.5 (Table 2's 20 g and a 50 g load) and a
+    # stiff joint (10^6 Hz): eq 27 with m = 3.5 x 20 g, written out here,
+    # G = 1 / (K - M w^2 + j w c) (Thomson & Dahleh ch. 2); rel 1e-5: the joint's own
+    # compliance, (f / 1 MHz)^2 of the motion at 400 Hz and below
+    cls = ext.lookup("mechanical_resonance", "two_dof")
+    w = 2 * math.pi * np.array([5.0, 50.0, 200.0, 400.0])
+
+    def eq27(mass):
+        return 1.0 / (P.stiffness - mass * w ** 2 + 1j * w * P.damping)
+
+    for ratio in (3.5, 1.0):  # with the load, and without it (eq 27 itself)
+        values = cls.from_fit((0.5, 6.0, 0.1, ratio), CONTEXT)
+        assert np.allclose(cls.system_of(values, P).response(w), eq27(ratio * P.mass),
+                           rtol=1e-5, atol=0.0)
+    # the load is seen: at 400 Hz |G| grows 1.4 % (m w^2 / K = 0.0064, the damping aside)
+    assert abs(eq27(3.5 * P.mass)[-1] / eq27(P.mass)[-1]) > 1.01
+
+
 # ------------------------------------------------------------------ in the diagnosis
 
 
@@ -177,7 +195,7 @@ def _steady(form, extra, f=100.0):
 
 @pytest.mark.parametrize("form, extra", [("slab", (-9.0,)), ("cylinder", (-9.0,)),
                                          ("lag", (-9.0, 1.0)), ("one_dof", (1.0, 1.0, 1.0)),
-                                         ("two_dof", (0.75, 6.0, 0.1))])
+                                         ("two_dof", (0.75, 6.0, 0.1, 1.0))])
 def test_forms_reduce_to_the_paper_model(form, extra):
     y0, b0 = steady_state(P, 100.0, 1.0, 0.06, LOSS)
     y1, b1 = _steady(form, extra)
@@ -232,7 +250,7 @@ def test_candidate_lists():
 
 @pytest.mark.parametrize("form, extra, keys", [
     ("slab", (-2.5,), {"time_constant_s", "skin_depth_equals_size_at_Hz"}),
-    ("two_dof", (0.75, 2.65, 0.1), {"rod_mass_kg", "output_mass_kg", "joint_stiffness_N_per_m",
+    ("two_dof", (0.75, 2.65, 0.1, 2.5), {"rod_mass_kg", "output_mass_kg", "joint_stiffness_N_per_m",
                                     "joint_damping_N_s_per_m", "joint_frequency_Hz",
                                     "joint_damping_ratio"})])
 def test_physical_parameters_of_the_forms(form, extra, keys):
@@ -241,5 +259,7 @@ def test_physical_parameters_of_the_forms(form, extra, keys):
     assert set(out) == keys
     json.dumps(out)
     if form == "two_dof":
-        assert out["rod_mass_kg"] + out["output_mass_kg"] == pytest.approx(P.mass)
+        # M/m = 2.5: the moving mass 2.5 times eq 27's, three quarters of it on the output
+        assert out["rod_mass_kg"] + out["output_mass_kg"] == pytest.approx(2.5 * P.mass)
+        assert out["output_mass_kg"] == pytest.approx(0.75 * 2.5 * P.mass)
         assert out["joint_frequency_Hz"] == pytest.approx(10 ** 2.65)

@@ -28,7 +28,7 @@ from system_models.rod import RodParameters
 ROOT = Path(__file__).resolve().parents[1]
 
 #: The issue's case, written by hand in ModelVariant.as_dict()'s format: a mechanical
-#: resonance diagnosed as two_dof with the rod's mass on its bound (m2/m = 0.98 of Table 2's
+#: resonance diagnosed as two_dof with the rod's mass on its bound (m2/M = 0.98 of Table 2's
 #: 0.02 kg: 0.4 g rod, 19.6 g output), a 1.8e5 N/m joint, its damping ratio 0.1.
 HAND_TWO_DOF = {"cause": "mechanical_resonance", "form": "two_dof",
                 "parameters": {"rod_mass_kg": 0.0004, "output_mass_kg": 0.0196,
@@ -124,7 +124,7 @@ def test_piston_receptance_is_the_damped_chain_in_closed_form():
 
 def test_hand_written_two_dof_variant_is_weak_and_moves_a_mode_below_the_pumping_frequency():
     variant = gmt.ModelVariant.from_dict(HAND_TWO_DOF)
-    assert bound_unknowns(variant) == ("m2/m = 0.98 on its upper bound [0.02, 0.98]",)
+    assert bound_unknowns(variant) == ("m2/M = 0.98 on its upper bound [0.02, 0.98]",)
     check = check_variant(variant, "realistic")
     low = check.variant_modes[0].natural_frequencies_Hz[0]
     # the joint in series with K carrying the reflected 16 kg: the chain's closed form
@@ -134,7 +134,7 @@ def test_hand_written_two_dof_variant_is_weak_and_moves_a_mode_below_the_pumping
     for f in (50.0, 100.0):
         reasons = check.reasons(f)
         assert len(reasons) == 2, reasons
-        assert reasons[0].startswith("weak finding: m2/m = 0.98 on its upper bound")
+        assert reasons[0].startswith("weak finding: m2/M = 0.98 on its upper bound")
         assert reasons[1].startswith("circuit mode below the pumping frequency")
         # the piston lags the force past a quarter period (the paper's model: 11 and 29 deg)
         lags = check.piston_lags_deg(f)
@@ -159,7 +159,7 @@ def test_variant_leaving_the_mechanics_alone_is_not_marked():
 
 
 def test_a_stiff_joint_in_its_bounds_is_not_marked():
-    # a 20 kHz joint (log10 f_j = 4.3, inside [1.5, 4.5]) with m2/m = 0.5: no bound, and
+    # a 20 kHz joint (log10 f_j = 4.3, inside [1.5, 4.5]) with m2/M = 0.5: no bound, and
     # k_j = 8 K keeps the lowest mode near the paper's (K carrying the reflected load),
     # above 100 Hz. (What matters is k_j against K, not the joint's own frequency: a 5 kHz
     # joint, k_j = K/2, brings that mode down to 100 Hz.)
@@ -275,6 +275,6 @@ def test_cli_flow_marks_the_hand_written_two_dof_variant(tmp_path, capsys):
     assert "(!)" not in paper_table  # the paper's model on the realistic circuit: no mark
     rows = [line for line in comparison.splitlines() if line.lstrip()[:3] in ("50 ", "100")]
     assert len(rows) == 4 and all(line.endswith("(!)") for line in rows)
-    assert "variant: weak finding: m2/m = 0.98" in comparison
+    assert "variant: weak finding: m2/M = 0.98" in comparison
     assert "lowest mode at 19 Hz (the paper's model: 165 Hz)" in comparison
     assert (tmp_path / "flow.png").stat().st_size > 0

@@ -76,7 +76,7 @@ FORM_CASES = {
     # the magnetisation lags, the coil sees 60 % of the vacuum flux unshielded
     ("eddy_current_diffusion", "slab_magnetization"): (math.log10(1e-3), 0.6),
     ("eddy_current_diffusion", "cylinder_magnetization"): (math.log10(1e-3), 0.6),
-    ("mechanical_resonance", "two_dof"): (0.5, math.log10(1000.0), 0.1),
+    ("mechanical_resonance", "two_dof"): (0.5, math.log10(1000.0), 0.1, 1.0),
     # a Preisach density of 3 kA/m at four nodes (a lognormal-like ridge at h_u = 0 and
     # one asymmetric node at h_u = -H_max/3), switching falling to half at 300 Hz
     ("rate_independent_hysteresis", "preisach"): (
@@ -583,7 +583,7 @@ COMBINED = {
                                                             "preisach"],
     ("transport_delay", ""): (0.337,),
     ("mechanical_resonance", "one_dof"): (0.5, 0.3, 0.95),
-    ("mechanical_resonance", "two_dof"): (0.5, 3.0, 0.1),
+    ("mechanical_resonance", "two_dof"): (0.5, 3.0, 0.1, 2.0),
 }
 
 

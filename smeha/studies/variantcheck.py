@@ -98,7 +98,7 @@ def _fit_unknowns(cls, values, params) -> tuple | None:
         m1, m2 = values["rod_mass_kg"], values["output_mass_kg"]
         kj, cj = values["joint_stiffness_N_per_m"], values["joint_damping_N_s_per_m"]
         return (m2 / (m1 + m2), math.log10(math.sqrt(kj / m2) / (2.0 * math.pi)),
-                cj / (2.0 * math.sqrt(kj * m2)))
+                cj / (2.0 * math.sqrt(kj * m2)), (m1 + m2) / params.mass)
     return None
 
 
