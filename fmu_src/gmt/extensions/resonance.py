@@ -257,8 +257,8 @@ class TwoMassForm(Extension):
     output's share m_2/M of the moving mass M = m_1 + m_2, log10 of the joint's
     frequency sqrt(k_j/m_2)/(2 pi) [Hz], its damping ratio, and M over eq 27's m:
     a load carried on a joint adds its mass to the transducer's own (labsim's output
-    mass, 50 g on Table 2's 20 g: with M held at m the fit pressed m_2/M on its
-    bound and, without a sense voltage, the resonance beside saturation or eddy
+    mass, 50 g on Table 2's 20 g: with M held at m the fit pressed the output's share
+    on its bound and, without a sense voltage, the resonance beside saturation or eddy
     currents was ``unexplained``). The time-stepped form advances
     x = [y_1, v_1, y_2, v_2] (module docstring); memory: the rod's y_1 [m],
     v_1 [m/s].
