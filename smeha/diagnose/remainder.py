@@ -11,8 +11,9 @@ forms, and E_j is held between E_k and E_{j-1}, so that the shares and the remai
 up to 1. A cause's form in the named model may differ from the form it was first named
 in: read off the fit of the named model's form alone, labsim's output mass beside
 saturation without B (2026-11-28) explained 0 and saturation 114 %, the two-mass form's
-fit alone predicting the held-out runs worse than the paper's model. A remainder counts as unexplained only while the chosen model is
-outside noise (:func:`smeha.diagnose.decision.within_noise`).
+fit alone predicting the held-out runs worse than the paper's model. A remainder counts
+as unexplained only while the chosen model is outside noise
+(:func:`smeha.diagnose.decision.within_noise`).
 
 The remainder's **signature** is read from the chosen model's residual over
 every run (training and held-out): the share of its chi^2 in y, in B and in
@@ -56,8 +57,11 @@ def contributions(d) -> tuple:
     last = min(_excess(d.extended), e0)
     out, before = {}, e0
     for j, cause in enumerate(d.causes, start=1):
-        fit = _sub_fit(d, d.causes[:j]) if j < len(d.causes) else None
-        after = last if fit is None else min(max(_excess(fit), last), before)
+        if j == len(d.causes):
+            after = last
+        else:  # no fit of the first j causes (none seen): the cause is credited nothing
+            fit = _sub_fit(d, d.causes[:j])
+            after = before if fit is None else min(max(_excess(fit), last), before)
         out[cause] = (before - after) / e0
         before = after
     return out, last / e0
