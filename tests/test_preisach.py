@@ -13,8 +13,9 @@ import numpy as np
 import pytest
 
 import gmt
-from gmt.extensions.preisach import (COERCIVE_GRID, INTERACTION_GRID, PreisachForm, _relays,
-                                     node_grid, node_harmonics, relay_harmonics, synthesise)
+from gmt.extensions.preisach import (COERCIVE_GRID, INTERACTION_GRID, FinerPreisachForm,
+                                     PreisachForm, _relays, node_grid, node_harmonics,
+                                     refined_weights, relay_harmonics, synthesise)
 from smeha.diagnose.linearfit import effective_dof
 
 H_MAX = 14000.0
@@ -80,6 +81,35 @@ def test_periodic_output_of_several_runs_matches_relays_switched_in_time():
     for r, hm in enumerate(amplitudes):
         alone = PreisachForm.periodic_output(dict(values, weights_A_per_m=rows[1]), [hm], theta)
         assert np.allclose(one[r], alone[0], rtol=0, atol=1e-9 * np.ptp(alone))
+
+
+@pytest.mark.parametrize("spread", [0.3, 1.0])
+def test_a_density_carried_to_the_finer_grid_is_the_same_population(spread):
+    # a smooth population (log-normal in h_c about 0.3 H_max, normal in h_u about
+    # 0.05 H_max) on the diagnosis' grid, and refined_weights' weights for it on the finer
+    # one, each switched relay by relay over two periods (stepped_relays, not the closed
+    # form): the same loop. Bilinear interpolation of a density that varies over one
+    # coercive cell (0.35 in ln h_c) misses by the cell's curvature: within 4 % of the
+    # swing (3.1 % measured at 0.4 H_max, most of it a constant: the relays that drive
+    # leaves unswitched hold their demagnetised state, which flips at h_u = 0, where the
+    # two grids' cells differ; 1.2 % at H_max); the total weight (the
+    # saturation magnetisation, a trapezoid sum on either grid) within 0.5 % (0.15 %
+    # measured: the two sums of a density that curves within a cell differ by that)
+    hc, hu = node_grid(1.0)
+    c, u = np.meshgrid(np.log(hc), hu, indexing="ij")
+    w = np.exp(-(c - math.log(0.3)) ** 2 / spread - (u - 0.05) ** 2 / (0.1 * spread)).ravel()
+    w *= 1e5 / w.sum()
+    fine = refined_weights(w, PreisachForm.grid, FinerPreisachForm.grid)
+    assert fine.size == FinerPreisachForm.fit.size - 2
+    assert fine.sum() == pytest.approx(w.sum(), rel=5e-3)
+    theta = np.linspace(0, 2 * np.pi, 2000, endpoint=False)
+    for amplitude in (0.4 * H_MAX, H_MAX):
+        field = amplitude * np.cos(np.tile(theta, 2))
+        loops = []
+        for cls, weights in ((PreisachForm, w), (FinerPreisachForm, fine)):
+            a, b, weight = _relays(*(tuple(g) for g in node_grid(H_MAX, *cls.grid)))
+            loops.append(stepped_relays(a, b, weight @ weights, field)[2000:])
+        assert np.abs(loops[1] - loops[0]).max() <= 0.04 * np.ptp(loops[0])
 
 
 def test_loss_per_cycle_is_the_relays_loop_area_and_never_negative():

@@ -29,8 +29,9 @@
   a magnetic one only when that one misses B no more than y
   (:func:`downstream_identifiable`), and no
   channel it acts on may be predicted worse (:func:`no_channel_worse`), and it must
-  predict better than the causes before it in any other form (:func:`beyond_forms`), and
-  its unknowns must be off their bounds
+  predict better than the causes before it in any other form (:func:`beyond_forms`) and,
+  beside a discretised form (the Preisach density), than that form on a finer grid
+  (:mod:`smeha.diagnose.resolution`), and its unknowns must be off their bounds
   (:func:`firm_in`: with a sense voltage the round's leader is chosen among the
   combinations whose added cause is firm, and when that one is not admitted the leader of
   all, if weak, may be, as a weak finding; without one a weak leader ends the selection);
@@ -63,6 +64,7 @@ from .candidates import Batch, Candidate
 from .driftlaw import goes_with_time
 from .fit import Fit, fit_all
 from .linearfit import linear_member
+from .resolution import Refinement
 
 __all__ = ["WITHIN_NOISE", "MIN_BIC_DROP", "MIN_EXPLAINED", "MAX_CAUSES", "MIN_SHARE",
            "MIN_SHARE_WITH_B",
@@ -322,15 +324,20 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         evident_leader = leader(evident) if evident else None
         if evident_leader is not None and all(evident_leader is not f for f in tries):
             tries.append(evident_leader)
-        nxt = next((f for f in tries
-                    if admitted(paper, reference, f, other_forms, sense, timelike)), None)
+        # and beside a discretised form (the density) a cause acting on its channels must
+        # beat that form on a finer grid (smeha.diagnose.resolution)
+        finer = Refinement(ev, train, held, reference, workers)
+
+        def named(f, reference):
+            return (admitted(paper, reference, f, other_forms, sense, timelike)
+                    and finer.passed_by(f, _added(reference, f)))
+
+        nxt = next((f for f in tries if named(f, reference)), None)
         if nxt is None and any(_stops_short(f) for f in tries):
             reference, continued = _continued(ev, train, held, reference, tries, workers)
             tried = [continued.get(id(f), f) for f in tried]
             tries = [continued.get(id(f), f) for f in tries]
-            nxt = next((f for f in tries
-                        if admitted(paper, reference, f, other_forms, sense, timelike)),
-                       None)
+            nxt = next((f for f in tries if named(f, reference)), None)
         if nxt is None:
             current = _better(current, reference)
             break
@@ -406,6 +413,13 @@ def _pair_first(ev, train, held, paper: Fit, singles, sense: bool, timelike: boo
                    for m in fit.candidate.members]
         if all(admitted(paper, alone, fit, [], sense, timelike) for alone in members):
             named.append((fit, sorted(members, key=lambda f: f.total_score)))
+    # beside a discretised form (the density) the other cause must beat that form on a
+    # finer grid (smeha.diagnose.resolution), checked from the best-ranked pair on
+    named.sort(key=lambda t: t[0].total_score)
+    finer = {}
+    named = [t for t in named if all(
+        finer.setdefault(id(alone), Refinement(ev, train, held, alone, workers)).passed_by(
+            t[0], _added(alone, t[0])) for alone in t[1])]
     # a firm pair first; with B a weak one may be named, as a weak finding, as in the
     # rounds of select (with B pinning the magnetic cause, the one-mass resonance beside
     # the eddy form above took its stiffness ratio to a bound); without B, not

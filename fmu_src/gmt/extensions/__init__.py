@@ -132,7 +132,13 @@ def ordered(classes) -> tuple:
                 f"{' and '.join(variant_name(c.cause, c.form) for c in at)} both act on the "
                 f"{stage} stage; a combination takes one extension a stage (the magnetisation "
                 "stage excepted)")
-    return tuple(sorted(classes, key=lambda c: (STAGES.index(c.stage), EXTENSIONS.index(c))))
+    return tuple(sorted(classes, key=lambda c: (STAGES.index(c.stage), _rank(c))))
+
+
+def _rank(cls) -> int:
+    """The registry's index of ``cls``, or of the registered form it refines (a finer
+    discretisation of that form, ``Extension.finer``)."""
+    return next(EXTENSIONS.index(c) for c in cls.__mro__ if c in EXTENSIONS)
 
 
 def combination_name(classes) -> str:

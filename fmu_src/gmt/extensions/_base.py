@@ -246,6 +246,10 @@ class Extension:
     lookalike : str
         What else, outside the candidates, leaves the same signature in the
         data (for the report's caution), "" when nothing known does.
+    finer : type or None
+        The same form on a finer discretisation (a Preisach density's grid), which
+        the diagnosis fits before a later cause joins it on the same channels; None
+        for a form that is not discretised.
     parameters : tuple of Parameter
         SI parameters.
     fit : FitSpec
@@ -264,6 +268,7 @@ class Extension:
     signals = ""
     evidence = ""
     lookalike = ""
+    finer = None
     parameters: tuple = ()
     fit = FitSpec()
 
