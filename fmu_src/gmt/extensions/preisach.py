@@ -89,12 +89,8 @@ COERCIVE_GRID = (0.03, 1.0, 11)
 #: model's; at 19 nodes 0.03-0.17 um.
 INTERACTION_GRID = (-1.0, 1.0, 19)
 #: The finer grid (coercive, interaction) of :class:`FinerPreisachForm`: 1.5 times as many
-#: nodes along each axis over the same range (0.23 in ln h_c, H_max/13.5 in h_u). On
-#: labsim's seed 108 at 800 samples a period (a bimodal density, one population 0.63 kA/m
-#: wide) the density on the default grid scored 195 609 held out and an eddy form beside it
-#: 95 544, named as a second cause; the density alone on 13 x 23 nodes 24 913, on 16 x 28
-#: 24 605 (2026-11-28). On true hysteresis + eddy data the finer density alone stays far
-#: behind the pair (seed 0: 318 382 against ~95 000).
+#: nodes along each axis over the same range (0.23 in ln h_c, H_max/13.5 in h_u); why, and
+#: what it changed on labsim's data: :mod:`smeha.diagnose.resolution`.
 FINER_GRID = ((0.03, 1.0, 16), (-1.0, 1.0, 28))
 #: Relays per grid cell along each axis (the density's quadrature).
 SUBGRID = 6
