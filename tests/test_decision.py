@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
 import pytest
 
 from gmt import extensions as ext
@@ -369,3 +370,40 @@ def test_a_magnetic_cause_beside_the_density_must_beat_the_density_on_a_finer_gr
     other = resolution.Refinement(None, None, None, fit((saturation,), b=195_609.0))
     assert other.passed_by(fit((saturation, eddy), b=95_544.0), eddy)
     assert len(fitted) == 1
+
+
+def _cells(nc, nu):
+    """Cells of an nc x nu grid in units of its spacings: 1 inside, 1/2 on an edge."""
+    def axis(n):
+        c = np.ones(n)
+        c[[0, -1]] = 0.5
+        return c
+    return np.outer(axis(nc), axis(nu))
+
+
+def test_the_finer_model_of_a_combination_starts_from_its_own_values():
+    # smeha.diagnose.resolution.finer_job: in a combination the other member keeps its
+    # fitted values and the density's rate factor is carried as it is, its weights to the
+    # finer grid (1.5 times the nodes along each axis: 16 x 28 = 448 weights for 11 x 19);
+    # a single density is fitted from its own starts (no start given)
+    from smeha.diagnose import resolution
+    density = _cls("rate_independent_hysteresis", "preisach")
+    saturation = _cls("magnetization_saturation")
+    cand = Candidate((density, saturation))
+    # a uniform density: each node's weight its cell, half a spacing at the grid's ends
+    x = ((3.0, 2.5) + tuple(100.0 * _cells(11, 19).ravel())
+         + tuple(0.1 * (k + 1) for k in range(saturation.fit.size)))
+    pair = dataclasses.replace(fit((density, saturation)), candidate=cand, x=x)
+    finer_cand, base, starts = resolution.finer_job(pair)
+    assert finer_cand == Candidate((density.finer, saturation)) and base == pair.base
+    (start,) = starts
+    own = dict(zip(finer_cand.members, finer_cand.split(start)))
+    assert len(own[density.finer]) == 2 + 16 * 28
+    assert own[density.finer][:2] == (3.0, 2.5)
+    assert own[saturation] == x[density.fit.size:]
+    # it stays uniform, each finer node holding the share of its smaller cell: (10/15) x
+    # (18/27) of a coarse node's (the spacings' ratio along ln h_c and h_u)
+    assert np.allclose(own[density.finer][2:],
+                       100.0 * (10 / 15) * (18 / 27) * _cells(16, 28).ravel(), rtol=1e-12)
+    alone = dataclasses.replace(fit((density,)), x=x[:density.fit.size])
+    assert resolution.finer_job(alone) == (Candidate((density.finer,)), alone.base, None)

@@ -413,22 +413,21 @@ def _pair_first(ev, train, held, paper: Fit, singles, sense: bool, timelike: boo
                    for m in fit.candidate.members]
         if all(admitted(paper, alone, fit, [], sense, timelike) for alone in members):
             named.append((fit, sorted(members, key=lambda f: f.total_score)))
-    # beside a discretised form (the density) the other cause must beat that form on a
-    # finer grid (smeha.diagnose.resolution), checked from the best-ranked pair on
-    named.sort(key=lambda t: t[0].total_score)
-    finer = {}
-    named = [t for t in named if all(
-        finer.setdefault(id(alone), Refinement(ev, train, held, alone, workers)).passed_by(
-            t[0], _added(alone, t[0])) for alone in t[1])]
     # a firm pair first; with B a weak one may be named, as a weak finding, as in the
     # rounds of select (with B pinning the magnetic cause, the one-mass resonance beside
-    # the eddy form above took its stiffness ratio to a bound); without B, not
+    # the eddy form above took its stiffness ratio to a bound); without B, not. Beside a
+    # discretised form (the density) the other cause must beat that form on a finer grid
+    # (smeha.diagnose.resolution), asked from the best-ranked pair on: the finer model is
+    # fitted only where a pair that holds the density would otherwise be named
     firm = [t for t in named if not t[0].weak]
-    named = firm or (named if sense else [])
-    if not named:
-        return None, [], tried
-    fit, members = min(named, key=lambda t: t[0].total_score)
-    return fit, [m.cause for m in members], tried
+    weak = [t for t in named if t[0].weak] if sense else []
+    finer = {}
+    for group in (firm, weak):
+        for fit, members in sorted(group, key=lambda t: t[0].total_score):
+            if all(finer.setdefault(id(alone), Refinement(ev, train, held, alone, workers))
+                   .passed_by(fit, _added(alone, fit)) for alone in members):
+                return fit, [m.cause for m in members], tried
+    return None, [], tried
 
 
 def _ranked_forms(fits, count) -> dict:

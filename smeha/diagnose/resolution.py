@@ -20,8 +20,6 @@ density, once per round.
 """
 from __future__ import annotations
 
-from gmt.extensions.preisach import refined_weights
-
 from .candidates import Candidate
 from .fit import Fit, fit_all
 
@@ -42,18 +40,13 @@ def finer_job(fit: Fit) -> tuple:
     A single discretised form is fitted as every single is, from its own starts and
     screened (:func:`smeha.diagnose.linearfit.fit_linear`); in a combination the other
     members start from ``fit``'s values and the finer form from its own carried to the
-    finer nodes (:func:`gmt.extensions.preisach.refined_weights`)."""
+    finer nodes (its ``finer_start``)."""
     cand = finer_candidate(fit.candidate)
     if len(cand.members) == 1:
         return cand, fit.base, None
-    start = []
-    for m, x in zip(fit.candidate.members, fit.candidate.split(fit.x)):
-        if m.finer is None:
-            start += list(x)
-            continue
-        lin = m.linear_unknowns
-        start += list(x[:lin.start]) + list(refined_weights(x[lin], m.grid, m.finer.grid))
-    return cand, fit.base, [tuple(start)]
+    start = tuple(v for m, x in zip(fit.candidate.members, fit.candidate.split(fit.x))
+                  for v in (m.finer_start(x) if m.finer else x))
+    return cand, fit.base, [start]
 
 
 class Refinement:

@@ -249,7 +249,8 @@ class Extension:
     finer : type or None
         The same form on a finer discretisation (a Preisach density's grid), which
         the diagnosis fits before a later cause joins it on the same channels; None
-        for a form that is not discretised.
+        for a form that is not discretised. A form with one gives ``finer_start(x)``,
+        its unknowns carried to the finer form's.
     parameters : tuple of Parameter
         SI parameters.
     fit : FitSpec

@@ -359,6 +359,13 @@ class PreisachForm(MagnetizationStage, Extension):
                                                        "rate_exponent"))
         return names
 
+    @classmethod
+    def finer_start(cls, x):
+        """Unknowns ``x`` carried to :attr:`finer`'s: the rate factor as it is, the node
+        weights refined to its grid (:func:`refined_weights`), a start for its fit."""
+        lin = cls.linear_unknowns
+        return tuple(x[:lin.start]) + tuple(refined_weights(x[lin], cls.grid, cls.finer.grid))
+
     #: Rate factors the diagnosis screens before its alternation (smeha.diagnose.linearfit):
     #: log10 f_r [Hz] and q of a grid over the unknowns' range. Started from one point, the
     #: alternation of weights and rate factor stops where the weights, fitted to one g(f),
@@ -386,10 +393,10 @@ class PreisachForm(MagnetizationStage, Extension):
         return 1.0 / (1.0 + (np.asarray(frequency, float) / fr) ** q)
 
     @classmethod
-    def smoothness(cls, shape=None):
-        """Second differences of the node weights along each axis: the penalty's matrix
-        (``shape``: nodes along h_c and h_u, the form's own grid when None)."""
-        nc, nu = shape or (cls.grid[0][2], cls.grid[1][2])
+    def smoothness(cls):
+        """Second differences of the node weights along each axis of the form's grid: the
+        penalty's matrix."""
+        nc, nu = cls.grid[0][2], cls.grid[1][2]
         rows = []
         for i in range(nc):
             for j in range(nu):
