@@ -59,16 +59,21 @@ def _labsim_batch(effects, seed):
                                           ({"rate_independent_hysteresis": 1.0,
                                             "thermal_drift": 1.0}, 100)])
 def test_labsim_coil_heating_goes_with_time(effects, seed):
-    # measured: alone, per-second chi^2 55-82 on 48 features, per-cycle 5.7e4-5.9e4
-    # (seeds 0-2); beside a Preisach population (seed 100) 1415 against 52554
+    # measured: alone, per-second chi^2 54-68 on 48 features, per-cycle 5.7e4-5.8e4
+    # (seeds 0-1); beside a Preisach population (seed 100) 65 against 53879
     assert goes_with_time(_labsim_batch(effects, seed), MIN_BIC_DROP)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 100, 101])
-def test_labsim_preisach_start_does_not(seed):
-    # labsim's Preisach populations leave drift terms outside noise (chi^2 235-1665 on 48
-    # features, seeds 0-3 and 100-102), described by neither law: per second better by
-    # 69-114 in seeds 0, 2 and 101, within 25 times the dispersion
+def test_labsim_preisach_leaves_no_drift(seed):
+    # a rate-independent Preisach population in periodic steady state has no drift: the
+    # drift features lie within noise under either law (44 degrees of freedom: 48 features,
+    # 4 unknowns; bound z = 4, chi^2 < 44 + 4 sqrt(88)), measured 34-61, and neither law is
+    # preferred. (Until 2026-11-28 the features left y's harmonics above the 8th out of
+    # their fit; on a record of whole periods these leaked into the drift terms, chi^2
+    # 235-1665, and a drift was described where none was.)
     batch = _labsim_batch({"rate_independent_hysteresis": 1.0}, seed)
-    assert law_chi2(batch, per_cycle=False) > 100.0
+    bound = 44.0 + 4.0 * np.sqrt(2.0 * 44.0)
+    assert law_chi2(batch, per_cycle=False) < bound
+    assert law_chi2(batch, per_cycle=True) < bound
     assert not goes_with_time(batch, MIN_BIC_DROP)
