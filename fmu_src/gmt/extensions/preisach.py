@@ -30,12 +30,20 @@ b >= -H_m) is +1 for theta in [0, theta_b) and [2 pi - theta_a, 2 pi),
 theta_x = arccos(x/H_m), -1 in between; its Fourier coefficients are exact,
 
     c_k = 2 (e^{j k theta_a} - e^{-j k theta_b}) / (j pi k),   k >= 1,
-    c_0 = 2 (theta_a + theta_b)/pi - 2,
+    c_0 = 2 (theta_a + theta_b)/pi - 2 - 2 s_d,
 
-(derived for this module), the output being c_0/2 + Re sum_k c_k e^{j k theta}.
-A relay that cannot switch up (a > H_m) ends down, one that cannot switch down
-(b < -H_m) ends up, and one that does neither keeps the demagnetised state
-(up for h_u < 0, down for h_u > 0; Mayergoyz 2003, sec. 1.3). The node
+(derived for this module), the output being c_0/2 + Re sum_k c_k e^{j k theta}, s_d
+the relay's demagnetised state (up for h_u < 0, down for h_u > 0; Mayergoyz 2003,
+sec. 1.3). **M_P is measured from the demagnetised state**: the paper's M_b (eq 25) is
+the rod's magnetisation at rest under the magnet's bias, and the relays' rest states are
+part of it, so M_P = 0 at rest. Counted from all relays down (or from their sum), an
+asymmetric density (loop centres off h_u = 0) would move the operating point of eq 25
+by a constant its weights fix, changing y's harmonics against B's with nothing to set
+it (on labsim's Preisach data, loop centres 0.5 kA/m off: y's held-out excess 575 on
+96 features, 84 measured from the demagnetised state, 2026-11-28), and the time-stepped
+form would start away from M_b. A relay that cannot switch up (a > H_m) ends down,
+one that cannot switch down (b < -H_m) ends up, one that does neither keeps its
+demagnetised state: each of them is in its rest state, and adds nothing. The node
 outputs are summed over :data:`SUBGRID` relays per grid cell and axis, and
 synthesised from their first :data:`PERIODIC_HARMONICS` harmonics (a band whose
 square, the force of eq 25, the steady-state evaluation samples without aliasing,
@@ -223,11 +231,17 @@ def relay_harmonics(up, down, field_amplitude, harmonics=PERIODIC_HARMONICS):
     zb = np.multiply.accumulate(np.broadcast_to(np.exp(-1j * tb), (harmonics, tb.size)),
                                 axis=0).T
     out[switches, 1:] = (za - zb) * (2.0 / (1j * math.pi * k))
-    hu = 0.5 * (a + b)
-    still = np.where(a > hm, np.where(b < -hm, np.where(hu < 0, 1.0, np.where(hu > 0, -1.0, 0.0)),
-                                       -1.0), 1.0)
-    out[~switches, 0] = 2.0 * still[~switches]
+    # measured from the demagnetised state (module docstring): a relay the drive does not
+    # switch holds it (a > H_m ends down, its h_u > 0; b < -H_m ends up, its h_u < 0), 0
+    out[switches, 0] -= 2.0 * demagnetised_state(a[switches], b[switches])
     return out
+
+
+def demagnetised_state(up, down):
+    """Relays' states after AC demagnetisation: up for h_u = (a + b)/2 < 0, down for
+    h_u > 0, 0 on h_u = 0 (a relay there is half up, half down; Mayergoyz 2003, sec. 1.3)."""
+    hu = 0.5 * (np.asarray(up, float) + np.asarray(down, float))
+    return np.where(hu < 0, 1.0, np.where(hu > 0, -1.0, 0.0))
 
 
 @functools.lru_cache(maxsize=64)
@@ -454,15 +468,16 @@ class PreisachForm(MagnetizationStage, Extension):
         self.relay_weights = (weight @ np.asarray(values["weights_A_per_m"], float)
                               * float(self.rate_factor(values, point.frequency)))
         self.states = self._demagnetised()
+        # M_P is measured from the demagnetised state (module docstring)
+        self.rest = float(self.relay_weights @ self.states)
 
     def _demagnetised(self):
-        hu = 0.5 * (self.up + self.down)
-        return np.where(hu < 0, 1.0, np.where(hu > 0, -1.0, 0.0))
+        return demagnetised_state(self.up, self.down)
 
     def adjust(self, mag, step, time):
         h = self.switching_field(mag)
         self.states = np.where(h >= self.up, 1.0, np.where(h <= self.down, -1.0, self.states))
-        return self.with_magnetization(mag, float(self.relay_weights @ self.states))
+        return self.with_magnetization(mag, float(self.relay_weights @ self.states) - self.rest)
 
     def waveform(self, theta, upstream):
         sw = self.point_switching_gain
