@@ -407,3 +407,30 @@ def test_the_finer_model_of_a_combination_starts_from_its_own_values():
                        100.0 * (10 / 15) * (18 / 27) * _cells(16, 28).ravel(), rtol=1e-12)
     alone = dataclasses.replace(fit((density,)), x=x[:density.fit.size])
     assert resolution.finer_job(alone) == (Candidate((density.finer,)), alone.base, None)
+
+
+def test_a_joined_cause_starts_where_the_training_chi2_is_least():
+    # the join's start vector: the model's fitted values, and for the added cause the one
+    # of its value fitted alone and its form's start vectors whose training chi^2 is least
+    # (decision._join_start); a start whose residuals are not finite is passed over. Here
+    # chi^2 is the squared distance of the added cause's log10 tau from -2.8, written out
+    delay = _cls("transport_delay")
+    slab_m = _cls("eddy_current_diffusion", "slab_magnetization")
+    current = dataclasses.replace(fit((delay,)), x=(0.3,))
+    cand = Candidate((delay,)).plus(slab_m)
+    at = cand.members.index(slab_m)
+
+    class Ev:
+        def residuals(self, train, base, candidate, x):
+            tau = candidate.split(x)[at][0]
+            if tau < -3.9:  # as a model that cannot be evaluated there
+                return np.array([np.nan])
+            return np.array([tau + 2.8])
+
+    starts = [tuple(s) for s in slab_m.fit.starts]
+    assert (-3.0, 1.0) in starts and (-4.0, 1.0) in starts
+    x = decision._join_start(Ev(), None, cand, current, slab_m, (-6.0, 0.5))
+    assert cand.split(x)[at] == (-3.0, 1.0)  # the form's start nearest -2.8, finite
+    assert cand.split(x)[1 - at] == (0.3,)  # the model's own value kept
+    x = decision._join_start(Ev(), None, cand, current, slab_m, (-2.7, 0.5))
+    assert cand.split(x)[at] == (-2.7, 0.5)  # the value fitted alone, nearer still
