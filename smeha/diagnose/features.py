@@ -207,14 +207,17 @@ def current_fundamental(time, current, frequency):
     """The current's fundamental i = I_m cos(w t + phi) by least squares over ``time``.
 
     Returns (I_m [A], phi [rad], var(I_m) [A^2], var(phi) [rad^2]): the variances
-    from the fit's residual (offset, a drift line and harmonics 1-3 in the
-    basis). Every feature is referred to phi and the model is driven by I_m, so
+    from the fit's residual (offset, a drift line and the harmonics the sampling
+    resolves, :func:`fitted_harmonics`, in the basis). Every feature is referred to phi and the model is driven by I_m, so
     their errors are carried into the features' variances
     (:func:`smeha.diagnose.workflow.propagate_errors`).
     """
     t = np.asarray(time, dtype=float)
     w = 2.0 * math.pi * frequency
-    basis = _basis(t, w, 3, float(t.mean()))[:, :8]
+    # the harmonics the sampling resolves, as for y and E (module docstring): a drive
+    # with distortion would otherwise leak through the drift line into the fundamental
+    fitted = fitted_harmonics(float(np.median(np.diff(t))), frequency, 3)
+    basis = _basis(t, w, fitted, float(t.mean()))[:, :2 + 2 * fitted]
     c, gram = _lstsq(basis, current)
     r = current - basis @ c
     sigma2 = float(r @ r) / max(t.size - basis.shape[1], 1)
