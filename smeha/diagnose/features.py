@@ -10,10 +10,11 @@ The fit holds every harmonic the sampling resolves (:func:`fitted_harmonics`, up
 :data:`NOISE_HARMONICS`), of which the first :data:`HARMONICS` are the features. On
 whole periods the harmonics are orthogonal to one another but not to the drift terms
 (over whole periods the integral of tau cos(w t) cos(k w t) is zero only at particular
-start phases): a harmonic left out of the fit leaks through them into the features, by an amount that changes with the record's start phase. A hysteresis loop's
-corners give B harmonics well above the 8th (labsim's Preisach density: B_2 moved by 3 %
-from run to run at one amplitude, some 60 standard errors, and the drift terms carried
-chi^2 of 235-1665 on 48 features where the data have no drift).
+start phases): a harmonic left out of the fit leaks through them into the features, by
+an amount that changes with the record's start phase. A hysteresis loop's corners give B
+harmonics well above the 8th (labsim's Preisach density: B_2 moved by 3 % from run to run
+at one amplitude, some 60 standard errors, and the drift terms carried chi^2 of 235-1665
+on 48 features where the data have no drift).
 
 **What is used.** A record may start in the transducer's transient (the
 mechanics start at rest, an operator with memory starts demagnetised). Its
@@ -208,9 +209,9 @@ def current_fundamental(time, current, frequency):
 
     Returns (I_m [A], phi [rad], var(I_m) [A^2], var(phi) [rad^2]): the variances
     from the fit's residual (offset, a drift line and the harmonics the sampling
-    resolves, :func:`fitted_harmonics`, in the basis). Every feature is referred to phi and the model is driven by I_m, so
-    their errors are carried into the features' variances
-    (:func:`smeha.diagnose.workflow.propagate_errors`).
+    resolves, :func:`fitted_harmonics`, in the basis). Every feature is referred to phi
+    and the model is driven by I_m, so their errors are carried into the features'
+    variances (:func:`smeha.diagnose.workflow.propagate_errors`).
     """
     t = np.asarray(time, dtype=float)
     w = 2.0 * math.pi * frequency
