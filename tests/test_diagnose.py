@@ -148,7 +148,8 @@ def _loop_like_run(seed, start_phase, samples_per_period=100, cycles=6, harmonic
     from smeha.measured import Run
     import gmt
     rng = np.random.default_rng(seed)
-    f, na = 100.0, gmt.TransducerParameters().sense_turns * gmt.TransducerParameters().sense_area
+    params = gmt.TransducerParameters()
+    f, na = 100.0, params.sense_turns * params.sense_area
     k = np.arange(1, harmonics + 1)
     y_k = 20e-6 / k ** 2 * np.exp(1j * rng.uniform(0, 2 * np.pi, k.size))
     b_k = 0.1 / k ** 2 * np.exp(1j * rng.uniform(0, 2 * np.pi, k.size))

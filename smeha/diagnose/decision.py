@@ -60,11 +60,9 @@ from __future__ import annotations
 
 import math
 
-import gmt
-
 from .candidates import Batch, Candidate
 from .driftlaw import goes_with_time
-from .fit import Fit, fit_all
+from .fit import UNEVALUATED, Fit, fit_all
 from .linearfit import linear_member
 from .resolution import Refinement
 
@@ -639,7 +637,7 @@ def _join_start(ev, train, cand: Candidate, current: Fit, added, alone) -> tuple
         x = _start(cand, current, added, values)
         try:
             r = ev.residuals(train, current.base, cand, x)
-        except (ValueError, FloatingPointError, gmt.ParameterError):
+        except UNEVALUATED:
             continue
         chi2 = float(r @ r)
         if math.isfinite(chi2) and chi2 < least:

@@ -217,7 +217,7 @@ def current_fundamental(time, current, frequency):
     w = 2.0 * math.pi * frequency
     # the harmonics the sampling resolves, as for y and E (module docstring): a drive
     # with distortion would otherwise leak through the drift line into the fundamental
-    fitted = fitted_harmonics(float(np.median(np.diff(t))), frequency, 3)
+    fitted = fitted_harmonics(float(np.median(np.diff(t))), frequency)
     basis = _basis(t, w, fitted, float(t.mean()))[:, :2 + 2 * fitted]
     c, gram = _lstsq(basis, current)
     r = current - basis @ c

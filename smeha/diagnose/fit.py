@@ -63,12 +63,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-import gmt
-
 from .candidates import Batch, Candidate, Evaluator
 from .linearfit import fit_linear, linear_member
 
-__all__ = ["BASE_LOWER", "BASE_UPPER", "MAX_EVALUATIONS", "Fit", "base_factor",
+__all__ = ["BASE_LOWER", "BASE_UPPER", "MAX_EVALUATIONS", "UNEVALUATED", "Fit", "base_factor",
            "fit_candidate", "predictive_chi2", "score", "fit_and_score", "fit_all"]
 
 #: Bounds of the base unknowns (K_h, n, K_e, K_ex, s).
@@ -76,6 +74,9 @@ BASE_LOWER = (0.0, 1.0, 0.0, 0.0, 0.2)
 BASE_UPPER = (np.inf, 3.0, np.inf, np.inf, 5.0)
 #: Most function evaluations of one start of a fit.
 MAX_EVALUATIONS = 300
+#: What a model raises at unknowns it is not defined for (gmt.ParameterError is a
+#: ValueError): a start vector that raises one is passed over.
+UNEVALUATED = (ValueError, FloatingPointError)
 
 
 @dataclass
@@ -227,7 +228,7 @@ def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=No
         try:
             sol = least_squares(fun, z0, bounds=(lo, hi), x_scale="jac",
                                 max_nfev=max_evaluations, xtol=1e-10, ftol=1e-10)
-        except (ValueError, gmt.ParameterError, FloatingPointError):
+        except UNEVALUATED:
             continue
         if not np.isfinite(sol.cost):
             continue
