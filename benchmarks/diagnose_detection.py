@@ -108,9 +108,9 @@ def _code_version() -> str:
 def _later_shares(d) -> dict:
     """{cause: the decision's share} for each named cause after the first: the fraction of
     the paper's held-out excess, in the channels it acts on, that adding it removed
-    (smeha.diagnose.decision.share; the model before it: the best-ranked fit of the causes
+    (smeha.diagnose.rules.share; the model before it: the best-ranked fit of the causes
     named before it)."""
-    from smeha.diagnose import decision
+    from smeha.diagnose import rules
 
     fits = list(d.fits) + list(d.combinations) + [d.extended]
     out = {}
@@ -121,7 +121,7 @@ def _later_shares(d) -> dict:
             b = min(before, key=lambda f: f.total_score)
             a = min(after, key=lambda f: f.total_score)
             member = next(m for m in a.candidate.members if m.cause == cause)
-            out[cause] = decision.share(d.paper, b, a, member)
+            out[cause] = rules.share(d.paper, b, a, member)
     return out
 
 

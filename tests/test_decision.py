@@ -1,4 +1,4 @@
-"""The decision's rules on fits with known scores (smeha.diagnose.decision).
+"""The decision's rules on fits with known scores (smeha.diagnose.rules, .decision).
 
 Reference: the rule of docs/DIAGNOSE.md ("Score and decision"): a model is named when it
 lowers the held-out BIC (Schwarz 1978) by more than MIN_BIC_DROP and removes at least
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from gmt import extensions as ext
-from smeha.diagnose import decision
+from smeha.diagnose import decision, rules
 from smeha.diagnose.candidates import Candidate
 from smeha.diagnose.fit import Fit
 
@@ -45,13 +45,13 @@ def test_a_later_sensor_cause_is_judged_on_the_channels_it_acts_on():
     delay = _cls("transport_delay")
     before = fit((hyst,), y=1000.0, b=800.0)
     after = fit((hyst, delay), y=450.0, b=800.0)
-    assert decision.channels(delay) == ("y", "drift")
-    assert decision.explained(before, after) == pytest.approx(550.0 / 1800.0)
-    assert decision.explained(before, after, ("y", "drift")) == pytest.approx(0.55)
-    assert not decision.passes(before, after)
-    assert decision.passes(before, after, decision.channels(delay))
+    assert rules.channels(delay) == ("y", "drift")
+    assert rules.explained(before, after) == pytest.approx(550.0 / 1800.0)
+    assert rules.explained(before, after, ("y", "drift")) == pytest.approx(0.55)
+    assert not rules.passes(before, after)
+    assert rules.passes(before, after, rules.channels(delay))
     # a magnetic cause acts on every channel: its share is the whole one
-    assert decision.channels(hyst) == ("y", "B", "drift")
+    assert rules.channels(hyst) == ("y", "B", "drift")
 
 
 def test_the_best_ranked_model_gives_way_to_a_clearly_better_prediction():
@@ -60,10 +60,10 @@ def test_the_best_ranked_model_gives_way_to_a_clearly_better_prediction():
     flexible = fit((_cls("rate_independent_hysteresis", "preisach"),), y=900.0, train=100.0)
     plain = fit((_cls("magnetization_saturation"),), y=800.0, train=2000.0)
     assert flexible.total_score < plain.total_score
-    assert plain.score < flexible.score - decision.MIN_BIC_DROP
+    assert plain.score < flexible.score - rules.MIN_BIC_DROP
     assert decision.leader([flexible, plain]) is plain
     # within the margin the ranking stands
-    close = fit((_cls("magnetization_saturation"),), y=900.0 - 0.5 * decision.MIN_BIC_DROP,
+    close = fit((_cls("magnetization_saturation"),), y=900.0 - 0.5 * rules.MIN_BIC_DROP,
                 train=2000.0)
     assert decision.leader([flexible, close]) is flexible
     # a rival with an unknown on a bound (a weak fit) does not take the lead
@@ -77,13 +77,13 @@ def test_a_cause_on_y_alone_waits_until_the_magnetic_part_fits_b():
     hyst, delay = _cls("rate_independent_hysteresis", "preisach"), _cls("transport_delay")
     saturation = _cls("magnetization_saturation")
     off_in_b = fit((hyst,), y=1000.0, b=3000.0)
-    assert not decision.downstream_identifiable(off_in_b, delay)
+    assert not rules.downstream_identifiable(off_in_b, delay)
     # a magnetic second cause may still join, and once B is fitted as well as y, a delay may
-    assert decision.downstream_identifiable(off_in_b, saturation)
-    assert decision.downstream_identifiable(fit((hyst,), y=1000.0, b=1000.0), delay)
+    assert rules.downstream_identifiable(off_in_b, saturation)
+    assert rules.downstream_identifiable(fit((hyst,), y=1000.0, b=1000.0), delay)
     # after a cause on y alone there is no magnetic part to wait for
-    assert decision.downstream_identifiable(fit((delay,), y=1000.0, b=3000.0),
-                                            _cls("mechanical_resonance", "one_dof"))
+    assert rules.downstream_identifiable(fit((delay,), y=1000.0, b=3000.0),
+                                         _cls("mechanical_resonance", "one_dof"))
 
 
 def test_a_later_cause_improves_every_channel_it_acts_on_and_is_firm():
@@ -91,18 +91,18 @@ def test_a_later_cause_improves_every_channel_it_acts_on_and_is_firm():
     hyst, lag = _cls("rate_independent_hysteresis", "preisach"), _cls("eddy_current_diffusion",
                                                                       "lag")
     before = fit((hyst,), y=10.0, b=3000.0)
-    trades = fit((hyst, lag), y=10.0 + 2 * decision.MIN_BIC_DROP, b=500.0)
-    assert decision.passes(before, trades, decision.channels(lag))
-    assert not decision.no_channel_worse(before, trades, lag)
-    assert decision.no_channel_worse(before, fit((hyst, lag), y=10.0 + 0.5 * decision.MIN_BIC_DROP,
-                                                 b=500.0), lag)
+    trades = fit((hyst, lag), y=10.0 + 2 * rules.MIN_BIC_DROP, b=500.0)
+    assert rules.passes(before, trades, rules.channels(lag))
+    assert not rules.no_channel_worse(before, trades, lag)
+    assert rules.no_channel_worse(before, fit((hyst, lag), y=10.0 + 0.5 * rules.MIN_BIC_DROP,
+                                              b=500.0), lag)
     # a delay acts on y: B's change is not its to answer for
-    assert decision.no_channel_worse(before, fit((hyst, _cls("transport_delay")), y=5.0,
-                                                 b=3100.0), _cls("transport_delay"))
+    assert rules.no_channel_worse(before, fit((hyst, _cls("transport_delay")), y=5.0,
+                                              b=3100.0), _cls("transport_delay"))
     # an unknown of the added cause on a bound: not firm; another cause's bound does not count
     pair = dataclasses.replace(trades, at_bounds=("eddy_current_diffusion.order",))
-    assert not decision.firm_in(pair, "eddy_current_diffusion")
-    assert decision.firm_in(pair, "rate_independent_hysteresis")
+    assert not rules.firm_in(pair, "eddy_current_diffusion")
+    assert rules.firm_in(pair, "rate_independent_hysteresis")
 
 
 def test_a_later_cause_with_b_needs_a_share_of_the_papers_excess():
@@ -115,16 +115,16 @@ def test_a_later_cause_with_b_needs_a_share_of_the_papers_excess():
     # labsim's hysteresis alone took (seeds 101-104 at 800 a period: 4e-7 to 7e-7)
     before = fit((hyst,), y=1000.0, b=2000.0)
     trace = fit((hyst, lag), y=500.0, b=500.0)            # removes 2000 of 1.1e9: 1.8e-6
-    assert decision.passes(before, trace, decision.channels(lag))
-    assert not decision.significant(paper, before, trace, lag, sense=True)
+    assert rules.passes(before, trace, rules.channels(lag))
+    assert not rules.significant(paper, before, trace, lag, sense=True)
     # a true eddy diffusion on the magnetisation beside the density (labsim seed 100 at
     # 800 a period): 3.6e-5, a factor 3.6 above the floor
     true_eddy = fit((hyst,), y=10000.0, b=30600.0)        # removes 39600: 3.6e-5
-    assert decision.significant(paper, true_eddy, trace, lag, sense=True)
-    assert not decision.significant(paper, true_eddy, trace, lag, sense=False)
+    assert rules.significant(paper, true_eddy, trace, lag, sense=True)
+    assert not rules.significant(paper, true_eddy, trace, lag, sense=False)
     bigger = fit((hyst,), y=3e6, b=6.9e6)                 # removes 9.9e6: 0.9 %
-    assert decision.significant(paper, bigger, trace, lag, sense=True)
-    assert not decision.significant(paper, bigger, trace, lag, sense=False)
+    assert rules.significant(paper, bigger, trace, lag, sense=True)
+    assert not rules.significant(paper, bigger, trace, lag, sense=False)
 
 
 def test_a_later_cause_must_do_more_than_another_form_of_the_causes_named():
@@ -135,9 +135,9 @@ def test_a_later_cause_must_do_more_than_another_form_of_the_causes_named():
     with_delay = fit((sat, one, _cls("transport_delay")), y=4000.0, b=170.0)
     other_form = dataclasses.replace(fit((sat, two), y=60.0, b=250.0),
                                      at_bounds=("mechanical_resonance.m2/M",))
-    assert not decision.beyond_forms([other_form], with_delay)
-    assert decision.beyond_forms([fit((sat, two), y=6000.0, b=250.0)], with_delay)
-    assert decision.beyond_forms([], with_delay)
+    assert not rules.beyond_forms([other_form], with_delay)
+    assert rules.beyond_forms([fit((sat, two), y=6000.0, b=250.0)], with_delay)
+    assert rules.beyond_forms([], with_delay)
 
 
 def test_a_named_model_that_predicts_y_worse_is_cautioned():
@@ -171,22 +171,22 @@ def test_a_drift_is_judged_in_the_drift_terms():
     # 1.1e6 and 3.8e6), a drift that removes 5000 of the drift terms' 6000 passes there,
     # though it removes 0.5 % of y's and the drift's together
     hyst, drift = _cls("rate_independent_hysteresis", "preisach"), _cls("thermal_drift")
-    assert decision.evidence_channels(drift) == ("drift",)
-    assert decision.evidence_channels(hyst) == decision.channels(hyst)
+    assert rules.evidence_channels(drift) == ("drift",)
+    assert rules.evidence_channels(hyst) == rules.channels(hyst)
     before = fit((hyst,), y=1e6, b=3e6, drift=6000.0)
     after = fit((hyst, drift), y=1e6 + 4000.0, b=3e6, drift=1000.0)
-    assert not decision.passes(before, after, decision.channels(drift))
-    assert decision.passes_in_own(before, after, ("drift",))
+    assert not rules.passes(before, after, rules.channels(drift))
+    assert rules.passes_in_own(before, after, ("drift",))
     # its evidence is not y's harmonics: B's misfit does not make it wait
-    assert decision.downstream_identifiable(before, drift)
+    assert rules.downstream_identifiable(before, drift)
     # y 4000 worse: within the margin at y's dispersion 1e4 (chi^2 per feature), 25 x 1e4
     assert before.heldout_dispersion("y") == pytest.approx(1e4 + 1.0)
-    assert decision.no_channel_worse(before, after, drift)
-    assert not decision.no_channel_worse(before, fit((hyst, drift), y=1e6 + 3e5, b=3e6,
-                                                     drift=1000.0), drift)
+    assert rules.no_channel_worse(before, after, drift)
+    assert not rules.no_channel_worse(before, fit((hyst, drift), y=1e6 + 3e5, b=3e6,
+                                                  drift=1000.0), drift)
     # the paper's excess in the drift terms is the share's reference
     paper = fit((), y=1e8, b=1e9, drift=6000.0)
-    assert decision.share(paper, before, after, drift) == pytest.approx(5000.0 / 6000.0)
+    assert rules.share(paper, before, after, drift) == pytest.approx(5000.0 / 6000.0)
 
 
 def test_a_drift_not_in_the_data_does_not_pass_on_ys_misfit():
@@ -197,8 +197,8 @@ def test_a_drift_not_in_the_data_does_not_pass_on_ys_misfit():
     hyst, drift = _cls("rate_independent_hysteresis", "preisach"), _cls("thermal_drift")
     before = fit((hyst,), y=1e6, b=3e6, drift=5.0)
     after = fit((hyst, drift), y=1e6 - 500.0, b=3e6, drift=-3.0)
-    assert before.score - after.score > decision.MIN_BIC_DROP
-    assert not decision.passes_in_own(before, after, ("drift",))
+    assert before.score - after.score > rules.MIN_BIC_DROP
+    assert not rules.passes_in_own(before, after, ("drift",))
 
 
 def test_a_combination_is_judged_against_the_model_refitted_by_the_same_steps():
@@ -225,7 +225,7 @@ def test_a_first_drift_is_judged_in_the_drift_terms_when_nothing_passes_over_all
     drift = _cls("thermal_drift")
     paper = fit((), y=2e5, b=1e3, drift=2000.0)
     named = fit((drift,), y=2e5 - 100.0, b=1e3, drift=200.0)
-    assert not decision.passes(paper, named)
+    assert not rules.passes(paper, named)
     assert decision._evident_first(paper, [named], timelike=True) is named
     assert decision._evident_first(paper, [named], timelike=False) is None
     weak = dataclasses.replace(named, at_bounds=("thermal_drift.log10_time_constant_s",))
@@ -263,7 +263,7 @@ def test_the_exchange_step_keeps_the_parsimony_between_lookalikes():
     drift = _cls("thermal_drift")
     current = fit((drift, delay), y=1300.0, drift=2500.0)
     # dispersion (1400 + 2510) / 110 = 35.5: margin 889
-    margin = decision.MIN_BIC_DROP * (N_PARTS[0] + 1300.0 + N_PARTS[2] + 2500.0) / (
+    margin = rules.MIN_BIC_DROP * (N_PARTS[0] + 1300.0 + N_PARTS[2] + 2500.0) / (
         N_PARTS[0] + N_PARTS[2])
     assert margin == pytest.approx(888.6, abs=0.1)
     close = fit((drift, one_mass), y=1500.0, drift=1890.0)  # 410 lower: within the margin
@@ -364,7 +364,10 @@ def test_a_magnetic_cause_beside_the_density_must_beat_the_density_on_a_finer_gr
                            _cls("transport_delay"))
     assert fitted == []
     assert not check.passed_by(fit((density, eddy), b=95_544.0), eddy)
+    assert "on its finer grid predicts the held-out runs as well without it (score 2.46e+04 " \
+        "against 9.575e+04)" in check.refusal(fit((density, eddy), b=95_544.0), eddy)
     assert check.passed_by(fit((density, eddy), b=20_000.0), eddy)
+    assert check.refusal(fit((density, eddy), b=20_000.0), eddy) == ""
     assert fitted == [Candidate((finer_density,))]
     saturation = _cls("magnetization_saturation")
     other = resolution.Refinement(None, None, None, fit((saturation,), b=195_609.0))
@@ -434,3 +437,47 @@ def test_a_joined_cause_starts_where_the_training_chi2_is_least():
     assert cand.split(x)[1 - at] == (0.3,)  # the model's own value kept
     x = decision._join_start(Ev(), None, cand, current, slab_m, (-2.7, 0.5))
     assert cand.split(x)[at] == (-2.7, 0.5)  # the value fitted alone, nearer still
+
+
+def test_a_refused_cause_is_told_the_first_rule_it_fails_with_its_figures():
+    # every rule of a later cause (smeha.diagnose.rules, module docstring) in turn: the
+    # refusal names it with the numbers it was judged on; "" where the cause is admitted
+    hyst, delay = _cls("rate_independent_hysteresis", "preisach"), _cls("transport_delay")
+    lag, drift = _cls("eddy_current_diffusion", "lag"), _cls("thermal_drift")
+    paper = fit((), y=1e6, b=1e6, drift=100.0)
+    before = fit((hyst,), y=1000.0, b=500.0, drift=50.0)
+
+    def why(new, forms=(), sense=True, timelike=True, current=before):
+        reason = rules.refusal(paper, current, new, list(forms), sense, timelike)
+        assert (reason == "") == rules.admitted(paper, current, new, list(forms), sense,
+                                                timelike)
+        return reason
+
+    # the rule in the channels it acts on: y 1000 -> 990 is 10 of a 1050 excess
+    small = why(fit((hyst, delay), y=990.0, b=500.0, drift=50.0))
+    assert "held-out BIC lower by 10 (threshold 25)" in small
+    assert "0.952 % of the excess in y, drift removed" in small
+    # a delay while the magnetic part misses B more than y (B 3000 against y 1000)
+    off_in_b = fit((hyst,), y=1000.0, b=3000.0, drift=50.0)
+    assert "misses B more than y (held-out excess 3000 against 1000)" in why(
+        fit((hyst, delay), y=100.0, b=3000.0, drift=50.0), current=off_in_b)
+    # without B a later cause must carry MIN_SHARE of the paper's excess in its channels:
+    # 900 of 2e6 + 100 is 0.045 %
+    assert "0.045 % of the paper's excess in y, B, drift, below the 10 %" in why(
+        fit((hyst, lag), y=100.0, b=500.0, drift=50.0), sense=False)
+    # B bought with y: y 1000 -> 1400, beyond 25 x y's dispersion (11 per feature), while
+    # the pair removes 76 % of the excess
+    off_in_b = fit((hyst,), y=1000.0, b=5000.0, drift=50.0)
+    assert "predicts y worse (held-out excess 1000 -> 1400)" in why(
+        fit((hyst, lag), y=1400.0, b=0.0, drift=50.0), current=off_in_b)
+    # another form of the causes named does as well
+    other = fit((_cls("magnetization_saturation"),), y=10.0, b=10.0, drift=0.0)
+    assert "predicts the held-out runs as well (score 230 against" in why(
+        fit((hyst, lag), y=100.0, b=100.0, drift=50.0), forms=[other])
+    # a drift in its evidence channel, and only where the drift terms go with time: the
+    # drop there must exceed MIN_BIC_DROP plus its 4 unknowns' charge, 4 ln 210 = 21.4
+    warm = fit((hyst, drift), y=1000.0, b=500.0, drift=0.0)
+    assert why(warm) == ""                                 # 50 - 21.4 > 25
+    assert "go with the drive's cycles" in why(warm, timelike=False)
+    assert "in drift, its evidence, it removes 100 % of the excess, chi^2 lower by 40" in why(
+        warm, current=fit((hyst,), y=1000.0, b=500.0, drift=40.0))   # 40 - 21.4 < 25

@@ -18,6 +18,7 @@ import pytest
 from gmt import extensions as ext
 from smeha import diagnose
 from smeha.cli import main
+from smeha.diagnose.rules import within_noise
 from smeha.measured import write_measurements
 from smeha.synthetic import EFFECTS, generate_runs
 
@@ -59,6 +60,11 @@ def test_names_each_hidden_effect_and_gains(effect):
         assert result.extended.form in PHYSICAL_FORMS[effect], "\n".join(result.evidence)
         kappa = result.extended.parameters.get("unshielded_share", 0.0)
         assert kappa <= FIELD_DIFFUSION_KAPPA, kappa
+    # forward selection stops where the model is within noise or says why it named no
+    # further cause (smeha.diagnose.decision.Selection.stopped), in the evidence too
+    assert bool(result.stopped) != within_noise(result.extended), result.stopped
+    if result.stopped:
+        assert f"no further cause named: {result.stopped}" in result.evidence
 
 
 @pytest.mark.integration
@@ -187,6 +193,23 @@ def test_harmonics_above_the_eighth_stay_out_of_the_features(seed, start):
     assert np.max(np.abs(leaky.b - b_k[:8]) / np.sqrt(rf.b_var)) > 5  # 10-72 measured
 
 
+def test_a_run_sampled_too_coarsely_for_the_eighth_harmonic_is_skipped_with_the_reason():
+    """The features are y's and B's first 8 harmonics: the 8th needs more than 16 samples a
+    period (Nyquist; at 16 sin 8 theta vanishes on every sample, and the 8th harmonic's
+    phase is lost). At 16 the run is skipped, saying so; at 17 a signal of 8 known
+    harmonics comes out within 4 standard errors."""
+    from smeha.diagnose.features import SkippedRun
+    coarse, _, _ = _loop_like_run(0, 0.3, samples_per_period=16, harmonics=8)
+    with pytest.raises(SkippedRun, match="16 samples a period at 100 Hz resolve the "
+                       "harmonics up to the 7th; the features are the first 8: more than "
+                       "16 samples a period are needed"):
+        diagnose.run_features(coarse)
+    run, y_k, b_k = _loop_like_run(0, 0.3, samples_per_period=17, harmonics=8)
+    rf = diagnose.run_features(run)
+    assert np.all(np.abs(rf.y - y_k) < 4 * np.sqrt(rf.y_var))
+    assert np.all(np.abs(rf.b - b_k) < 4 * np.sqrt(rf.b_var))
+
+
 # -- the extensions' physics ------------------------------------------------------------
 
 
@@ -264,6 +287,8 @@ def test_cli_json_and_report(tmp_path, capsys):
     assert {c["cause"] for c in out["candidates"]} == set(EFFECTS)
     assert all({"cause", "form", "heldout_rms_um", "score"} <= set(c) for c in out["candidates"])
     assert out["form"] == ""  # transport_delay has one formulation
+    # within noise with the delay: forward selection had no reason to give
+    assert out["selection_stopped"] == ""
     # every form is scored; the first candidate of a cause is its first form (the parameter
     # names it always had, which is what a reader matching on the cause picks up)
     for cause, forms in diagnose.FORMS.items():

@@ -73,7 +73,7 @@ def test_names_saturation_without_voltage():
     result = diagnose.diagnose(_without_voltage(runs), holdout=HOLDOUT)
     # the one cause it holds (issue 18, rule 3: no extra cause); this seed used to reach a
     # gain of 2 only with a one-mass mechanics on its bounds added (weak, now refused:
-    # decision.firm_in); saturation alone removes 82 % of the held-out excess, gain 1.86
+    # rules.firm_in); saturation alone removes 82 % of the held-out excess, gain 1.86
     assert result.causes == ["magnetization_saturation"], "\n".join(result.evidence)
     assert result.gain >= 1.5, "\n".join(result.evidence)
 

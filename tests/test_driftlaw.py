@@ -4,7 +4,7 @@ References: the laws of the module docstring written out here on made-up slopes 
 per second that does not depend on f, and a change per period, whose rate per second is
 f times it); labsim's coil heating (tests/labsim, Thermal: tau_th 30 s, the rod 10 K warm
 at the start) and labsim's Preisach populations (GeneralPreisach.random), generated apart
-from the diagnosis. Margin: 25 in chi^2, decision.MIN_BIC_DROP, as the diagnosis uses it.
+from the diagnosis. Margin: 25 in chi^2, rules.MIN_BIC_DROP, as the diagnosis uses it.
 """
 from types import SimpleNamespace
 
@@ -14,7 +14,7 @@ import pytest
 import gmt
 from labsim_runs import runs
 from smeha.diagnose.candidates import Batch
-from smeha.diagnose.decision import MIN_BIC_DROP
+from smeha.diagnose.rules import MIN_BIC_DROP
 from smeha.diagnose.driftlaw import goes_with_time, law_chi2
 from smeha.diagnose.workflow import _usable_features
 

@@ -31,7 +31,8 @@ the report. The method and its limits: docs/DIAGNOSE.md.
 """
 from ..measured import DataError
 from .candidates import CAUSES, FORMS, PAPER, Batch, Candidate, Evaluator, candidates
-from .decision import MAX_CAUSES, MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE
+from .decision import MAX_CAUSES
+from .rules import MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE
 from .features import HARMONICS, MIN_CYCLES, RunFeatures, SkippedRun, run_features
 from .fit import Fit
 from .report import characterise, format_diagnosis, write_report

@@ -1,5 +1,8 @@
 """The decision: none, the cause(s), or unexplained.
 
+The rules and their constants (:data:`WITHIN_NOISE`, :func:`passes`, ... below) live in
+:mod:`smeha.diagnose.rules`; this module is the procedure that applies them.
+
 * ``none`` when the paper's model is within noise: reduced chi^2 at most
   :data:`WITHIN_NOISE` on the training fit and on the held-out runs (the
   predictive chi^2 there, :mod:`smeha.diagnose.fit`);
@@ -59,53 +62,22 @@ margin the rule asks of a name.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 from .candidates import Batch, Candidate
 from .driftlaw import goes_with_time
 from .fit import UNEVALUATED, Fit, fit_all
 from .linearfit import linear_member
 from .resolution import Refinement
+from .rules import (MIN_BIC_DROP, added_member, channels, evidence_channels, firm_in, passes,
+                    passes_in_own, refusal, within_noise)
 
-__all__ = ["WITHIN_NOISE", "MIN_BIC_DROP", "MIN_EXPLAINED", "MAX_CAUSES", "MIN_SHARE",
-           "MIN_SHARE_WITH_B",
-           "SWAP_CANDIDATES", "FORMS_TRIED", "CONTINUATIONS", "CONTINUE_SETTLED", "channels",
-           "evidence_channels", "share", "significant",
-           "explained", "passes", "passes_in_own",
-           "downstream_identifiable", "firm_in", "no_channel_worse", "beyond_forms", "admitted",
-           "within_noise", "leader", "lookalike_margin", "simplest_lookalike", "earned",
-           "select", "also_consistent"]
+__all__ = ["MAX_CAUSES", "SWAP_CANDIDATES", "FORMS_TRIED", "CONTINUATIONS", "CONTINUE_SETTLED",
+           "Selection", "leader", "lookalike_margin", "simplest_lookalike", "earned", "select",
+           "also_consistent"]
 
-#: Reduced chi^2 at or below which a model "explains the data within noise".
-WITHIN_NOISE = 2.0
-#: A model must lower the held-out score (BIC) of the one before it by more than this ...
-MIN_BIC_DROP = 25.0
-#: ... and remove at least this fraction of its held-out excess chi^2.
-MIN_EXPLAINED = 0.5
 #: Most causes forward selection names.
 MAX_CAUSES = 3
-#: Without a sense voltage, a cause after the first must also remove at least this fraction
-#: of the paper's held-out excess in the channels it acts on (y and the drift for a cause
-#: that changes y only; y, B and the drift for a magnetic one). The candidates' forms are
-#: approximations; with B a magnetic cause's form is pinned by B, but from y alone the small
-#: misfit a first cause's form leaves is taken up by any flexible second cause (labsim's
-#: Langevin saturation without a sense voltage, fitted by the tanh law, was answered as
-#: saturation + re-identified mechanics + thermal drift): a second cause is identifiable
-#: from y alone only where it carries a share of y's discrepancy of its own.
-MIN_SHARE = 0.1
-#: With a sense voltage, a cause after the first must remove at least this fraction of the
-#: paper's held-out excess in the channels it acts on. B pins a magnetic cause's form, but
-#: not to zero: the first cause's form leaves a trace that a flexible second cause fits,
-#: and that trace is as large as the first form is coarse. With the Preisach density on 6
-#: coercive nodes (until 2026-11-27) the later causes that passed every other rule beside
-#: labsim's Preisach hysteresis alone removed 0.014-0.026 % (seeds 100-107), and the floor
-#: was 0.12 %; on 11 nodes the density leaves a trace some 50 times smaller, and beside it
-#: a true eddy diffusion on the magnetisation removes only 0.0036-0.0053 % (the rest of
-#: its signature is taken by the density and eq 16's loss terms). Measured with no floor
-#: on labsim seeds apart from the study's (2026-11-27, 800 samples a period: every single
-#: cause, seeds 100-107, 48 of 48; every pair, seeds 100-101, 29 of 30, the miss one cause
-#: short): no cause beyond the hidden ones passed the other rules, and the least true
-#: share was 3.6e-5 (hysteresis + eddy, seed 100). The floor sits a factor 3.6 below it.
-MIN_SHARE_WITH_B = 1e-5
 #: The exchange step tries the best-ranked this many single candidates outside the model;
 #: where no single cause passes, this many causes are paired (:func:`_pair_first`).
 SWAP_CANDIDATES = 3
@@ -124,147 +96,29 @@ CONTINUATIONS = 2
 CONTINUE_SETTLED = 0.01
 
 
-def channels(member) -> tuple:
-    """The held-out channels an extension acts on (its ``signals``)."""
-    return ("y", "drift") if member.signals == "y only" else ("y", "B", "drift")
+class Selection(NamedTuple):
+    """The result of :func:`select`."""
+
+    #: "none", "unexplained" or the first cause
+    answer: str
+    #: the chosen model's fit (the paper's for "none" and "unexplained")
+    chosen: Fit
+    #: the combinations tried
+    tried: list
+    #: the named causes in the order they were added (a combination's members are in the
+    #: order of the model's chain, gmt.extensions.ordered, which is not this one)
+    order: list
+    #: why no further cause was named, in words (the best try and the first rule it
+    #: failed, smeha.diagnose.rules.refusal), or "" where the model came within noise or
+    #: no cause was named
+    stopped: str = ""
 
 
-def evidence_channels(member) -> tuple:
-    """The held-out channels whose excess a later ``member`` must explain: its
-    ``evidence`` channel where it has one (the thermal drift: the drift terms), else the
-    channels it acts on.
-
-    A drift's gain also scales y's harmonics, but what identifies it is the drift of y's
-    mean and fundamental within a run, which no periodic form produces; beside a
-    magnetic cause whose form leaves y's harmonics off, it could not remove half of y's
-    excess (labsim's Preisach density with a rod 10 K warm, seed 100 at 800 a period:
-    the drift removed 83 % of the drift terms' excess, 6382 -> 1056, and y's stayed the
-    density's)."""
-    return (member.evidence,) if member.evidence else channels(member)
-
-
-def share(paper: Fit, before: Fit, after: Fit, member) -> float:
-    """Fraction of the paper's held-out excess chi^2, in ``member``'s evidence channels
-    (:func:`evidence_channels`), that adding it (``before`` -> ``after``) removes (0 when
-    the paper has no excess there)."""
-    chans = evidence_channels(member)
-    total = paper.heldout_excess_in(chans)
-    if total <= 0.0:
-        return 0.0
-    return (before.heldout_excess_in(chans) - after.heldout_excess_in(chans)) / total
-
-
-def significant(paper: Fit, before: Fit, after: Fit, member, sense: bool = False) -> bool:
-    """True when adding ``member`` (``before`` -> ``after``) removes at least
-    :data:`MIN_SHARE` (with a sense voltage, ``sense``: :data:`MIN_SHARE_WITH_B`) of the
-    paper's held-out excess in the channels it acts on."""
-    return share(paper, before, after, member) >= (MIN_SHARE_WITH_B if sense else MIN_SHARE)
-
-
-def explained(base: Fit, new: Fit, chans=None) -> float:
-    """Fraction of ``base``'s held-out excess chi^2 that ``new`` removes, over the
-    channels ``chans`` (default all: y, B and the drift)."""
-    if chans is None:
-        return 1.0 - max(new.heldout_excess, 0.0) / max(base.heldout_excess, 1e-12)
-    return (1.0 - max(new.heldout_excess_in(chans), 0.0)
-            / max(base.heldout_excess_in(chans), 1e-12))
-
-
-def passes(base: Fit, new: Fit, chans=None) -> bool:
-    """The rule of the module docstring, ``new`` against ``base``; ``chans``: the channels
-    whose excess the added cause must explain (default all)."""
-    return (base.score - new.score > MIN_BIC_DROP
-            and explained(base, new, chans) >= MIN_EXPLAINED)
-
-
-def passes_in_own(base: Fit, new: Fit, chans) -> bool:
-    """The rule within ``chans`` alone: the held-out chi^2 there falls by more than
-    :data:`MIN_BIC_DROP` plus the added parameters' charge (k ln n, as in the score), and
-    at least :data:`MIN_EXPLAINED` of ``base``'s excess there goes. For a cause judged in
-    its evidence channel: a drift absent from the data cannot pass on what its gain takes
-    of y's misfit."""
-    drop = base.heldout_excess_in(chans) - new.heldout_excess_in(chans)
-    charge = (new.k - base.k) * math.log(max(new.heldout_n, 2))
-    return drop - charge > MIN_BIC_DROP and explained(base, new, chans) >= MIN_EXPLAINED
-
-
-def downstream_identifiable(current: Fit, added) -> bool:
-    """False when ``added`` acts on y only and ``current``, which holds a magnetic cause,
-    still misses B by more than it misses y (held-out excess chi^2, B's against y's).
-
-    y follows from the magnetisation (eqs 25-28) and B is its direct measure: while the
-    magnetic part of the model is further off in B than in y, y's misfit is the magnetic
-    part's, propagated, and a filter on y (mechanics, a sensor's delay or lag) fitted to it
-    names a cause that is not there (labsim's Preisach hysteresis at 100 samples a period,
-    its form fitted by the Preisach family: B's excess 5.6 times y's, and a re-identified
-    mechanics took a third of y's)."""
-    if added.evidence or added.signals != "y only" or all(
-            m.signals == "y only" for m in current.candidate.members):
-        return True
-    return current.heldout_excess_in(("B",)) <= current.heldout_excess_in(("y",))
-
-
-def firm_in(fit: Fit, cause: str) -> bool:
-    """True when none of ``cause``'s unknowns in ``fit`` sits on a bound. A cause added
-    after the first, or exchanged in, must be firm: the data pushing its unknowns out of
-    the physical range is a misfit it absorbs, not the cause (smeha.synthetic's saturation
-    without a sense voltage gained a one-mass mechanics with its mass on a bound)."""
-    return not any(n.startswith(cause + ".") for n in fit.at_bounds)
-
-
-def no_channel_worse(current: Fit, new: Fit, added) -> bool:
-    """True when no held-out channel ``added`` acts on is predicted worse by ``new`` than
-    by ``current``: its chi^2 up by more than :data:`MIN_BIC_DROP`, the rule's margin, in
-    units of ``current``'s dispersion there (chi^2 per feature, at least 1).
-
-    Where the model before it is far outside noise in a channel its chi^2 there is its
-    form's misfit, not noise, and moves by more than the margin between two fits of the
-    same model: the margin is scaled by the dispersion, as quasi-likelihood scales a
-    deviance (McCullagh & Nelder, *Generalized Linear Models*, 2nd ed., 1989, sec. 9.2).
-    Labsim's Preisach density with a rod 10 K warm (seed 100, 800 a period): y's
-    held-out chi^2 per feature 1e4; the density refitted from its own values twice
-    differed there by 5e3 in chi^2, and the drift added to it raised y's by 4.5e3.
-
-    A cause that is in the data explains structure in every channel it acts on; one that
-    buys B's misfit with y's (or the reverse) is fitting what the model before it leaves
-    of its own form (labsim's correlated Preisach density, its narrow loop centres fitted
-    by the density's grid: a lag added to the magnetisation lowered B's excess and raised
-    y's misfit from 0.052 to 0.070 um)."""
-    return all(new.heldout_excess_in((c,)) <= current.heldout_excess_in((c,))
-               + MIN_BIC_DROP * max(1.0, current.heldout_dispersion(c))
-               for c in channels(added))
-
-
-def beyond_forms(forms, new: Fit) -> bool:
-    """True when no fit in ``forms`` (the model's causes in other forms, weak ones too)
-    predicts the held-out runs as well as ``new`` (score no greater). A later cause that
-    only does what another form of the causes already named does is making up for the form
-    it joined (labsim's saturation with a two-mass resonance: saturation and the firm
-    one-mass form then gained a delay, held-out score 4457, where the two-mass form, a mass
-    ratio on its bound, scored 553 without it)."""
-    return all(f.score > new.score for f in forms)
-
-
-def within_noise(fit: Fit, train_dof_lost: int = 5) -> bool:
-    """Reduced chi^2 at most :data:`WITHIN_NOISE` on the training fit and on the held-out
-    runs (there the predictive chi^2, with the fit's own uncertainty; smeha.diagnose.fit)."""
-    red_train = fit.train_chi2 / max(fit.train_n - train_dof_lost - fit.k, 1)
-    return (red_train <= WITHIN_NOISE
-            and fit.heldout_predictive_chi2 / fit.heldout_n <= WITHIN_NOISE)
-
-
-def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None) -> tuple:
-    """Forward selection (module docstring): (answer, chosen fit, combinations tried,
-    causes in the order they were added).
-
-    ``answer`` is "none", "unexplained" or the first cause; ``chosen`` the
-    paper's fit for the first two (and no causes). A combination's members are
-    in the order of the model's chain (gmt.extensions.ordered), which is not the
-    order of contribution: that is the fourth item. ``sense``: whether the training
-    runs have a sense voltage (the rules for a later cause differ without B).
-    """
+def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None) -> Selection:
+    """Forward selection (module docstring). ``sense``: whether the training runs have a
+    sense voltage (the rules for a later cause differ without B)."""
     if within_noise(paper):
-        return "none", paper, [], []
+        return Selection("none", paper, [], [])
     # a drift judged in the drift terms must go with time, as heating does, not with the
     # drive's cycles (smeha.diagnose.driftlaw; outside lab A's Preisach hysteresis: its
     # gain fell 2e-4 a period, and a drift form with a 0.18 s time constant took it)
@@ -277,9 +131,13 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         best, order, tried = _pair_first(ev, train, held, paper, singles, sense, timelike,
                                          workers)
         if best is None:
-            return "unexplained", paper, tried, []
+            return Selection("unexplained", paper, tried, [])
     current, order = best, order or [best.cause]
-    while len(current.causes) < MAX_CAUSES and not within_noise(current):
+    stopped = ""
+    while not within_noise(current):
+        if len(current.causes) >= MAX_CAUSES:
+            stopped = f"at most {MAX_CAUSES} causes are named"
+            break
         # the combinations are fitted from current's values by the same steps as current
         # refitted from them, the reference each is judged against (:func:`_settled`)
         out = fit_all(ev, train, held, [_refit_job(current)] + _join_jobs(
@@ -289,6 +147,7 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
                               [f for f in out[1:] if isinstance(f, Fit)], workers)
         tried += round_fits
         if not round_fits:
+            stopped = "no further cause could be fitted beside the model"
             current = _better(current, reference)
             break
         # with a sense voltage the round's leader is chosen among the combinations whose
@@ -299,10 +158,13 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         # saturation without B: a one-mass mechanics on a bound led, and a slab eddy form
         # behind it passed every rule, 0.28 -> 0.14 um)
         top = leader(round_fits)
-        if not sense and not firm_in(top, _added(current, top).cause):
+        if not sense and not firm_in(top, added_member(current, top).cause):
+            stopped = (f"{top.label}, the best-ranked with a further cause, has "
+                       f"{', '.join(top.at_bounds)} on a bound: without a sense voltage "
+                       "what it takes is read as the form of the causes before it")
             current = _better(current, reference)
             break
-        firm = [f for f in round_fits if firm_in(f, _added(current, f).cause)]
+        firm = [f for f in round_fits if firm_in(f, added_member(current, f).cause)]
         # the causes named so far in their other forms (singles or earlier rounds' fits)
         other_forms = [f for f in list(singles) + tried
                        if set(f.causes) == set(current.causes) and f is not current]
@@ -320,7 +182,7 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         # structure in B, an eddy form ranked first on taking a quarter of it (labsim's
         # Preisach density with a rod 10 K warm, seed 100 at 800 a period) and the drift,
         # which removed 83 % of the drift terms' excess, was never tried
-        evident = [f for f in firm if _added(current, f).evidence]
+        evident = [f for f in firm if added_member(current, f).evidence]
         evident_leader = leader(evident) if evident else None
         if evident_leader is not None and all(evident_leader is not f for f in tries):
             tries.append(evident_leader)
@@ -328,42 +190,25 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         # beat that form on a finer grid (smeha.diagnose.resolution)
         finer = Refinement(ev, train, held, reference, workers)
 
-        def named(f, reference):
-            return (admitted(paper, reference, f, other_forms, sense, timelike)
-                    and finer.passed_by(f, _added(reference, f)))
+        def refused(f, reference):
+            return (refusal(paper, reference, f, other_forms, sense, timelike)
+                    or finer.refusal(f, added_member(reference, f)))
 
-        nxt = next((f for f in tries if named(f, reference)), None)
+        nxt = next((f for f in tries if not refused(f, reference)), None)
         if nxt is None and any(_stops_short(f) for f in tries):
             reference, continued = _continued(ev, train, held, reference, tries, workers)
             tried = [continued.get(id(f), f) for f in tried]
             tries = [continued.get(id(f), f) for f in tries]
-            nxt = next((f for f in tries if named(f, reference)), None)
+            nxt = next((f for f in tries if not refused(f, reference)), None)
         if nxt is None:
+            stopped = f"{tries[0].label}: {refused(tries[0], reference)}"
             current = _better(current, reference)
             break
         order += [c for c in nxt.causes if c not in order]
         current = nxt
         current, order = _swap(ev, train, held, paper, current, order, singles, tried,
                                sense, workers)
-    return order[0], current, tried, order
-
-
-def admitted(paper: Fit, current: Fit, new: Fit, other_forms, sense: bool,
-             timelike: bool = True) -> bool:
-    """True when ``new`` (``current`` and one added cause) passes the rules of a later cause
-    (module docstring): :func:`passes` in the added cause's channels (for a cause with an
-    evidence channel, :func:`passes_in_own` there, and the drift terms going with time,
-    ``timelike``: :func:`smeha.diagnose.driftlaw.goes_with_time`), :func:`significant`,
-    :func:`downstream_identifiable`, :func:`no_channel_worse` and :func:`beyond_forms`
-    against ``other_forms``."""
-    added = _added(current, new)
-    judged = (passes_in_own(current, new, evidence_channels(added)) and timelike
-              if added.evidence else passes(current, new, channels(added)))
-    return (judged
-            and significant(paper, current, new, added, sense=sense)
-            and downstream_identifiable(current, added)
-            and no_channel_worse(current, new, added)
-            and beyond_forms(other_forms, new))
+    return Selection(order[0], current, tried, order, stopped)
 
 
 def _evident_first(paper: Fit, singles, timelike: bool):
@@ -411,7 +256,7 @@ def _pair_first(ev, train, held, paper: Fit, singles, sense: bool, timelike: boo
             continue
         members = [next(s for s in singles if s.candidate.members == (m,))
                    for m in fit.candidate.members]
-        if all(admitted(paper, alone, fit, [], sense, timelike) for alone in members):
+        if not any(refusal(paper, alone, fit, [], sense, timelike) for alone in members):
             named.append((fit, sorted(members, key=lambda f: f.total_score)))
     # a firm pair first; with B a weak one may be named, as a weak finding, as in the
     # rounds of select (with B pinning the magnetic cause, the one-mass resonance beside
@@ -425,7 +270,7 @@ def _pair_first(ev, train, held, paper: Fit, singles, sense: bool, timelike: boo
     for group in (firm, weak):
         for fit, members in sorted(group, key=lambda t: t[0].total_score):
             if all(finer.setdefault(id(alone), Refinement(ev, train, held, alone, workers))
-                   .passed_by(fit, _added(alone, fit)) for alone in members):
+                   .passed_by(fit, added_member(alone, fit)) for alone in members):
                 return fit, [m.cause for m in members], tried
     return None, [], tried
 
@@ -439,11 +284,6 @@ def _ranked_forms(fits, count) -> dict:
         if len(forms) < count:
             forms.append(f)
     return out
-
-
-def _added(current: Fit, new: Fit):
-    """The member of ``new``'s candidate that ``current``'s does not hold."""
-    return next(m for m in new.candidate.members if m not in current.candidate.members)
 
 
 def leader(fits) -> Fit:
@@ -529,12 +369,12 @@ def _rescued(ev, train, held, current: Fit, reference: Fit, fits, workers=None) 
     3.97e7, the density alone refitted at 1.90e7, and saturation was not named; from
     M_b/M_s 0.001, 0.1 or 0.2 it ended at 6.7e5 with M_b/M_s 0.406 each time."""
     short = [i for i, f in enumerate(fits) if f.train_chi2 > reference.train_chi2
-             and _added(current, f).fit.neutral is not None]
+             and added_member(current, f).fit.neutral is not None]
     if not short:
         return fits
     jobs = []
     for i in short:
-        cand, added = fits[i].candidate, _added(current, fits[i])
+        cand, added = fits[i].candidate, added_member(current, fits[i])
         jobs.append((cand, reference.base, [_start(cand, reference, added, added.fit.neutral)]))
     out = list(fits)
     for i, again in zip(short, fit_all(ev, train, held, jobs, workers)):
@@ -703,7 +543,7 @@ def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, sens
     tried += fits
     # each fit's member left out and the one that came in; a lookalike with more unknowns
     # than the member it would replace only where the data tell them apart (:func:`earned`)
-    exchanges = [(fit, _added(fit, current), _added(current, fit)) for fit in fits]
+    exchanges = [(fit, added_member(fit, current), added_member(current, fit)) for fit in fits]
     swaps = [(fit, gone.cause, came.cause) for fit, gone, came in exchanges
              if earned(current, fit, gone, came)]
     if not swaps:

@@ -55,7 +55,7 @@ def goes_with_time(batch, margin: float) -> bool:
     """True when the per-second law describes the drift features of ``batch`` better than
     the per-cycle law by more than ``margin`` in chi^2 (both have four unknowns), in units
     of the per-second law's dispersion (chi^2 per degree of freedom, at least 1), as
-    :func:`smeha.diagnose.decision.no_channel_worse` scales its margin.
+    :func:`smeha.diagnose.rules.no_channel_worse` scales its margin.
 
     Where neither law describes the drift terms (labsim's Preisach populations: chi^2
     540-1660 on 48 features, per second better than per cycle by 69-114 in three of seven

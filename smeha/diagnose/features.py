@@ -248,7 +248,9 @@ def fitted_harmonics(step, frequency, harmonics=HARMONICS):
 
 
 def _noise_harmonics(per):
-    """Harmonics the noise fit may use when a period holds ``per`` samples."""
+    """Harmonics the noise fit may use when a period holds ``per`` samples (at least
+    :data:`HARMONICS`: a run with at most 2 :data:`HARMONICS` samples a period, which does
+    not resolve them, is skipped, :func:`run_features`)."""
     return int(max(HARMONICS, min(NOISE_HARMONICS, per // 3)))
 
 
@@ -450,6 +452,12 @@ def run_features(run: Run, params: gmt.TransducerParameters | None = None,
     w = 2.0 * math.pi * f
     t = np.asarray(run.time, dtype=float)
     h = float(np.median(np.diff(t)))
+    per = 1.0 / (f * h)
+    if per <= 2 * harmonics:  # the k-th harmonic needs k < per / 2 (Nyquist)
+        raise SkippedRun(run.name, f"{per:.3g} samples a period at {f:g} Hz resolve the "
+                                   f"harmonics up to the {math.ceil(per / 2) - 1}th; the "
+                                   f"features are the first {harmonics}: more than "
+                                   f"{2 * harmonics} samples a period are needed")
     t_start = float(t[0])
     pooled_y, pooled_e = pooled_noise or (None, None)
     cycles, dropped, checked = _periods_used(run, t, h, f, pooled_y, pooled_e)

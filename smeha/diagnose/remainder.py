@@ -13,7 +13,7 @@ in: read off the fit of the named model's form alone, labsim's output mass besid
 saturation without B (2026-11-28) explained 0 and saturation 114 %, the two-mass form's
 fit alone predicting the held-out runs worse than the paper's model. A remainder counts
 as unexplained only while the chosen model is outside noise
-(:func:`smeha.diagnose.decision.within_noise`).
+(:func:`smeha.diagnose.rules.within_noise`).
 
 The remainder's **signature** is read from the chosen model's residual over
 every run (training and held-out): the share of its chi^2 in y, in B and in

@@ -9,8 +9,9 @@ from gmt import extensions as ext
 
 from .candidates import CAUSES, FORMS, Batch, Evaluator, label
 from . import remainder
-from .decision import (MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, channels, explained, passes,
-                       leader, within_noise)
+from .decision import leader
+from .rules import (MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, channels, explained, passes,
+                    within_noise)
 from .workflow import CONFUSABLE_WITHOUT_B
 
 __all__ = ["SIGNALS", "SCALE_SPAN", "characterise", "cautions", "y_worse_caution",
@@ -357,7 +358,9 @@ def _named_lines(d) -> list[str]:
         out.append(f"forward selection: the best second cause, {best.label}, lowers the "
                    f"held-out BIC by {first.score - best.score:.4g} and removes "
                    f"{100 * explained(first, best, chans):.3g} % of the remaining "
-                   f"excess{where}; not enough for a second name (the same rule)")
+                   f"excess{where}; no second cause named")
+    if d.stopped:
+        out.append(f"no further cause named: {d.stopped}")
     out.append(f"parameters of the extended model: {_fmt_params(e.parameters)}")
     out += [f"caution, {c}" for c in cautions(d)]
     if e.weak:
@@ -510,6 +513,7 @@ def as_dict(d) -> dict:
                               "noise_share": d.paper.heldout_noise_misfit * 1e6},
         "gain": d.gain,
         "extended": _fit_dict(d.extended),
+        "selection_stopped": d.stopped,
         "also_consistent": [{"cause": f.cause, "form": f.form, "score": f.score,
                              "score_above_named": f.score - d.extended.score,
                              "heldout_rms_um": f.heldout_rms * 1e6}

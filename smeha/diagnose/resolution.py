@@ -12,7 +12,7 @@ which was named as a second cause; the density alone on a grid 1.5 times as fine
 So a cause that joins a model holding a discretised form, and acts on B and y as that
 form does, is admitted only where it predicts the held-out runs better than the model
 before it with that form on its finer grid (``Extension.finer``): the rule
-:func:`smeha.diagnose.decision.beyond_forms` applies to the causes' other forms, this one
+:func:`smeha.diagnose.rules.beyond_forms` applies to the causes' other forms, this one
 to their discretisation. On true hysteresis + eddy data the finer density alone stays
 behind the pair (seed 0: 318 382 against ~95 000; seed 1 on 13 x 23 nodes: 2.6e8 against
 7.0e4). The finer model is fitted only where a cause is about to be named beside the
@@ -74,3 +74,11 @@ class Refinement:
             return True
         finer = self.finer
         return not isinstance(finer, Fit) or new.score < finer.score
+
+    def refusal(self, new: Fit, added) -> str:
+        """"" when :meth:`passed_by`, else why not, in words with the scores."""
+        if self.passed_by(new, added):
+            return ""
+        return (f"{self.finer.label} on its finer grid predicts the held-out runs as well "
+                f"without it (score {self.finer.score:.4g} against {new.score:.4g}): what it "
+                "takes falls between the nodes of the density's grid")

@@ -12,7 +12,8 @@ from gmt.errors import InputError
 from ..measured import DataError
 from ..plausibility import check_plausible
 from .candidates import CAUSES, PAPER, Batch, Evaluator, candidates
-from .decision import also_consistent, select, within_noise
+from .decision import also_consistent, select
+from .rules import within_noise
 from .features import extract
 from .fit import Fit, fit_all, fit_and_score
 
@@ -56,6 +57,8 @@ class Diagnosis:
     skipped: list = field(default_factory=list)
     #: the named causes in the order forward selection added them
     order: list = field(default_factory=list)
+    #: why forward selection named no further cause (smeha.diagnose.decision.Selection)
+    stopped: str = ""
 
     @property
     def causes(self) -> list:
@@ -296,7 +299,7 @@ def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
     # a candidate that cannot be fitted is left out, and said so
     fits = [f for f in done if isinstance(f, Fit)]
     unfitted = [f for f in done if not isinstance(f, Fit)]
-    cause, chosen, combos, order = select(ev, train, held, paper, fits, sense, workers)
+    cause, chosen, combos, order, stopped = select(ev, train, held, paper, fits, sense, workers)
     character = characterise(ev, list(feats.values()), paper.base)
     noise = float(np.median([rf.noise_y for rf in feats.values()])) * 1e6
     diag = Diagnosis(cause=cause, evidence=[], heldout_runs=holdout,
@@ -304,7 +307,7 @@ def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
                      extended=chosen, fits=fits, noise_um=noise,
                      characterisation=character, context=context,
                      also_consistent=also_consistent(paper, fits, chosen, cause),
-                     combinations=combos, skipped=skipped, order=order)
+                     combinations=combos, skipped=skipped, order=order, stopped=stopped)
     diag.evidence = evidence(diag) + [f"candidate not fitted, left out: {why}"
                                        for why in unfitted]
     return diag
