@@ -22,15 +22,16 @@ from smeha.diagnose.fit import Fit
 N_PARTS = (100, 100, 10)
 
 
-def fit(members=(), y=0.0, b=0.0, drift=0.0, train=0.0):
-    """A Fit with held-out chi^2 (n + excess) per channel and a training chi^2."""
-    cy, cb, cd = (N_PARTS[0] + y, N_PARTS[1] + b, N_PARTS[2] + drift)
+def fit(members=(), y=0.0, b=0.0, drift=0.0, train=0.0, parts=N_PARTS):
+    """A Fit with held-out chi^2 (n + excess) per channel and a training chi^2; ``parts``
+    the held-out features per channel (no B: 0 there, and b must be 0)."""
+    cy, cb, cd = (parts[0] + y, parts[1] + b, parts[2] + drift)
     chi = cy + cb + cd
     return Fit(candidate=Candidate(tuple(members)), base=(1.0, 1.5, 1.0, 0.0, 1.0), x=(),
                train_chi2=train, train_n=300, heldout_chi2=chi, heldout_predictive_chi2=chi,
-               heldout_n=sum(N_PARTS), heldout_chi2_y=cy, heldout_chi2_b=cb,
+               heldout_n=sum(parts), heldout_chi2_y=cy, heldout_chi2_b=cb,
                heldout_chi2_drift=cd, heldout_rms=0.0, heldout_misfit=0.0, score=chi,
-               heldout_noise_misfit=0.0, parameters={}, heldout_n_parts=N_PARTS)
+               heldout_noise_misfit=0.0, parameters={}, heldout_n_parts=parts)
 
 
 def _cls(cause, form=""):
@@ -465,6 +466,13 @@ def test_a_refused_cause_is_told_the_first_rule_it_fails_with_its_figures():
     # 900 of 2e6 + 100 is 0.045 %
     assert "0.045 % of the paper's excess in y, B, drift, below the 10 %" in why(
         fit((hyst, lag), y=100.0, b=500.0, drift=50.0), sense=False)
+    # without a sense voltage B has no held-out features: the channels named are those
+    # measured
+    # (900 of the paper's 2e6 + 100 is 0.045 %)
+    no_b = (100, 0, 10)
+    assert "0.045 % of the paper's excess in y, drift, below the 10 %" in why(
+        fit((hyst, lag), y=100.0, drift=50.0, parts=no_b), sense=False,
+        current=fit((hyst,), y=1000.0, drift=50.0, parts=no_b))
     # B bought with y: y 1000 -> 1400, beyond 25 x y's dispersion (11 per feature), while
     # the pair removes 76 % of the excess
     off_in_b = fit((hyst,), y=1000.0, b=5000.0, drift=50.0)

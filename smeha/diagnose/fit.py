@@ -112,6 +112,11 @@ class Fit:
                "drift": self.heldout_chi2_drift}[channel]
         return chi, dict(zip(("y", "B", "drift"), self.heldout_n_parts))[channel]
 
+    def measured_of(self, channels) -> tuple:
+        """Those of ``channels`` ("y", "B", "drift") that have held-out features (no B
+        without a sense voltage)."""
+        return tuple(c for c in channels if self._heldout_part(c)[1] > 0)
+
     def heldout_excess_in(self, channels) -> float:
         """chi^2 - n over the held-out features of ``channels`` ("y", "B", "drift")."""
         return sum(chi - n for chi, n in map(self._heldout_part, channels))

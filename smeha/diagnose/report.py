@@ -354,7 +354,7 @@ def _named_lines(d) -> list[str]:
         best = min(d.combinations, key=lambda f: f.score)
         added = [m for m in best.candidate.members if m not in first.candidate.members]
         chans = channels(added[0]) if added else None
-        where = "" if chans is None else f" in {', '.join(chans)}"
+        where = "" if chans is None else f" in {', '.join(first.measured_of(chans))}"
         out.append(f"forward selection: the best second cause, {best.label}, lowers the "
                    f"held-out BIC by {first.score - best.score:.4g} and removes "
                    f"{100 * explained(first, best, chans):.3g} % of the remaining "

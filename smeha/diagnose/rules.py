@@ -194,7 +194,7 @@ def refusal(paper: Fit, current: Fit, new: Fit, other_forms, sense: bool,
     if added.evidence:
         own = evidence_channels(added)
         if not passes_in_own(current, new, own):
-            return (f"in {_listed(own)}, its evidence, it removes "
+            return (f"in {_listed(own, current)}, its evidence, it removes "
                     f"{100 * explained(current, new, own):.3g} % of the excess, chi^2 "
                     f"lower by {current.heldout_excess_in(own) - new.heldout_excess_in(own):.4g}"
                     f" (the rule: {100 * MIN_EXPLAINED:g} % and {MIN_BIC_DROP:g} plus its "
@@ -204,12 +204,12 @@ def refusal(paper: Fit, current: Fit, new: Fit, other_forms, sense: bool,
     elif not passes(current, new, channels(added)):
         return (f"held-out BIC lower by {current.score - new.score:.4g} (threshold "
                 f"{MIN_BIC_DROP:g}), {100 * explained(current, new, channels(added)):.3g} % of "
-                f"the excess in {_listed(channels(added))} removed (at least "
+                f"the excess in {_listed(channels(added), current)} removed (at least "
                 f"{100 * MIN_EXPLAINED:g} % asked)")
     if not significant(paper, current, new, added, sense=sense):
         floor = MIN_SHARE_WITH_B if sense else MIN_SHARE
         return (f"it removes {100 * share(paper, current, new, added):.3g} % of the paper's "
-                f"excess in {_listed(evidence_channels(added))}, below the "
+                f"excess in {_listed(evidence_channels(added), current)}, below the "
                 f"{100 * floor:.3g} % a later cause must carry of its own "
                 f"({'with' if sense else 'without'} a sense voltage)")
     if not downstream_identifiable(current, added):
@@ -242,8 +242,9 @@ def admitted(paper: Fit, current: Fit, new: Fit, other_forms, sense: bool,
     return not refusal(paper, current, new, other_forms, sense, timelike)
 
 
-def _listed(chans) -> str:
-    return ", ".join(chans)
+def _listed(chans, fit: Fit) -> str:
+    """``chans`` that ``fit`` has held-out features in, as words."""
+    return ", ".join(fit.measured_of(chans))
 
 
 def added_member(current: Fit, new: Fit):
