@@ -142,11 +142,15 @@ def _one(task):
                "explained_fraction": rem["explained_fraction"] if rem else {},
                "later_shares": _later_shares(d),
                "unexplained_fraction": rem["unexplained_fraction"] if rem else 0.0,
-               "remainder": rem["summary"] if rem else ""}
+               "remainder": rem["summary"] if rem else "",
+               # how the answer was reached: two causes named at once (decision._pair_first)
+               # and why no further cause was named (decision.Selection.stopped)
+               "together": any(e.startswith("named together") for e in d.evidence),
+               "stopped": d.stopped}
     except Exception as exc:  # a failure is a result of the study, reported as such
         out = {"cause": f"error: {type(exc).__name__}: {exc}", "causes": [], "gain": 1.0,
                "weak": False, "form": "", "explained_fraction": {}, "later_shares": {},
-               "unexplained_fraction": 0.0, "remainder": ""}
+               "unexplained_fraction": 0.0, "remainder": "", "together": False, "stopped": ""}
     return {"code": _code_version(), "effects": list(effects), "seed": seed, "rate": rate,
             "strength": strength, "noise_um": noise, "sense_voltage": sense,
             "labsim_options": dict(options),
