@@ -456,8 +456,11 @@ def test_a_refused_cause_is_told_the_first_rule_it_fails_with_its_figures():
 
     # the rule in the channels it acts on: y 1000 -> 990 is 10 of a 1050 excess
     small = why(fit((hyst, delay), y=990.0, b=500.0, drift=50.0))
-    assert "held-out BIC lower by 10 (threshold 25)" in small
-    assert "0.952 % of the excess in y, drift removed" in small
+    assert small == ("held-out BIC lower by 10 (it must fall by more than 25), 0.952 % of "
+                     "the excess in y, drift removed (at least 50 % must go)")
+    worse = why(fit((hyst, delay), y=1020.0, b=500.0, drift=50.0))
+    assert worse == ("held-out BIC higher by 20 (it must fall by more than 25), the excess "
+                     "in y, drift grown by 1.9 % (at least 50 % must go)")
     # a delay while the magnetic part misses B more than y (B 3000 against y 1000)
     off_in_b = fit((hyst,), y=1000.0, b=3000.0, drift=50.0)
     assert "misses B more than y (held-out excess 3000 against 1000)" in why(

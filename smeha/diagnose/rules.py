@@ -202,10 +202,14 @@ def refusal(paper: Fit, current: Fit, new: Fit, other_forms, sense: bool,
         if not timelike:
             return "the drift terms go with the drive's cycles, not with time as a heating's do"
     elif not passes(current, new, channels(added)):
-        return (f"held-out BIC lower by {current.score - new.score:.4g} (threshold "
-                f"{MIN_BIC_DROP:g}), {100 * explained(current, new, channels(added)):.3g} % of "
-                f"the excess in {_listed(channels(added), current)} removed (at least "
-                f"{100 * MIN_EXPLAINED:g} % asked)")
+        drop, part = current.score - new.score, explained(current, new, channels(added))
+        return ((f"held-out BIC lower by {drop:.4g}" if drop > 0 else
+                 f"held-out BIC higher by {-drop:.4g}")
+                + f" (it must fall by more than {MIN_BIC_DROP:g}), "
+                + (f"{100 * part:.3g} % of the excess in {_listed(channels(added), current)} "
+                   "removed" if part >= 0 else f"the excess in "
+                   f"{_listed(channels(added), current)} grown by {-100 * part:.3g} %")
+                + f" (at least {100 * MIN_EXPLAINED:g} % must go)")
     if not significant(paper, current, new, added, sense=sense):
         floor = MIN_SHARE_WITH_B if sense else MIN_SHARE
         return (f"it removes {100 * share(paper, current, new, added):.3g} % of the paper's "
