@@ -105,11 +105,15 @@ def test_a_pair_named_at_once_takes_the_lookalike_that_predicts_better():
     # delay ranked behind it, and eddy + one-mass mechanics was named (held out 227.3).
     # The exchange step after the pair (smeha.diagnose.decision.select) puts the delay in
     # its place: held out 218.1, ranked better too
-    d = diagnose.diagnose(runs({"eddy_current_diffusion": 1.0, "transport_delay": 1.0},
-                               seed=12, noise_um=0.05, samples_per_cycle=100,
-                               formulations={"eddy_current_diffusion": "diffusion_random"}))
+    d = _eddy_and_delay(seed=12, samples_per_cycle=100)
     assert set(d.causes) == {"eddy_current_diffusion", "transport_delay"}, \
         "\n".join(d.evidence)
+
+
+def _eddy_and_delay(seed, samples_per_cycle):
+    return diagnose.diagnose(runs({"eddy_current_diffusion": 1.0, "transport_delay": 1.0},
+                                  seed=seed, noise_um=0.05, samples_per_cycle=samples_per_cycle,
+                                  formulations={"eddy_current_diffusion": "diffusion_random"}))
 
 
 @pytest.mark.integration
@@ -143,9 +147,7 @@ def test_a_lookalike_takes_the_place_of_the_first_cause_beside_a_second():
     # no rule alone, so the exchange step never tried it and the answer was
     # mechanical_resonance + eddy (the issue's own miss: "eddy + delay answered as
     # mechanical_resonance + eddy"). The exchange step now tries a member's lookalikes
-    d = diagnose.diagnose(runs({"eddy_current_diffusion": 1.0, "transport_delay": 1.0},
-                               seed=11, noise_um=0.05, samples_per_cycle=800,
-                               formulations={"eddy_current_diffusion": "diffusion_random"}))
+    d = _eddy_and_delay(seed=11, samples_per_cycle=800)
     assert set(d.causes) == {"eddy_current_diffusion", "transport_delay"}, \
         "\n".join(d.evidence)
 
