@@ -70,8 +70,8 @@ from .driftlaw import goes_with_time
 from .fit import UNEVALUATED, Fit, fit_all
 from .linearfit import linear_member
 from .resolution import Refinement
-from .rules import (MIN_BIC_DROP, added_member, channels, evidence_channels, firm_in, passes,
-                    passes_in_own, refusal, within_noise)
+from .rules import (MIN_BIC_DROP, added_member, admitted, channels, evidence_channels, firm_in,
+                    passes, passes_in_own, refusal, within_noise)
 
 __all__ = ["MAX_CAUSES", "SWAP_CANDIDATES", "FORMS_TRIED", "CONTINUATIONS", "CONTINUE_SETTLED",
            "Selection", "leader", "lookalike_margin", "simplest_lookalike", "earned", "select",
@@ -265,7 +265,7 @@ def _pair_first(ev, train, held, paper: Fit, singles, sense: bool, timelike: boo
             continue
         members = [next(s for s in singles if s.candidate.members == (m,))
                    for m in fit.candidate.members]
-        if not any(refusal(paper, alone, fit, [], sense, timelike) for alone in members):
+        if all(admitted(paper, alone, fit, [], sense, timelike) for alone in members):
             named.append((fit, sorted(members, key=lambda f: f.total_score)))
     # a firm pair first; with B a weak one may be named, as a weak finding, as in the
     # rounds of select (with B pinning the magnetic cause, the one-mass resonance beside

@@ -451,8 +451,7 @@ def run_features(run: Run, params: gmt.TransducerParameters | None = None,
     f = float(run.frequency)
     w = 2.0 * math.pi * f
     t = np.asarray(run.time, dtype=float)
-    h = float(np.median(np.diff(t)))
-    per = 1.0 / (f * h)
+    h, per, _ = _samples_per_period(t, f)
     if per <= 2 * harmonics:  # the k-th harmonic needs k < per / 2 (Nyquist)
         raise SkippedRun(run.name, f"{per:.3g} samples a period at {f:g} Hz resolve the "
                                    f"harmonics up to the {math.ceil(per / 2) - 1}th; the "

@@ -160,9 +160,15 @@ def no_channel_worse(current: Fit, new: Fit, added) -> bool:
     of its own form (labsim's correlated Preisach density, its narrow loop centres fitted
     by the density's grid: a lag added to the magnetisation lowered B's excess and raised
     y's misfit from 0.052 to 0.070 um)."""
-    return all(new.heldout_excess_in((c,)) <= current.heldout_excess_in((c,))
-               + MIN_BIC_DROP * max(1.0, current.heldout_dispersion(c))
-               for c in channels(added))
+    return not _worse_channels(current, new, added)
+
+
+def _worse_channels(current: Fit, new: Fit, added) -> list:
+    """The channels ``added`` acts on that ``new`` predicts worse than ``current`` by more
+    than the margin of :func:`no_channel_worse`."""
+    return [c for c in channels(added)
+            if new.heldout_excess_in((c,)) > current.heldout_excess_in((c,))
+            + MIN_BIC_DROP * max(1.0, current.heldout_dispersion(c))]
 
 
 def beyond_forms(forms, new: Fit) -> bool:
@@ -221,9 +227,8 @@ def refusal(paper: Fit, current: Fit, new: Fit, other_forms, sense: bool,
                 f"excess {current.heldout_excess_in(('B',)):.4g} against "
                 f"{current.heldout_excess_in(('y',)):.4g}): y's misfit is then the magnetic "
                 "part's, propagated")
-    if not no_channel_worse(current, new, added):
-        worse = [c for c in channels(added)
-                 if new.heldout_excess_in((c,)) > current.heldout_excess_in((c,))]
+    worse = _worse_channels(current, new, added)
+    if worse:
         return ("it predicts " + ", ".join(
             f"{c} worse (held-out excess {current.heldout_excess_in((c,)):.4g} -> "
             f"{new.heldout_excess_in((c,)):.4g})" for c in worse)
