@@ -258,8 +258,11 @@ def predictive_chi2(ev: Evaluator, held: Batch, cand: Candidate, base, x, cov) -
         return ev.residuals(held, b, cand, xx)
 
     r = res(z0)
-    jac = np.empty((r.size, z0.size))
-    for j in range(z0.size):
+    # an unknown the fit held (a density's weight at zero: its row and column of cov are
+    # zero, smeha.diagnose.linearfit) adds nothing to J Cov J^T: its column is not needed
+    # (most of a density's weights; each column costs a held-out evaluation)
+    jac = np.zeros((r.size, z0.size))
+    for j in np.flatnonzero(np.any(cov != 0.0, axis=1)):
         dz = 1e-6 * max(abs(z0[j]), 1e-3)
         if z0[j] + dz > upper[j]:  # step into the allowed range
             dz = -dz

@@ -216,24 +216,25 @@ def relay_harmonics(up, down, field_amplitude, harmonics=PERIODIC_HARMONICS):
     """
     a, b = np.asarray(up, float), np.asarray(down, float)
     hm = float(field_amplitude)
-    k = np.arange(1, harmonics + 1)
     out = np.zeros((a.size, harmonics + 1), complex)
-    switches = (a <= hm) & (b >= -hm)
+    switches = np.flatnonzero((a <= hm) & (b >= -hm))
     ta = np.arccos(np.clip(a[switches] / hm, -1.0, 1.0))
     tb = np.arccos(np.clip(b[switches] / hm, -1.0, 1.0))
-    out[switches, 0] = 2.0 * (ta + tb) / math.pi - 2.0
-    # e^{j k theta} as the k-th power of e^{j theta} (a running product: one complex
-    # exponential a relay, not one a harmonic; relative error ~k eps), accumulated down
-    # the harmonics of a broadcast row: the products of a cumulative product along the
-    # relays' rows, bit for bit, without copying e^{j theta} K times (a third of the time)
-    za = np.multiply.accumulate(np.broadcast_to(np.exp(1j * ta), (harmonics, ta.size)),
-                                axis=0).T
-    zb = np.multiply.accumulate(np.broadcast_to(np.exp(-1j * tb), (harmonics, tb.size)),
-                                axis=0).T
-    out[switches, 1:] = (za - zb) * (2.0 / (1j * math.pi * k))
+    # one row a harmonic, e^{j k theta} as the k-th power of e^{j theta} (a running product:
+    # one complex exponential a relay, not one a harmonic; relative error ~k eps)
+    rows = np.empty((harmonics + 1, switches.size), complex)
     # measured from the demagnetised state (module docstring): a relay the drive does not
     # switch holds it (a > H_m ends down, its h_u > 0; b < -H_m ends up, its h_u < 0), 0
-    out[switches, 0] -= 2.0 * demagnetised_state(a[switches], b[switches])
+    rows[0] = (2.0 * (ta + tb) / math.pi - 2.0
+               - 2.0 * demagnetised_state(a[switches], b[switches]))
+    ea, eb = np.exp(1j * ta), np.exp(-1j * tb)
+    za, zb = ea.copy(), eb.copy()
+    for k in range(1, harmonics + 1):
+        if k > 1:
+            za *= ea
+            zb *= eb
+        rows[k] = (za - zb) * (2.0 / (1j * math.pi * k))
+    out[switches] = rows.T
     return out
 
 
