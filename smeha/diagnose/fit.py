@@ -66,14 +66,18 @@ from scipy.optimize import least_squares
 from .candidates import Batch, Candidate, Evaluator
 from .linearfit import fit_linear, linear_member
 
-__all__ = ["BASE_LOWER", "BASE_UPPER", "MAX_EVALUATIONS", "UNEVALUATED", "Fit", "base_factor",
-           "fit_candidate", "predictive_chi2", "score", "fit_and_score", "fit_all"]
+__all__ = ["BASE_LOWER", "BASE_UPPER", "HIGHER_FROM", "MAX_EVALUATIONS", "UNEVALUATED", "Fit",
+           "base_factor", "fit_candidate", "predictive_chi2", "score", "fit_and_score", "fit_all"]
 
 #: Bounds of the base unknowns (K_h, n, K_e, K_ex, s).
 BASE_LOWER = (0.0, 1.0, 0.0, 0.0, 0.2)
 BASE_UPPER = (np.inf, 3.0, np.inf, np.inf, 5.0)
 #: Most function evaluations of one start of a fit.
 MAX_EVALUATIONS = 300
+#: The held-out harmonics from this one up are counted apart (:attr:`Fit.heldout_chi2_higher`):
+#: those a nonlinearity of M shows beyond a change of the fundamental (y's second follows
+#: the fundamental through eq 25's square law; B's and y's third and up do not).
+HIGHER_FROM = 3
 #: What a model raises at unknowns it is not defined for (gmt.ParameterError is a
 #: ValueError): a start vector that raises one is passed over.
 UNEVALUATED = (ValueError, FloatingPointError)
@@ -105,6 +109,10 @@ class Fit:
     effective_params: float | None = None
     #: held-out features of y, of B and of the drift terms
     heldout_n_parts: tuple = (0, 0, 0)
+    #: held-out chi^2 of y's and B's harmonics from :data:`HIGHER_FROM` up, and their number
+    #: of features (a part of heldout_chi2_y and heldout_chi2_b)
+    heldout_chi2_higher: float = 0.0
+    heldout_n_higher: int = 0
 
     def _heldout_part(self, channel) -> tuple:
         """(chi^2, number of features) of the held-out ``channel`` ("y", "B", "drift")."""
@@ -280,7 +288,11 @@ def score(ev: Evaluator, cand: Candidate, base, x, chi2_train, n_train, held: Ba
     cy, cb, cd = ev.parts(held, base, cand, x)
     n_parts = tuple(int(v) for v in np.sum([ev.n_features(rf) for rf in held.runs], axis=0))
     n = sum(n_parts)
-    y, _, s_off, s_y1 = ev.predict(held, base, cand, x)
+    y, b, s_off, s_y1 = ev.predict(held, base, cand, x)
+    higher = slice(HIGHER_FROM - 1, None)
+    chi_higher = float(np.sum(np.abs((y - held.y) / held.y_sd)[:, higher] ** 2) + np.sum(
+        np.abs((b - held.b) / held.b_sd)[held.has_b][:, higher] ** 2))
+    n_higher = 2 * y[:, higher].shape[1] * (len(held) + int(np.sum(held.has_b)))
     span = np.array([rf.time[-1] - rf.time[0] for rf in held.runs])
     misfit2 = (0.5 * np.sum(np.abs(y - held.y) ** 2, axis=1)
                + (np.abs(s_off - held.drift) ** 2 + 0.5 * np.abs(s_y1 - held.y1_slope) ** 2)
@@ -305,7 +317,8 @@ def score(ev: Evaluator, cand: Candidate, base, x, chi2_train, n_train, held: Ba
                heldout_noise_misfit=math.sqrt(float(np.mean(noise2))),
                score=chi + (cand.n_params if k is None else k) * math.log(max(n, 2)),
                parameters=cand.parameters(x, ev.context), at_bounds=cand.at_bounds(x),
-               effective_params=k, heldout_n_parts=n_parts)
+               effective_params=k, heldout_n_parts=n_parts,
+               heldout_chi2_higher=chi_higher, heldout_n_higher=n_higher)
 
 
 def fit_and_score(ev, train, held, cand, base0, starts=None) -> Fit:

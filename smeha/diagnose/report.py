@@ -471,6 +471,8 @@ def _fit_dict(fit) -> dict:
             "heldout_predictive_chi2": fit.heldout_predictive_chi2, "heldout_n": fit.heldout_n,
             "heldout_chi2_y": fit.heldout_chi2_y, "heldout_chi2_b": fit.heldout_chi2_b,
             "heldout_chi2_drift": fit.heldout_chi2_drift,
+            "heldout_chi2_higher_harmonics": fit.heldout_chi2_higher,
+            "heldout_n_higher_harmonics": fit.heldout_n_higher,
             "train_chi2": fit.train_chi2, "train_n": fit.train_n,
             "added_parameters": fit.n_params, "effective_parameters": fit.k,
             "parameters": fit.parameters,

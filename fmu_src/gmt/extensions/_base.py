@@ -243,6 +243,11 @@ class Extension:
         The held-out channel that tells it apart from the rest of the model: "" for the
         channels of its ``signals``; "drift" for the drift terms of y, which no periodic
         form (another cause's, or the paper's misfit) can produce.
+    signature : str
+        What a later cause of this form must also explain to be named beside others:
+        "higher harmonics" for y's and B's harmonics from the third up (a nonlinearity
+        of M, which a change of the fundamentals alone does not show); "" nothing more
+        than its channels (smeha.diagnose.rules.shows_signature).
     lookalike : str
         What else, outside the candidates, leaves the same signature in the
         data (for the report's caution), "" when nothing known does.
@@ -268,6 +273,7 @@ class Extension:
     stage = ""
     signals = ""
     evidence = ""
+    signature = ""
     lookalike = ""
     finer = None
     parameters: tuple = ()

@@ -163,6 +163,8 @@ class HysteresisForm(MagnetizationStage, Extension):
     #: its output adds to M and does not depend on it (gmt.extensions.steady.stage_adder)
     additive = True
     signals = "B and y"
+    #: a later hysteresis must explain the loop's higher harmonics (Extension.signature)
+    signature = "higher harmonics"
     parameters = (Parameter("thresholds_A_per_m", "A/m", 0.0, math.inf, low_open=False,
                             is_list=True),
                   Parameter("weights", "-", is_list=True))
