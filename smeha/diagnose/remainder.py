@@ -146,10 +146,17 @@ def describe(sig) -> str:
     return ", ".join(words) or "no dominant pattern"
 
 
+def _percent(fraction) -> str:
+    """A share in per cent: whole per cents from 1 % up, two significant digits below (a
+    remainder of 0.02 % outside noise is not "0 %")."""
+    p = 100.0 * fraction
+    return f"{p:.0f} %" if abs(p) >= 1.0 or p == 0.0 else f"{p:.2g} %"
+
+
 def summary(fractions, remaining, sig, outside_noise) -> str:
     """The one line of the text report (module docstring)."""
     names = list(fractions)
-    shares = [f"{100 * v:.0f} %" for v in fractions.values()]
+    shares = [_percent(v) for v in fractions.values()]
     if len(names) == 1:
         named = f"{names[0]} explains {shares[0]} of the held-out excess"
     elif names:
@@ -160,5 +167,5 @@ def summary(fractions, remaining, sig, outside_noise) -> str:
     if not outside_noise:
         rest = "the rest is within noise"
     else:
-        rest = f"{100 * remaining:.0f} % remains unexplained ({describe(sig)})"
+        rest = f"{_percent(remaining)} remains unexplained ({describe(sig)})"
     return f"{named}; {rest}" if named else f"no candidate qualifies; {rest}"
