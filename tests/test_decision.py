@@ -488,12 +488,13 @@ def test_a_refused_cause_is_told_the_first_rule_it_fails_with_its_figures():
     assert "predicts the held-out runs as well (score 230 against" in why(
         fit((hyst, lag), y=100.0, b=100.0, drift=50.0), forms=[other])
     # a drift in its evidence channel, and only where the drift terms go with time: the
-    # drop there must exceed MIN_BIC_DROP plus its 4 unknowns' charge, 4 ln 210 = 21.4
+    # drop there must exceed MIN_BIC_DROP plus its 5 unknowns' charge, 5 ln 210 = 26.7
     warm = fit((hyst, drift), y=1000.0, b=500.0, drift=0.0)
-    assert why(warm) == ""                                 # 50 - 21.4 > 25
-    assert "go with the drive's cycles" in why(warm, timelike=False)
-    assert "in drift, its evidence, it removes 100 % of the excess, chi^2 lower by 40" in why(
-        warm, current=fit((hyst,), y=1000.0, b=500.0, drift=40.0))   # 40 - 21.4 < 25
+    hot = fit((hyst,), y=1000.0, b=500.0, drift=60.0)
+    assert why(warm, current=hot) == ""                    # 60 - 26.7 > 25
+    assert "go with the drive's cycles" in why(warm, timelike=False, current=hot)
+    assert "in drift, its evidence, it removes 100 % of the excess, chi^2 lower by 50" in why(
+        warm)                                                # 50 - 26.7 < 25
 
 
 def test_a_later_hysteresis_must_explain_the_loops_higher_harmonics():

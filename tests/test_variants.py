@@ -51,7 +51,7 @@ CASES = {
     "thermal_drift": (
         {"offset_rate_m_per_A2s": 1e-4, "gain_rate_per_A2s": 0.5,
          "thermal_time_constant_s": math.inf, "start_current_A": 0.5},
-        (100.0, 50.0, 30.0, 0.25)),
+        (100.0, 50.0, 30.0, 0.25, 0.0)),
 }
 
 #: Largest |Y_k(stepped) - Y_k(periodic)| / |Y_1|, k = 1..8, for y and B. Why each:
@@ -441,7 +441,7 @@ def test_stepped_drift_matches_the_diagnosis_drift_form(time_constant):
     # rising fastest) of the peak-to-peak measured over 10 periods
     parameters = dict(CASES["thermal_drift"][0], thermal_time_constant_s=time_constant)
     extra = (100.0, 50.0, math.log10(time_constant) if math.isfinite(time_constant) else 30.0,
-             0.25)
+             0.25, 0.0)
     v = ModelVariant("thermal_drift", parameters)
     y, _, _ = run(gmt.Transducer(P, gmt.Excitation(F, 1.0), variant=v), 10)
     t = H * np.arange(y.size)
@@ -458,6 +458,27 @@ def test_stepped_drift_matches_the_diagnosis_drift_form(time_constant):
     dose = ext.LinearDrift(1e-4, 0.5, time_constant, 0.5).dose(np.array([1.5, 9.5]) / F, 1.0)
     shift = np.mean(y[-N:]) - np.mean(y[N:2 * N])
     assert shift == pytest.approx(1e-4 * (dose[1] - dose[0]), rel=0.02)
+
+
+def test_the_drift_dose_runs_from_the_switch_on_periods_before_the_record():
+    # gmt.extensions.drift, "Heating before the record": for a linear dose (t_th = inf,
+    # I_s = 0) u = I_m^2 (t + n_p / f), so over a record of samples t the harmonics' gain
+    # is 1 + g I_m^2 (n_p / f + mean t) and the slopes are o I_m^2 and g I_m^2 Y_1,
+    # whatever n_p (arithmetic, to rounding)
+    values = {"offset_rate_m_per_A2s": 2e-6, "gain_rate_per_A2s": -0.01,
+              "thermal_time_constant_s": math.inf, "start_current_A": 0.0,
+              "periods_before_record": 3.0}
+    f, im, y1 = 5.0, 0.8, 30e-6
+    t = np.arange(6000) / 5000.0
+    gain, s_off, s_y1 = ext.DriftForm.feature_drift(values, t, t[0], t.mean(), im, y1, f)
+    assert gain == pytest.approx(1.0 - 0.01 * im**2 * (3.0 / f + t.mean()), rel=1e-12)
+    assert s_off == pytest.approx(2e-6 * im**2, rel=1e-9)
+    assert s_y1 == pytest.approx(-0.01 * im**2 * y1, rel=1e-9)
+    # without n_p (or without the run's frequency) the dose starts with the record
+    gain0, _, _ = ext.DriftForm.feature_drift(dict(values, periods_before_record=0.0), t,
+                                              t[0], t.mean(), im, y1, f)
+    assert gain0 == pytest.approx(1.0 - 0.01 * im**2 * t.mean(), rel=1e-12)
+    assert ext.DriftForm.feature_drift(values, t, t[0], t.mean(), im, y1)[0] == gain0
 
 
 def test_first_order_eddy_lag_is_second_order_in_the_step():

@@ -251,7 +251,8 @@ class Evaluator:
             if cls.stage == "strain":
                 for j, rf in enumerate(batch.runs):
                     gain, s_off[j], s_y1[j] = cls.feature_drift(
-                        values, rf.time, rf.t_start, rf.t_mid, rf.current_amplitude, y[j, 0])
+                        values, rf.time, rf.t_start, rf.t_mid, rf.current_amplitude, y[j, 0],
+                        rf.frequency)
                     y[j] = y[j] * gain
         return y, b, s_off, s_y1
 
@@ -294,5 +295,6 @@ class Evaluator:
         out = np.real(np.exp(1j * np.outer(th, self.k)) @ y[0])
         for cls, values in cand.components(x, self.context):
             if cls.stage == "strain":
-                out = cls.apply_samples(values, out, rf.time - rf.t_start, rf.current_amplitude)
+                out = cls.apply_samples(values, out, rf.time - rf.t_start, rf.current_amplitude,
+                                        rf.frequency)
         return out + float(np.mean(rf.displacement - out))
