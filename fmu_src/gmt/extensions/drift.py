@@ -27,8 +27,8 @@ g (I_m^2 - I_s^2) n_p / f (linear drift) than a dose from the record's start giv
 Measured from the record alone, the long periods of the low-frequency runs put the
 most heating before their records (labsim's fixed 20 kHz clock, its drift alone: the
 form without n_p fitted t_th = 0.7 s to the 5 Hz runs' records, against their 30 s,
-and left 27 % of the held-out excess; with n_p, 3.1 periods, t_th on its linear end,
-I_s 0.496 A against labsim's 0.5, within noise). n_p is one unknown for all runs (a
+and left 27 % of the held-out excess; with n_p, 3.0 periods, t_th on its linear end,
+I_s 0.497 A against labsim's 0.5, within noise). n_p is one unknown for all runs (a
 lab waits a number of periods; labsim 2 to 3.3); 0 is a record from the switch-on.
 
 * periodic form: the drift is not periodic; the diagnosis compares the gain
