@@ -38,7 +38,7 @@ from gmt.extensions.steady import flux_density_from_ratio, steady_state
 from .features import HARMONICS
 
 __all__ = ["CAUSES", "FORMS", "label", "Candidate", "PAPER", "candidates", "Batch",
-           "Evaluator"]
+           "harmonic_chi2", "parts_of", "Evaluator"]
 
 CAUSES = ext.CAUSES
 #: The forms of the causes with several (the first is the default).
@@ -198,6 +198,23 @@ LN_FLUX_STEP = 0.3
 FLUX_DIFFERENCE_STEP = 1e-4
 
 
+def harmonic_chi2(batch: Batch, y, b) -> tuple:
+    """chi^2 of each harmonic of each run, (runs, K), of y and of B (0 for runs without
+    B), of the predicted harmonics ``y`` [m] and ``b`` [T] against ``batch``'s."""
+    dy = np.abs((y - batch.y) / batch.y_sd) ** 2
+    db = np.where(batch.has_b[:, None], np.abs((b - batch.b) / batch.b_sd) ** 2, 0.0)
+    return dy, db
+
+
+def parts_of(batch: Batch, y, b, s_off, s_y1) -> tuple:
+    """chi^2 per run of y (harmonics), of B (0 without B), of the drift features, of a
+    prediction (:meth:`Evaluator.predict`'s tuple)."""
+    dy, db = harmonic_chi2(batch, y, b)
+    ds = np.abs((s_y1 - batch.y1_slope) / batch.y1_slope_sd) ** 2
+    cd = ((s_off - batch.drift) / batch.drift_sd) ** 2 + ds
+    return np.sum(dy, axis=1), np.sum(db, axis=1), cd
+
+
 class Evaluator:
     """Periodic steady state of candidates for batches of runs (module docstring)."""
 
@@ -274,14 +291,7 @@ class Evaluator:
 
     def parts(self, batch: Batch, base, cand: Candidate = PAPER, x=()):
         """chi^2 per run of y (harmonics), of B (0 without B), of the drift features."""
-        y, b, s_off, s_y1 = self.predict(batch, base, cand, x)
-        dy = np.abs((y - batch.y) / batch.y_sd) ** 2
-        cy = np.sum(dy, axis=1)
-        db = np.abs((b - batch.b) / batch.b_sd) ** 2
-        cb = np.where(batch.has_b, np.sum(db, axis=1), 0.0)
-        ds = np.abs((s_y1 - batch.y1_slope) / batch.y1_slope_sd) ** 2
-        cd = ((s_off - batch.drift) / batch.drift_sd) ** 2 + ds
-        return cy, cb, cd
+        return parts_of(batch, *self.predict(batch, base, cand, x))
 
     def n_features(self, rf) -> tuple:
         """Number of features of y, of B (0 without a sense voltage), of the drift."""

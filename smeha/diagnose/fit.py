@@ -63,7 +63,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from .candidates import Batch, Candidate, Evaluator
+from .candidates import Batch, Candidate, Evaluator, harmonic_chi2, parts_of
 from .linearfit import fit_linear, linear_member
 
 __all__ = ["BASE_LOWER", "BASE_UPPER", "HIGHER_FROM", "MAX_EVALUATIONS", "UNEVALUATED", "Fit",
@@ -285,13 +285,13 @@ def score(ev: Evaluator, cand: Candidate, base, x, chi2_train, n_train, held: Ba
           cov=None, k=None) -> Fit:
     """The held-out score and RMS of a fitted candidate (module docstring); ``k`` the
     effective number of its added parameters when it is not their count."""
-    cy, cb, cd = ev.parts(held, base, cand, x)
+    predicted = ev.predict(held, base, cand, x)
+    y, b, s_off, s_y1 = predicted
+    cy, cb, cd = parts_of(held, *predicted)
     n_parts = tuple(int(v) for v in np.sum([ev.n_features(rf) for rf in held.runs], axis=0))
     n = sum(n_parts)
-    y, b, s_off, s_y1 = ev.predict(held, base, cand, x)
     higher = slice(HIGHER_FROM - 1, None)
-    chi_higher = float(np.sum(np.abs((y - held.y) / held.y_sd)[:, higher] ** 2) + np.sum(
-        np.abs((b - held.b) / held.b_sd)[held.has_b][:, higher] ** 2))
+    chi_higher = float(sum(np.sum(c[:, higher]) for c in harmonic_chi2(held, y, b)))
     n_higher = 2 * y[:, higher].shape[1] * (len(held) + int(np.sum(held.has_b)))
     span = np.array([rf.time[-1] - rf.time[0] for rf in held.runs])
     misfit2 = (0.5 * np.sum(np.abs(y - held.y) ** 2, axis=1)
