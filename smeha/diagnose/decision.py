@@ -7,7 +7,9 @@ The rules and their constants (:data:`WITHIN_NOISE`, :func:`passes`, ... below) 
   :data:`WITHIN_NOISE` on the training fit and on the held-out runs (the
   predictive chi^2 there, :mod:`smeha.diagnose.fit`);
 * otherwise **forward selection** (:func:`select`): the best single
-  candidate (every form of every cause, ranked over all the data by
+  candidate (every form of every cause whose single shows its form's signature against
+  the paper's model, a hysteresis the loop's higher harmonics: :func:`showing`; ranked
+  over all the data by
   :attr:`smeha.diagnose.fit.Fit.total_score`, unless another predicts the held-out
   runs better by more than the rule's margin: :func:`leader`; a lookalike with fewer
   unknowns the data do not separate from it takes its place: :func:`simplest_lookalike`)
@@ -42,7 +44,9 @@ The rules and their constants (:data:`WITHIN_NOISE`, :func:`passes`, ... below) 
   while the model is still outside noise on the held-out runs; after each added cause, an
   exchange step
   (:func:`_swap`) may replace a member by another cause that ranks better with the rest
-  (a lookalike with more unknowns only where the data separate the two: :func:`earned`);
+  (a lookalike with more unknowns only where the data separate the two: :func:`earned`),
+  after which the causes added after the member that went out must earn their place again
+  (:func:`_pruned`);
 * where no single candidate passes the rule, a drift that passes it in the drift terms
   (:func:`_evident_first`), else two causes named at once (:func:`_pair_first`: a pair
   that passes the rule, each of its causes admitted against the other alone; then the
@@ -71,11 +75,11 @@ from .fit import UNEVALUATED, Fit, fit_all
 from .linearfit import linear_member
 from .resolution import Refinement
 from .rules import (MIN_BIC_DROP, added_member, admitted, channels, evidence_channels, firm_in,
-                    passes, passes_in_own, refusal, within_noise)
+                    passes, passes_in_own, refusal, shows_signature, within_noise)
 
 __all__ = ["MAX_CAUSES", "SWAP_CANDIDATES", "FORMS_TRIED", "CONTINUATIONS", "CONTINUE_SETTLED",
            "Selection", "leader", "lookalike_margin", "simplest_lookalike", "earned", "select",
-           "also_consistent"]
+           "showing", "also_consistent"]
 
 #: Most causes forward selection names.
 MAX_CAUSES = 3
@@ -120,6 +124,10 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
     sense voltage (the rules for a later cause differ without B)."""
     if within_noise(paper):
         return Selection("none", paper, [], [])
+    # a form with a signature (a hysteresis: the loop's higher harmonics) that its single
+    # does not show against the paper's model is not the cause, first, paired or exchanged
+    # in (smeha.diagnose.rules.shows_signature); as a later cause the rounds ask it again
+    singles = showing(paper, singles)
     # a drift judged in the drift terms must go with time, as heating does, not with the
     # drive's cycles (smeha.diagnose.driftlaw; outside lab A's Preisach hysteresis: its
     # gain fell 2e-4 a period, and a drift form with a 0.18 s time constant took it)
@@ -140,7 +148,7 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         # its masses and stiffness on bounds alone, held out 227.3, the delay in its place
         # 218.1, ranked better too; answered eddy + mechanical_resonance)
         best, order = _swap(ev, train, held, paper, best, order, singles, tried, sense,
-                            workers)
+                            workers, timelike)
     current, order = best, order or [best.cause]
     stopped = ""
     while not within_noise(current):
@@ -216,8 +224,14 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         order += [c for c in nxt.causes if c not in order]
         current = nxt
         current, order = _swap(ev, train, held, paper, current, order, singles, tried,
-                               sense, workers)
+                               sense, workers, timelike)
     return Selection(order[0], current, tried, order, stopped)
+
+
+def showing(paper: Fit, singles) -> list:
+    """The single fits in ``singles`` that show their form's signature against ``paper``
+    (:func:`smeha.diagnose.rules.shows_signature`; a form without one always does)."""
+    return [s for s in singles if shows_signature(paper, s, s.candidate.members[0])]
 
 
 def _evident_first(paper: Fit, singles, timelike: bool):
@@ -503,7 +517,7 @@ def _start(cand: Candidate, fit: Fit, added, values) -> tuple:
 
 
 def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, sense=True,
-          workers=None):
+          workers=None, timelike=True):
     """Stepwise selection's exchange step (Efroymson's stepwise regression; Miller, *Subset
     Selection in Regression*, 2nd ed., 2002, sec. 3.4): with two or more causes, each member
     in turn is replaced by the best form of each of the :data:`SWAP_CANDIDATES` best-ranked
@@ -518,7 +532,9 @@ def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, sens
     first cause is
     chosen alone, before any other is there to share the misfit, and a cause that only
     imitates the first's share (a re-identified mechanics for an eddy lag plus a delay) is
-    otherwise kept for good."""
+    otherwise kept for good. After an exchange, the causes added after the member that
+    went out are asked again whether they earn their place (:func:`_pruned`; ``timelike``
+    as in :func:`select`)."""
     if len(current.causes) < 2:
         return current, order
     # the exchange candidates: the best-ranked form of each cause outside the model whose
@@ -567,7 +583,35 @@ def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, sens
     if (fit.total_score >= current.total_score or fit.score >= current.score
             or not (firm_in(fit, came) or (sense and came == gone))):
         return current, order
-    return fit, [came if c == gone else c for c in order]
+    order = [came if c == gone else c for c in order]
+    return _pruned(ev, train, held, paper, fit, order, order[order.index(came) + 1:], tried,
+                   sense, timelike, workers)
+
+
+def _pruned(ev, train, held, paper: Fit, current: Fit, order, later, tried, sense: bool,
+            timelike: bool, workers=None) -> tuple:
+    """(fit, order): ``current`` without each cause in ``later`` (in turn) that the rules
+    of a later cause (:func:`smeha.diagnose.rules.refusal`) no longer admit against the
+    model without it, that model refitted from current's values (added to ``tried``).
+
+    Stepwise selection's backward step (Miller, *Subset Selection in Regression*, 2nd ed.,
+    2002, sec. 3.4), asked of the causes added after a member the exchange step replaced
+    (``later``): each was admitted beside the member that went out, and may have been
+    making up for that member's form. Labsim's eddy diffusion + two-mass resonance at a
+    20 kHz lab clock (seed 1): eddy, then the one-mass form, then a delay beside them
+    (1.5 % of the paper's excess); the exchange put the two-mass form in the one-mass
+    form's place, and the delay, there for the one-mass form's misfit, stayed."""
+    for cause in later:
+        keep = tuple(m for m in current.candidate.members if m.cause != cause)
+        own = dict(zip(current.candidate.members, current.candidate.split(current.x)))
+        cand = Candidate(keep)
+        job = (cand, current.base, [tuple(v for m in cand.members for v in own[m])])
+        reduced = fit_all(ev, train, held, [job], workers)[0]
+        if isinstance(reduced, Fit):
+            tried.append(reduced)
+        if isinstance(reduced, Fit) and refusal(paper, reduced, current, [], sense, timelike):
+            current, order = reduced, [c for c in order if c != cause]
+    return current, order
 
 
 def earned(current: Fit, new: Fit, gone, came) -> bool:
@@ -595,16 +639,17 @@ def also_consistent(paper: Fit, fits, chosen: Fit, first_cause: str) -> list:
     """Other causes the held-out data do not separate from the first named one.
 
     The best form of each other cause that passes the rule against the paper
-    (:func:`passes`) and whose score is within :data:`MIN_BIC_DROP` of the
-    named single cause's. Empty for ``none`` and ``unexplained``.
+    (:func:`passes`), shows its form's signature (:func:`showing`) and whose score is
+    within :data:`MIN_BIC_DROP` of the named single cause's. Empty for ``none`` and
+    ``unexplained``.
     """
     if not chosen.causes:
         return []
     first = [f for f in fits if f.causes == (first_cause,)]
     ref = min(first, key=lambda f: f.score) if first else chosen
     best = {}
-    for f in fits:
-        if len(f.causes) != 1 or f.cause in chosen.causes:
+    for f in showing(paper, [f for f in fits if len(f.causes) == 1]):
+        if f.cause in chosen.causes:
             continue
         if passes(paper, f) and f.score - ref.score <= MIN_BIC_DROP:
             if f.cause not in best or f.score < best[f.cause].score:

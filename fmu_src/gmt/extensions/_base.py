@@ -224,6 +224,11 @@ Y_LINEAR_LOOKALIKE = (
     "filters on y that agree to second order in frequency; check the sensor chain's "
     "bandwidth and delay before reading this as the named cause")
 
+#: The ``signature`` of a nonlinearity of M (a hysteresis loop, whatever its shape): y's
+#: and B's harmonics from the third up, which a change of the fundamentals alone (a linear
+#: lag of M) does not produce (smeha.diagnose.rules.shows_signature).
+HIGHER_HARMONICS = "higher harmonics"
+
 
 class Extension:
     """One effect in one formulation: spec, periodic form and time-stepped form.
@@ -244,10 +249,10 @@ class Extension:
         channels of its ``signals``; "drift" for the drift terms of y, which no periodic
         form (another cause's, or the paper's misfit) can produce.
     signature : str
-        What a later cause of this form must also explain to be named beside others:
-        "higher harmonics" for y's and B's harmonics from the third up (a nonlinearity
-        of M, which a change of the fundamentals alone does not show); "" nothing more
-        than its channels (smeha.diagnose.rules.shows_signature).
+        What a cause of this form must also explain to be named, first or beside
+        others: :data:`HIGHER_HARMONICS` for y's and B's harmonics from the third up (a
+        nonlinearity of M, which a change of the fundamentals alone does not show); ""
+        nothing more than its channels (smeha.diagnose.rules.shows_signature).
     lookalike : str
         What else, outside the candidates, leaves the same signature in the
         data (for the report's caution), "" when nothing known does.

@@ -53,7 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError, check_range
-from ._base import Extension, FitSpec, Parameter
+from ._base import HIGHER_HARMONICS, Extension, FitSpec, Parameter
 from .magnetic import MagnetizationStage
 
 #: Plays of the diagnosis' operator: thresholds spaced geometrically from this fraction of
@@ -163,8 +163,9 @@ class HysteresisForm(MagnetizationStage, Extension):
     #: its output adds to M and does not depend on it (gmt.extensions.steady.stage_adder)
     additive = True
     signals = "B and y"
-    #: a later hysteresis must explain the loop's higher harmonics (Extension.signature)
-    signature = "higher harmonics"
+    #: a hysteresis, first or later, must explain the loop's higher harmonics
+    #: (Extension.signature)
+    signature = HIGHER_HARMONICS
     parameters = (Parameter("thresholds_A_per_m", "A/m", 0.0, math.inf, low_open=False,
                             is_list=True),
                   Parameter("weights", "-", is_list=True))

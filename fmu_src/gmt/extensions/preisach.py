@@ -75,7 +75,7 @@ import math
 import numpy as np
 
 from ..errors import ParameterError
-from ._base import Extension, FitSpec, Parameter
+from ._base import HIGHER_HARMONICS, Extension, FitSpec, Parameter
 from .magnetic import MagnetizationStage
 
 #: Coercive nodes: (first, last, count), geometric, in units of H_max. 11 nodes space them
@@ -323,13 +323,14 @@ class PreisachForm(MagnetizationStage, Extension):
     form = "preisach"
     stage = "magnetization"
     signals = "B and y"
-    #: a later density must explain the loop's higher harmonics (Extension.signature):
-    #: with its many linear unknowns it can shape a change of the fundamentals alone, a
-    #: linear lag of M, which is not hysteresis (labsim's eddy diffusion with a two-mass
-    #: resonance, seed 15 at 800 samples a period: beside the eddy and two-mass forms it
-    #: took 0.01 % of the paper's excess, its changes to y's and B's harmonics from the
-    #: third up within noise, their held-out chi^2 130 -> 154; answered with hysteresis)
-    signature = "higher harmonics"
+    #: a density, first or later, must explain the loop's higher harmonics
+    #: (Extension.signature): with its many linear unknowns it can shape a change of the
+    #: fundamentals alone, a linear lag of M, which is not hysteresis (labsim's eddy
+    #: diffusion with a two-mass resonance, seed 15 at 800 samples a period: beside the
+    #: eddy and two-mass forms it took 0.01 % of the paper's excess, its changes to y's and
+    #: B's harmonics from the third up within noise, their held-out chi^2 130 -> 154;
+    #: answered with hysteresis)
+    signature = HIGHER_HARMONICS
     #: The unknowns are the node weights, linear in the model: fitted by the penalised
     #: nonnegative least squares of smeha.diagnose.fit, not one by one.
     linear = True
