@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from gmt import extensions as ext
-from smeha.diagnose import decision, rules
+from smeha.diagnose import decision, exchange, joins, rules
 from smeha.diagnose.candidates import Candidate
 from smeha.diagnose.fit import Fit
 
@@ -258,7 +258,7 @@ def test_lookalikes_the_data_do_not_separate_are_told_apart_by_parsimony():
 
 
 def test_the_exchange_step_keeps_the_parsimony_between_lookalikes():
-    # decision.earned: in the exchange step a lookalike with more unknowns (the one-mass
+    # exchange.earned: in the exchange step a lookalike with more unknowns (the one-mass
     # mechanics, 3) takes a delay's (1) place only where its held-out score is lower by
     # more than MIN_BIC_DROP x the dispersion of the model it would replace in the channels
     # they act on (y, drift), the margin simplest_lookalike uses for the first cause
@@ -271,15 +271,15 @@ def test_the_exchange_step_keeps_the_parsimony_between_lookalikes():
     assert margin == pytest.approx(888.6, abs=0.1)
     close = fit((drift, one_mass), y=1500.0, drift=1890.0)  # 410 lower: within the margin
     assert current.score - close.score == pytest.approx(410.0)
-    assert not decision.earned(current, close, delay, one_mass)
+    assert not exchange.earned(current, close, delay, one_mass)
     clear = fit((drift, one_mass), y=300.0, drift=2000.0)  # 1500 lower: separated
-    assert decision.earned(current, clear, delay, one_mass)
+    assert exchange.earned(current, clear, delay, one_mass)
     # the simpler lookalike coming in, or a cause that is no lookalike, needs no margin
     back = fit((drift, delay), y=1500.0, drift=1890.0)
-    assert decision.earned(fit((drift, one_mass), y=1300.0, drift=2500.0), back, one_mass,
+    assert exchange.earned(fit((drift, one_mass), y=1300.0, drift=2500.0), back, one_mass,
                            delay)
     sat = _cls("magnetization_saturation")
-    assert decision.earned(current, fit((drift, sat), y=1500.0, drift=1890.0), delay, sat)
+    assert exchange.earned(current, fit((drift, sat), y=1500.0, drift=1890.0), delay, sat)
 
 
 def test_a_density_combination_that_stopped_short_is_continued_while_it_gains(monkeypatch):
@@ -418,7 +418,7 @@ def test_the_finer_model_of_a_combination_starts_from_its_own_values():
 def test_a_joined_cause_starts_where_the_training_chi2_is_least():
     # the join's start vector: the model's fitted values, and for the added cause the one
     # of its value fitted alone and its form's start vectors whose training chi^2 is least
-    # (decision._join_start); a start whose residuals are not finite is passed over. Here
+    # (joins.join_start); a start whose residuals are not finite is passed over. Here
     # chi^2 is the squared distance of the added cause's log10 tau from -2.8, written out
     delay = _cls("transport_delay")
     slab_m = _cls("eddy_current_diffusion", "slab_magnetization")
@@ -435,10 +435,10 @@ def test_a_joined_cause_starts_where_the_training_chi2_is_least():
 
     starts = [tuple(s) for s in slab_m.fit.starts]
     assert (-3.0, 1.0) in starts and (-4.0, 1.0) in starts
-    x = decision._join_start(Ev(), None, cand, current, slab_m, (-6.0, 0.5))
+    x = joins.join_start(Ev(), None, cand, current, slab_m, (-6.0, 0.5))
     assert cand.split(x)[at] == (-3.0, 1.0)  # the form's start nearest -2.8, finite
     assert cand.split(x)[1 - at] == (0.3,)  # the model's own value kept
-    x = decision._join_start(Ev(), None, cand, current, slab_m, (-2.7, 0.5))
+    x = joins.join_start(Ev(), None, cand, current, slab_m, (-2.7, 0.5))
     assert cand.split(x)[at] == (-2.7, 0.5)  # the value fitted alone, nearer still
 
 

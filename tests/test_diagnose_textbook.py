@@ -189,30 +189,19 @@ def test_hysteresis_beside_eddy_currents_that_shield_the_field_gives_both():
     assert d.gain >= 2.0
 
 
-def _eddy_and_resonance_at_20khz(seed):
-    return diagnose.diagnose(runs({"eddy_current_diffusion": 1.0, "mechanical_resonance": 1.0},
-                                  seed=seed, noise_um=0.05, sample_rate=20e3,
-                                  formulations={"eddy_current_diffusion": "diffusion_random"}))
-
-
 @pytest.mark.integration
-def test_a_density_that_adds_harmonics_the_data_lack_is_not_named_first():
-    # the detection study's case (seed 4 at labsim's 20 kHz clock; 2026-11-28): the
+@pytest.mark.parametrize("seed", [4, 1])
+def test_eddy_and_resonance_at_a_20_khz_clock_give_both_and_nothing_else(seed):
+    # the detection study's cases at labsim's 20 kHz clock (2026-11-28). Seed 4: the
     # paper's held-out harmonics from the third up were within noise (145.7 for 144
     # features) and the Preisach density alone raised them to 1809, removing 57 % of the
     # excess through the fundamentals; it was named first, then resonance and eddy
-    # (smeha.diagnose.rules.shows_signature, against the paper: decision.showing)
-    d = _eddy_and_resonance_at_20khz(seed=4)
-    assert set(d.causes) == {"eddy_current_diffusion", "mechanical_resonance"}, \
-        "\n".join(d.evidence)
-
-
-@pytest.mark.integration
-def test_a_cause_added_for_a_form_the_exchange_replaced_is_dropped():
-    # the detection study's case (seed 1 at labsim's 20 kHz clock; 2026-11-28): eddy, the
-    # one-mass mechanics, then a delay for what the one-mass form left (1.5 % of the
-    # paper's excess); the exchange step put the two-mass form in, and the delay stayed
-    # (smeha.diagnose.decision._pruned asks it again against the model without it)
-    d = _eddy_and_resonance_at_20khz(seed=1)
+    # (smeha.diagnose.rules.shows_signature against the paper: decision.showing). Seed 1:
+    # eddy, the one-mass mechanics, then a delay for what the one-mass form left (1.5 % of
+    # the paper's excess); the exchange step put the two-mass form in and the delay stayed
+    # (smeha.diagnose.exchange.pruned asks it again against the model without it)
+    d = diagnose.diagnose(runs({"eddy_current_diffusion": 1.0, "mechanical_resonance": 1.0},
+                               seed=seed, noise_um=0.05, sample_rate=20e3,
+                               formulations={"eddy_current_diffusion": "diffusion_random"}))
     assert set(d.causes) == {"eddy_current_diffusion", "mechanical_resonance"}, \
         "\n".join(d.evidence)

@@ -43,10 +43,12 @@ The rules and their constants (:data:`WITHIN_NOISE`, :func:`passes`, ... below) 
   and so on, up to :data:`MAX_CAUSES` causes,
   while the model is still outside noise on the held-out runs; after each added cause, an
   exchange step
-  (:func:`_swap`) may replace a member by another cause that ranks better with the rest
-  (a lookalike with more unknowns only where the data separate the two: :func:`earned`),
+  (:func:`smeha.diagnose.exchange.exchange`) may replace a member by another cause that
+  ranks better with the rest
+  (a lookalike with more unknowns only where the data separate the two:
+  :func:`smeha.diagnose.exchange.earned`),
   after which the causes added after the member that went out must earn their place again
-  (:func:`_pruned`);
+  (:func:`smeha.diagnose.exchange.pruned`);
 * where no single candidate passes the rule, a drift that passes it in the drift terms
   (:func:`_evident_first`), else two causes named at once (:func:`_pair_first`: a pair
   that passes the rule, each of its causes admitted against the other alone; then the
@@ -66,32 +68,23 @@ margin the rule asks of a name.
 """
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
-from .candidates import Batch, Candidate
+from .candidates import Batch
 from .driftlaw import goes_with_time
-from .fit import UNEVALUATED, Fit, fit_all
+from .exchange import FORMS_TRIED, SWAP_CANDIDATES, exchange, lookalike_margin
+from .fit import Fit, fit_all
+from .joins import join_jobs, joined, ranked_forms, refit_job, start_vector
 from .linearfit import linear_member
 from .resolution import Refinement
-from .rules import (MIN_BIC_DROP, added_member, admitted, channels, evidence_channels, firm_in,
-                    passes, passes_in_own, refusal, shows_signature, within_noise)
+from .rules import (MIN_BIC_DROP, added_member, admitted, evidence_channels, firm_in, passes,
+                    passes_in_own, refusal, shows_signature, within_noise)
 
-__all__ = ["MAX_CAUSES", "SWAP_CANDIDATES", "FORMS_TRIED", "CONTINUATIONS", "CONTINUE_SETTLED",
-           "Selection", "leader", "lookalike_margin", "simplest_lookalike", "earned", "select",
-           "showing", "also_consistent"]
+__all__ = ["MAX_CAUSES", "CONTINUATIONS", "CONTINUE_SETTLED", "Selection", "leader",
+           "simplest_lookalike", "select", "showing", "also_consistent"]
 
 #: Most causes forward selection names.
 MAX_CAUSES = 3
-#: The exchange step tries the best-ranked this many single candidates outside the model;
-#: where no single cause passes, this many causes are paired (:func:`_pair_first`).
-SWAP_CANDIDATES = 3
-#: Forms of a cause tried where its form is chosen beside another cause: a pair named at
-#: once takes each cause in its best-ranked this many forms, and the exchange step tries
-#: a member's best-ranked other forms up to this many in all (a form ranked first alone
-#: may be the wrong one beside another cause: labsim's two-mass resonance, fitted first
-#: by the one-mass form, then gained a delay beside the eddy form).
-FORMS_TRIED = 2
 #: A combination holding the Preisach density whose fit stopped on its round limit
 #: (:data:`smeha.diagnose.linearfit.COMBINATION_ROUNDS`) and is not admitted is refitted
 #: from its own values, with the model it extends, up to this many times while that
@@ -147,7 +140,7 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         # diffusion + delay, seed 12 at 100 a period: the pair with the one-mass mechanics,
         # its masses and stiffness on bounds alone, held out 227.3, the delay in its place
         # 218.1, ranked better too; answered eddy + mechanical_resonance)
-        best, order = _swap(ev, train, held, paper, best, order, singles, tried, sense,
+        best, order = exchange(ev, train, held, paper, best, order, singles, tried, sense,
                             workers, timelike)
     current, order = best, order or [best.cause]
     stopped = ""
@@ -157,7 +150,7 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
             break
         # the combinations are fitted from current's values by the same steps as current
         # refitted from them, the reference each is judged against (:func:`_settled`)
-        out = fit_all(ev, train, held, [_refit_job(current)] + _join_jobs(
+        out = fit_all(ev, train, held, [refit_job(current)] + join_jobs(
             ev, train, [(current, (), s) for s in singles]), workers)
         reference = _settled(current, out[0])
         round_fits = _rescued(ev, train, held, current, reference,
@@ -223,7 +216,7 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
             break
         order += [c for c in nxt.causes if c not in order]
         current = nxt
-        current, order = _swap(ev, train, held, paper, current, order, singles, tried,
+        current, order = exchange(ev, train, held, paper, current, order, singles, tried,
                                sense, workers, timelike)
     return Selection(order[0], current, tried, order, stopped)
 
@@ -268,11 +261,11 @@ def _pair_first(ev, train, held, paper: Fit, singles, sense: bool, timelike: boo
     effect, may be firm beside it): alone, the resonance's one-mass form ranked before the
     two-mass one on labsim's two-mass mechanics, which sat on a bound; beside the eddy
     form the one-mass form took its stiffness ratio to a bound."""
-    forms = _ranked_forms(singles, FORMS_TRIED)
+    forms = ranked_forms(singles, FORMS_TRIED)
     causes = list(forms)[:SWAP_CANDIDATES]
     pairs = [(a, (), b) for i, c in enumerate(causes) for d in causes[i + 1:]
              for a in forms[c] for b in forms[d]]
-    tried = _joined(ev, train, held, pairs, workers)
+    tried = joined(ev, train, held, pairs, workers)
     named = []
     for fit in tried:
         if not passes(paper, fit):
@@ -298,17 +291,6 @@ def _pair_first(ev, train, held, paper: Fit, singles, sense: bool, timelike: boo
     return None, [], tried
 
 
-def _ranked_forms(fits, count) -> dict:
-    """{cause: its best-ranked ``count`` fits in ``fits``, least total_score first}, the
-    causes in the order of their best fit's rank."""
-    out = {}
-    for f in sorted(fits, key=lambda f: f.total_score):
-        forms = out.setdefault(f.cause, [])
-        if len(forms) < count:
-            forms.append(f)
-    return out
-
-
 def leader(fits) -> Fit:
     """The best-ranked of ``fits`` (least :attr:`~smeha.diagnose.fit.Fit.total_score`),
     unless another predicts the held-out runs better by more than :data:`MIN_BIC_DROP`:
@@ -324,14 +306,6 @@ def leader(fits) -> Fit:
     rivals = fits if ranked.weak else [f for f in fits if not f.weak]
     held = min(rivals, key=lambda f: f.score)
     return held if held.score < ranked.score - MIN_BIC_DROP else ranked
-
-
-def lookalike_margin(fit: Fit, member) -> float:
-    """The held-out score difference within which the data do not separate ``member``'s
-    lookalikes beside ``fit``: :data:`MIN_BIC_DROP` times ``fit``'s dispersion in the
-    channels ``member`` acts on (chi^2 per feature, at least 1; quasi-likelihood, McCullagh
-    & Nelder 1989, sec. 9.2). Read by :func:`simplest_lookalike` and :func:`earned`."""
-    return MIN_BIC_DROP * max(1.0, fit.heldout_dispersion_in(channels(member)))
 
 
 def simplest_lookalike(best: Fit, fits) -> Fit:
@@ -355,11 +329,6 @@ def simplest_lookalike(best: Fit, fits) -> Fit:
              and f.candidate.members[0].lookalike == member.lookalike
              and f.score - best.score <= margin]
     return min(alike + [best], key=lambda f: (f.k, f.score))
-
-
-def _refit_job(current: Fit) -> tuple:
-    """The fit job of ``current``'s model started from its own fitted values."""
-    return (current.candidate, current.base, [current.x])
 
 
 def _settled(current: Fit, again) -> Fit:
@@ -398,7 +367,8 @@ def _rescued(ev, train, held, current: Fit, reference: Fit, fits, workers=None) 
     jobs = []
     for i in short:
         cand, added = fits[i].candidate, added_member(current, fits[i])
-        jobs.append((cand, reference.base, [_start(cand, reference, added, added.fit.neutral)]))
+        jobs.append((cand, reference.base,
+                     [start_vector(cand, reference, added, added.fit.neutral)]))
     out = list(fits)
     for i, again in zip(short, fit_all(ev, train, held, jobs, workers)):
         if isinstance(again, Fit) and again.train_chi2 < fits[i].train_chi2:
@@ -433,7 +403,7 @@ def _continued(ev, train, held, reference: Fit, fits, workers=None) -> tuple:
     current = {id(f): f for f in fits if _stops_short(f)}
     for _ in range(CONTINUATIONS):
         keys = list(current)
-        jobs = [_refit_job(reference)] + [_refit_job(current[k]) for k in keys]
+        jobs = [refit_job(reference)] + [refit_job(current[k]) for k in keys]
         out = fit_all(ev, train, held, jobs, workers)
         reference = _settled(reference, out[0])
         gained = False
@@ -452,187 +422,6 @@ def _continued(ev, train, held, reference: Fit, fits, workers=None) -> tuple:
 def _better(current: Fit, reference: Fit) -> Fit:
     """Of a model and its refit, the better-ranked (:attr:`Fit.total_score`)."""
     return reference if reference.total_score < current.total_score else current
-
-
-def _joined(ev, train, held, joins, workers=None) -> list:
-    """The fits of each (current, keep, single) in ``joins`` (:func:`_join_jobs`) side by
-    side (:func:`smeha.diagnose.fit.fit_all`); those whose fit fails are left out."""
-    return [f for f in fit_all(ev, train, held, _join_jobs(ev, train, joins), workers)
-            if isinstance(f, Fit)]
-
-
-def _join_jobs(ev, train, joins) -> list:
-    """The fit jobs of each (current, keep, single) in ``joins``: ``current``'s members
-    ``keep`` (all of them when empty) plus ``single``'s extension, started from their
-    fitted values, the added one's from the better of its value fitted alone and its
-    form's own starts (:func:`_join_start`); those that cannot combine are left out."""
-    jobs = []
-    for current, keep, single in joins:
-        member = single.candidate.members[0]
-        members = tuple(keep) or current.candidate.members
-        if member in members or member.cause in {m.cause for m in members}:
-            continue
-        cand = Candidate(members)
-        if not cand.combinable(member):
-            continue
-        cand = cand.plus(member)
-        jobs.append((cand, current.base, [_join_start(ev, train, cand, current, member,
-                                                      single.x)]))
-    return jobs
-
-
-def _join_start(ev, train, cand: Candidate, current: Fit, added, alone) -> tuple:
-    """The start vector of ``cand`` (:func:`_start`) whose training chi^2 is least, the
-    member ``added`` at its value fitted ``alone`` beside the paper's model or at one of its
-    form's start vectors: one evaluation each, no fit.
-
-    A value fitted alone is the added cause's best imitation of everything the paper's
-    model misses, which beside another cause may be far from its own part: labsim's
-    Preisach hysteresis + eddy diffusion on M (seed 0 at 100 samples a period, tau 1.7 ms),
-    the magnetisation forms alone took the loop's opening with the paper's loss
-    coefficients (K_e 2458 -> 308-549) and, started from there beside the density, ended at
-    a held-out score of 2.9e5 against the density's 4.7e4, and the eddy was not named; the
-    cylinder form started from its form's start vector of least chi^2 reached 1.6e3 and the
-    pair was named (2026-11-28). The least chi^2 at the start does not promise the best
-    basin (the slab form's start stayed its value alone there), only a cheap better one."""
-    best, least = None, math.inf
-    for values in (tuple(alone),) + tuple(tuple(v) for v in added.fit.starts):
-        x = _start(cand, current, added, values)
-        try:
-            r = ev.residuals(train, current.base, cand, x)
-        except UNEVALUATED:
-            continue
-        chi2 = float(r @ r)
-        if math.isfinite(chi2) and chi2 < least:
-            best, least = x, chi2
-    return best if best is not None else _start(cand, current, added, alone)
-
-
-def _start(cand: Candidate, fit: Fit, added, values) -> tuple:
-    """The start vector of ``cand``: ``fit``'s fitted values for the members it holds,
-    ``values`` for the member ``added``."""
-    own = dict(zip(fit.candidate.members, fit.candidate.split(fit.x)))
-    own[added] = tuple(values)
-    return tuple(v for m in cand.members for v in own[m])
-
-
-def _swap(ev, train, held, paper: Fit, current: Fit, order, singles, tried, sense=True,
-          workers=None, timelike=True):
-    """Stepwise selection's exchange step (Efroymson's stepwise regression; Miller, *Subset
-    Selection in Regression*, 2nd ed., 2002, sec. 3.4): with two or more causes, each member
-    in turn is replaced by the best form of each of the :data:`SWAP_CANDIDATES` best-ranked
-    other causes that explain the data on their own (pass the rule against the paper's
-    model), by its own cause's best-ranked other form (:data:`FORMS_TRIED`) and by its
-    firm lookalikes (a delay for a one-mass mechanics, whether or not they pass alone), the
-    others refitted with it; the best-ranked
-    exchange is kept when it ranks better than the model it replaces and predicts the
-    held-out runs better too, and the cause that comes in has none of its unknowns on a
-    bound (without a sense voltage the Preisach density, its rate factor on its lower
-    bound, otherwise took the place of saturation on smeha.synthetic's saturated rod). The
-    first cause is
-    chosen alone, before any other is there to share the misfit, and a cause that only
-    imitates the first's share (a re-identified mechanics for an eddy lag plus a delay) is
-    otherwise kept for good. After an exchange, the causes added after the member that
-    went out are asked again whether they earn their place (:func:`_pruned`; ``timelike``
-    as in :func:`select`)."""
-    if len(current.causes) < 2:
-        return current, order
-    # the exchange candidates: the best-ranked form of each cause outside the model whose
-    # single explains the data on its own (passes the rule against the paper), the best
-    # SWAP_CANDIDATES of them
-    inside = set(current.causes)
-    useful = [f[0] for f in _ranked_forms(
-        [s for s in singles if s.cause not in inside and passes(paper, s)], 1).values()]
-    useful = useful[:SWAP_CANDIDATES]
-    # and each member's best-ranked other forms (FORMS_TRIED in all with its own)
-    forms = _ranked_forms([s for s in singles if s.cause in inside
-                           and s.candidate.members[0] not in current.candidate.members],
-                          FORMS_TRIED - 1)
-    # and each member's lookalikes (a delay for a one-mass mechanics), firm, whether or not
-    # they pass alone: beside another cause two lookalikes may part where alone they did
-    # not (labsim's eddy diffusion + delay, seed 11 at 800 a period: the one-mass
-    # mechanics ranked first alone, the delay, taking half of what the eddy left, passed
-    # no rule alone, and the answer was mechanical_resonance + eddy)
-    alike = _ranked_forms([s for s in singles if s.cause not in inside and not s.weak
-                           and s.candidate.members[0].lookalike], 1)
-    joins = []
-    for out in current.candidate.members:
-        keep = tuple(m for m in current.candidate.members if m is not out)
-        joins += [(current, keep, single) for single in useful
-                  if single.candidate.members[0].cause != out.cause]
-        joins += [(current, keep, single) for single in forms.get(out.cause, [])]
-        joins += [(current, keep, f[0]) for f in alike.values()
-                  if out.lookalike and f[0].candidate.members[0].lookalike == out.lookalike
-                  and all(f[0] is not u for u in useful)]
-    fits = _joined(ev, train, held, joins, workers)
-    tried += fits
-    # each fit's member left out and the one that came in; a lookalike with more unknowns
-    # than the member it would replace only where the data tell them apart (:func:`earned`)
-    exchanges = [(fit, added_member(fit, current), added_member(current, fit)) for fit in fits]
-    swaps = [(fit, gone.cause, came.cause) for fit, gone, came in exchanges
-             if earned(current, fit, gone, came)]
-    if not swaps:
-        return current, order
-    fit, gone, came = min(swaps, key=lambda t: t[0].total_score)
-    # kept when it ranks better and predicts the held-out runs better too, and the cause
-    # that comes in is not a weak finding (none of its unknowns on a bound the fit pressed);
-    # with B, another form of a cause already named may be (named as a weak finding, as a
-    # round's weak leader may be): labsim's eddy diffusion + two-mass resonance, seed 4 at
-    # 800 a period, held-out score 1.9e5 with the one-mass form, 293 with the two-mass one,
-    # its mass ratio on a bound
-    if (fit.total_score >= current.total_score or fit.score >= current.score
-            or not (firm_in(fit, came) or (sense and came == gone))):
-        return current, order
-    order = [came if c == gone else c for c in order]
-    return _pruned(ev, train, held, paper, fit, order, order[order.index(came) + 1:], tried,
-                   sense, timelike, workers)
-
-
-def _pruned(ev, train, held, paper: Fit, current: Fit, order, later, tried, sense: bool,
-            timelike: bool, workers=None) -> tuple:
-    """(fit, order): ``current`` without each cause in ``later`` (in turn) that the rules
-    of a later cause (:func:`smeha.diagnose.rules.refusal`) no longer admit against the
-    model without it, that model refitted from current's values (added to ``tried``).
-
-    Stepwise selection's backward step (Miller, *Subset Selection in Regression*, 2nd ed.,
-    2002, sec. 3.4), asked of the causes added after a member the exchange step replaced
-    (``later``): each was admitted beside the member that went out, and may have been
-    making up for that member's form. Labsim's eddy diffusion + two-mass resonance at a
-    20 kHz lab clock (seed 1): eddy, then the one-mass form, then a delay beside them
-    (1.5 % of the paper's excess); the exchange put the two-mass form in the one-mass
-    form's place, and the delay, there for the one-mass form's misfit, stayed."""
-    for cause in later:
-        keep = tuple(m for m in current.candidate.members if m.cause != cause)
-        own = dict(zip(current.candidate.members, current.candidate.split(current.x)))
-        cand = Candidate(keep)
-        job = (cand, current.base, [tuple(v for m in cand.members for v in own[m])])
-        reduced = fit_all(ev, train, held, [job], workers)[0]
-        if isinstance(reduced, Fit):
-            tried.append(reduced)
-        if isinstance(reduced, Fit) and refusal(paper, reduced, current, [], sense, timelike):
-            current, order = reduced, [c for c in order if c != cause]
-    return current, order
-
-
-def earned(current: Fit, new: Fit, gone, came) -> bool:
-    """False when ``came`` is a lookalike of ``gone`` (the same ``lookalike``: a delay and a
-    re-identified one-mass mechanics) with more unknowns, and ``new`` (``current`` with
-    ``came`` in ``gone``'s place) lowers the held-out score by no more than
-    :data:`MIN_BIC_DROP` times ``current``'s dispersion in the channels they act on: the
-    parsimony of :func:`simplest_lookalike`, which chose the first cause, kept in the
-    exchange step.
-
-    Labsim's delayed sensor with a coil warming the rod, at a 20 kHz lab clock (seeds 1-3):
-    the delay was named first and the drift joined it (held-out score 4056); the exchange
-    then put the one-mass mechanics (3 unknowns for the delay's 1) in the delay's place,
-    scoring 3647, lower by 409 where the dispersion of the delay's model in y and the drift
-    terms was 34 (a margin of 861), and the answer was mechanical_resonance + thermal_drift:
-    the delay misnamed. Most of the 409 came from the drift terms, not from y, where the
-    delay fitted better (excess 1317 against 1500)."""
-    if not (gone.lookalike and came.lookalike == gone.lookalike
-            and came.fit.size > gone.fit.size):
-        return True
-    return current.score - new.score > lookalike_margin(current, came)
 
 
 def also_consistent(paper: Fit, fits, chosen: Fit, first_cause: str) -> list:
