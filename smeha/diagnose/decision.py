@@ -141,7 +141,7 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         # its masses and stiffness on bounds alone, held out 227.3, the delay in its place
         # 218.1, ranked better too; answered eddy + mechanical_resonance)
         best, order = exchange(ev, train, held, paper, best, order, singles, tried, sense,
-                            workers, timelike)
+                               workers, timelike)
     current, order = best, order or [best.cause]
     stopped = ""
     while not within_noise(current):
@@ -217,7 +217,7 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         order += [c for c in nxt.causes if c not in order]
         current = nxt
         current, order = exchange(ev, train, held, paper, current, order, singles, tried,
-                               sense, workers, timelike)
+                                  sense, workers, timelike)
     return Selection(order[0], current, tried, order, stopped)
 
 
