@@ -536,3 +536,25 @@ def test_a_first_hysteresis_must_show_the_loops_higher_harmonics_against_the_pap
     loop = fit((hyst,), y=5.8e5, b=5.6e4, higher=120.0)          # 25.7 lower
     assert decision.showing(paper, [loop, lag]) == [loop, lag]
     assert decision.showing(paper, [fit((hyst,), higher=120.7)]) == []  # 25 lower: not more
+
+
+def test_a_magnetic_cause_is_judged_in_b_where_an_effect_on_y_alone_holds_y():
+    # decision._magnetic_first, with the proportions of labsim's eddy diffusion + a joint's
+    # backlash at a 20 kHz clock (seed 0): the slab form removes 85 % of B's held-out
+    # excess and, y being mostly the backlash's, under half of the whole; no delay takes B
+    eddy = _cls("eddy_current_diffusion", "slab_magnetization")
+    delay = _cls("transport_delay")
+    paper = fit((), y=2.3e5, b=4.4e5)
+    slab = fit((eddy,), y=2.8e5, b=6.4e4)      # (6.7e5 - 3.44e5) / 6.7e5 = 48.7 % of all
+    lag = fit((delay,), y=1.7e5, b=4.4e5)
+    assert not rules.passes(paper, slab)
+    assert decision._magnetic_first(paper, [lag, slab]) is slab
+    # y predicted worse by more than 25 times the paper's dispersion there (2301 a
+    # feature: 57 525): what it gains in B it buys with y, and nothing is named
+    assert decision._magnetic_first(paper, [lag, fit((eddy,), y=2.9e5, b=6.4e4)]) is None
+    # B's excess must fall by half: 40 % is not enough
+    assert decision._magnetic_first(paper, [fit((eddy,), y=2.3e5, b=2.64e5)]) is None
+    # without a sense voltage there is no B to judge it in
+    no_b = (100, 0, 10)
+    assert decision._magnetic_first(fit((), y=2.3e5, parts=no_b),
+                                    [fit((eddy,), y=1.5e5, parts=no_b)]) is None

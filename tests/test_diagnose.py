@@ -289,6 +289,8 @@ def test_cli_json_and_report(tmp_path, capsys):
     assert out["form"] == ""  # transport_delay has one formulation
     # within noise with the delay: forward selection had no reason to give
     assert out["selection_stopped"] == ""
+    # the delay passes the rule over all channels: judged in none apart
+    assert out["first_judged_in"] == []
     # every form is scored; the first candidate of a cause is its first form (the parameter
     # names it always had, which is what a reader matching on the cause picks up)
     for cause, forms in diagnose.FORMS.items():

@@ -52,7 +52,8 @@ The rules and their constants (:data:`WITHIN_NOISE`, :func:`passes`, ... below) 
 * where no single candidate passes the rule, a drift that passes it in the drift terms
   (:func:`_evident_first`), else two causes named at once (:func:`_pair_first`: a pair
   that passes the rule, each of its causes admitted against the other alone; then the
-  exchange step, as after an added cause);
+  exchange step, as after an added cause), else, with a sense voltage, a magnetic cause
+  that passes the rule in B and predicts y no worse (:func:`_magnetic_first`);
 * ``unexplained`` when none of these does
   (structure beyond noise that no candidate removes).
 
@@ -77,8 +78,9 @@ from .fit import Fit, fit_all
 from .joins import join_jobs, joined, ranked_forms, refit_job, start_vector
 from .linearfit import linear_member
 from .resolution import Refinement
-from .rules import (MIN_BIC_DROP, added_member, admitted, evidence_channels, firm_in, passes,
-                    passes_in_own, refusal, shows_signature, within_noise)
+from .rules import (MIN_BIC_DROP, added_member, admitted, evidence_channels, firm_in,
+                    no_channel_worse, passes, passes_in_own, refusal, shows_signature,
+                    within_noise)
 
 __all__ = ["MAX_CAUSES", "CONTINUATIONS", "CONTINUE_SETTLED", "Selection", "leader",
            "simplest_lookalike", "select", "showing", "also_consistent"]
@@ -110,6 +112,9 @@ class Selection(NamedTuple):
     #: failed, smeha.diagnose.rules.refusal), or "" where the model came within noise or
     #: no cause was named
     stopped: str = ""
+    #: the channels the first cause was judged in where it did not pass the rule over all
+    #: of them (the drift terms: :func:`_evident_first`; B: :func:`_magnetic_first`), else ()
+    first_in: tuple = ()
 
 
 def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None) -> Selection:
@@ -126,22 +131,30 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
     # gain fell 2e-4 a period, and a drift form with a 0.18 s time constant took it)
     timelike = goes_with_time(Batch(train.runs + held.runs), MIN_BIC_DROP)
     best = simplest_lookalike(leader(singles), singles)
-    tried, order = [], []
+    tried, order, first_in = [], [], ()
     if not passes(paper, best):
         best = _evident_first(paper, singles, timelike)
+        first_in = evidence_channels(best.candidate.members[0]) if best is not None else ()
     if best is None:
         best, order, tried = _pair_first(ev, train, held, paper, singles, sense, timelike,
                                          workers)
-        if best is None:
-            return Selection("unexplained", paper, tried, [])
-        # the exchange step after the pair, as after every cause added below: the pairs
-        # hold the best-ranked causes only, and a lookalike ranked behind them (a delay
-        # behind a one-mass mechanics that imitates it) is tried there (labsim's eddy
-        # diffusion + delay, seed 12 at 100 a period: the pair with the one-mass mechanics,
-        # its masses and stiffness on bounds alone, held out 227.3, the delay in its place
-        # 218.1, ranked better too; answered eddy + mechanical_resonance)
-        best, order = exchange(ev, train, held, paper, best, order, singles, tried, sense,
-                               workers, timelike)
+        if best is not None:
+            # the exchange step after the pair, as after every cause added below: the
+            # pairs hold the best-ranked causes only, and a lookalike ranked behind them
+            # (a delay behind a one-mass mechanics that imitates it) is tried there
+            # (labsim's eddy diffusion + delay, seed 12 at 100 a period: the pair with the
+            # one-mass mechanics, its masses and stiffness on bounds alone, held out
+            # 227.3, the delay in its place 218.1, ranked better too; answered eddy +
+            # mechanical_resonance)
+            best, order = exchange(ev, train, held, paper, best, order, singles, tried, sense,
+                                   workers, timelike)
+        else:
+            # with B, a magnetic cause judged in B, where an effect on y alone outside the
+            # candidates holds most of y's excess
+            best = _magnetic_first(paper, singles) if sense else None
+            if best is None:
+                return Selection("unexplained", paper, tried, [])
+            first_in = ("B",)
     current, order = best, order or [best.cause]
     stopped = ""
     while not within_noise(current):
@@ -218,7 +231,7 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         current = nxt
         current, order = exchange(ev, train, held, paper, current, order, singles, tried,
                                   sense, workers, timelike)
-    return Selection(order[0], current, tried, order, stopped)
+    return Selection(order[0], current, tried, order, stopped, first_in)
 
 
 def showing(paper: Fit, singles) -> list:
@@ -240,6 +253,30 @@ def _evident_first(paper: Fit, singles, timelike: bool):
     evident = [f for f in singles if not f.weak and f.candidate.members[0].evidence
                and passes_in_own(paper, f, evidence_channels(f.candidate.members[0]))]
     return leader(evident) if evident else None
+
+
+def _magnetic_first(paper: Fit, singles):
+    """With a sense voltage, where no single cause, drift or pair passes the rule: the
+    best-ranked firm magnetic single (one that acts on B and y) that passes the rule in B
+    against the paper (:func:`passes_in_own`) and predicts y no worse
+    (:func:`smeha.diagnose.rules.no_channel_worse`), or None.
+
+    B is the magnetic causes' own channel: the effects that act on y alone (the
+    mechanics, the sensor, or one outside the candidates: a joint's backlash) leave it as
+    the paper's model predicts it. Where such an effect outside the candidates holds most
+    of y's excess, a magnetic cause that removes most of B's cannot remove half of the
+    whole: labsim's eddy diffusion with a joint's backlash at a 20 kHz clock (seed 0): the
+    slab form on the magnetisation removed 85 % of B's held-out excess and 47 % of all,
+    and the answer was ``unexplained``. Named here, the rest is reported unexplained. The
+    effects outside the candidates alone (labsim's backlash, mains hum; 100, 800 and 20 kHz,
+    seeds 0-4) leave no magnetic form passing there: still ``unexplained``."""
+    if not paper.heldout_n_parts[1]:
+        return None
+    ok = [f for f in singles if not f.weak and f.candidate.members[0].signals != "y only"
+          and not f.candidate.members[0].evidence
+          and passes_in_own(paper, f, ("B",))
+          and no_channel_worse(paper, f, f.candidate.members[0])]
+    return leader(ok) if ok else None
 
 
 def _pair_first(ev, train, held, paper: Fit, singles, sense: bool, timelike: bool,

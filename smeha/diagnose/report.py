@@ -340,7 +340,18 @@ def _named_lines(d) -> list[str]:
                f"{100 * explained(p, first):.3g} % of the paper's excess chi^2 removed; "
                f"held-out misfit {p.heldout_misfit * 1e6:.4g} -> "
                f"{first.heldout_misfit * 1e6:.4g} um")
-    if len(e.causes) > 1 and not passes(p, first) and not first.candidate.members[0].evidence:
+    if d.first_in:
+        chans = tuple(d.first_in)
+        out.append(f"judged in {', '.join(chans)}: {first.label} removes "
+                   f"{100 * explained(p, first, chans):.3g} % of the paper's held-out excess "
+                   f"there (held-out chi^2 lower by "
+                   f"{p.heldout_excess_in(chans) - first.heldout_excess_in(chans):.4g}), "
+                   f"less than {100 * MIN_EXPLAINED:g} % of the whole; "
+                   + ("the drift terms are its own evidence, which no periodic form produces"
+                      if chans == ("drift",) else
+                      "B is the magnetic causes' own channel, which the effects on y alone "
+                      "leave as the paper predicts: what remains in y is another effect's"))
+    elif len(e.causes) > 1 and not passes(p, first):
         out.append(f"named together: neither {d.causes[0]} nor {d.causes[1]} alone removes "
                    f"{100 * MIN_EXPLAINED:g} % of the paper's excess; the two fitted together "
                    "do, and each passes the rule of a later cause against the other alone")
@@ -516,6 +527,7 @@ def as_dict(d) -> dict:
         "gain": d.gain,
         "extended": _fit_dict(d.extended),
         "selection_stopped": d.stopped,
+        "first_judged_in": list(d.first_in),
         "also_consistent": [{"cause": f.cause, "form": f.form, "score": f.score,
                              "score_above_named": f.score - d.extended.score,
                              "heldout_rms_um": f.heldout_rms * 1e6}

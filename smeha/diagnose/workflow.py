@@ -59,6 +59,9 @@ class Diagnosis:
     order: list = field(default_factory=list)
     #: why forward selection named no further cause (smeha.diagnose.decision.Selection)
     stopped: str = ""
+    #: the channels the first cause was judged in where it did not pass the rule over all
+    #: (smeha.diagnose.decision.Selection.first_in), else ()
+    first_in: tuple = ()
 
     @property
     def causes(self) -> list:
@@ -299,7 +302,8 @@ def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
     # a candidate that cannot be fitted is left out, and said so
     fits = [f for f in done if isinstance(f, Fit)]
     unfitted = [f for f in done if not isinstance(f, Fit)]
-    cause, chosen, combos, order, stopped = select(ev, train, held, paper, fits, sense, workers)
+    sel = select(ev, train, held, paper, fits, sense, workers)
+    cause, chosen = sel.answer, sel.chosen
     character = characterise(ev, list(feats.values()), paper.base)
     noise = float(np.median([rf.noise_y for rf in feats.values()])) * 1e6
     diag = Diagnosis(cause=cause, evidence=[], heldout_runs=holdout,
@@ -307,7 +311,8 @@ def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
                      extended=chosen, fits=fits, noise_um=noise,
                      characterisation=character, context=context,
                      also_consistent=also_consistent(paper, fits, chosen, cause),
-                     combinations=combos, skipped=skipped, order=order, stopped=stopped)
+                     combinations=sel.tried, skipped=skipped, order=sel.order,
+                     stopped=sel.stopped, first_in=sel.first_in)
     diag.evidence = evidence(diag) + [f"candidate not fitted, left out: {why}"
                                        for why in unfitted]
     return diag
