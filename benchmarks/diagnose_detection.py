@@ -178,14 +178,17 @@ def _cases(names, effects, outside=()):
 
 def _verdict(r, outside):
     """"named", "misnamed" (a cause not hidden among the answer's; for clean data any
-    cause) or "missed" (none, unexplained or only some of the hidden causes)."""
+    cause) or "missed" (none, unexplained or only some of the hidden causes). Clean data
+    are named by ``none``; an effect outside the candidates alone by ``unexplained`` (or
+    ``none``, where it is within noise)."""
     truth = set(r["effects"]) - set(outside)
     causes = set(r["causes"])
     if causes - truth:
         return "misnamed"
-    if (causes == truth) if truth else r["cause"] == "none":
-        return "named"
-    return "missed"
+    if truth:
+        return "named" if causes == truth else "missed"
+    right = ("none", "unexplained") if r["effects"] else ("none",)
+    return "named" if r["cause"] in right else "missed"
 
 
 def summarise(results, outside=()):
@@ -312,9 +315,9 @@ def summary_table(results, outside) -> str:
         gen = "textbook forms" if forms else "first forms"
         effects = r["effects"]
         known = [e for e in effects if e not in outside]
-        kind = ("clean" if not effects else "outside effect + " + known[0]
-                if len(known) < len(effects) else effects[0] if len(effects) == 1
-                else "pairs of two causes")
+        kind = ("clean" if not effects else "outside effect alone" if not known
+                else "outside effect + " + known[0] if len(known) < len(effects)
+                else effects[0] if len(effects) == 1 else "pairs of two causes")
         return gen, r.get("sense_voltage", True), kind
     rates = list(dict.fromkeys(r["rate"] for r in results))
     keys = list(dict.fromkeys(group(r) for r in results))
