@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from .candidates import Candidate
 from .fit import Fit, fit_all
-from .joins import joined, ranked_forms
+from .joins import joined, ranked_forms, start_vector
 from .rules import MIN_BIC_DROP, added_member, channels, firm_in, passes, refusal
 
 __all__ = ["SWAP_CANDIDATES", "FORMS_TRIED", "lookalike_margin", "exchange", "pruned", "earned"]
@@ -123,14 +123,13 @@ def pruned(ev, train, held, paper: Fit, current: Fit, order, later, tried, sense
     (1.5 % of the paper's excess); the exchange put the two-mass form in the one-mass
     form's place, and the delay, there for the one-mass form's misfit, stayed."""
     for cause in later:
-        keep = tuple(m for m in current.candidate.members if m.cause != cause)
-        own = dict(zip(current.candidate.members, current.candidate.split(current.x)))
-        cand = Candidate(keep)
-        job = (cand, current.base, [tuple(v for m in cand.members for v in own[m])])
-        reduced = fit_all(ev, train, held, [job], workers)[0]
-        if isinstance(reduced, Fit):
-            tried.append(reduced)
-        if isinstance(reduced, Fit) and refusal(paper, reduced, current, [], sense, timelike):
+        cand = Candidate(tuple(m for m in current.candidate.members if m.cause != cause))
+        reduced = fit_all(ev, train, held,
+                          [(cand, current.base, [start_vector(cand, current)])], workers)[0]
+        if not isinstance(reduced, Fit):
+            continue
+        tried.append(reduced)
+        if refusal(paper, reduced, current, [], sense, timelike):
             current, order = reduced, [c for c in order if c != cause]
     return current, order
 

@@ -85,9 +85,10 @@ def join_start(ev, train, cand: Candidate, current: Fit, added, alone) -> tuple:
     return best if best is not None else start_vector(cand, current, added, alone)
 
 
-def start_vector(cand: Candidate, fit: Fit, added, values) -> tuple:
+def start_vector(cand: Candidate, fit: Fit, added=None, values=()) -> tuple:
     """The start vector of ``cand``: ``fit``'s fitted values for the members it holds,
-    ``values`` for the member ``added``."""
+    ``values`` for the member ``added`` (none: ``cand`` holds only members of ``fit``)."""
     own = dict(zip(fit.candidate.members, fit.candidate.split(fit.x)))
-    own[added] = tuple(values)
+    if added is not None:
+        own[added] = tuple(values)
     return tuple(v for m in cand.members for v in own[m])
