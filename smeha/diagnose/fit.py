@@ -66,8 +66,8 @@ from scipy.optimize import least_squares
 from .candidates import Batch, Candidate, Evaluator, harmonic_chi2, parts_of
 from .linearfit import fit_linear, linear_member
 
-__all__ = ["BASE_LOWER", "BASE_UPPER", "HIGHER_FROM", "MAX_EVALUATIONS", "UNEVALUATED", "Fit",
-           "base_factor", "fit_candidate", "predictive_chi2", "score", "fit_and_score", "fit_all"]
+__all__ = ["BASE_LOWER", "BASE_UPPER", "HIGHER_FROM", "LEVEL_GAP", "MAX_EVALUATIONS",
+           "UNEVALUATED", "Fit", "base_factor", "drive_levels", "fit_candidate", "predictive_chi2", "score", "fit_and_score", "fit_all"]
 
 #: Bounds of the base unknowns (K_h, n, K_e, K_ex, s).
 BASE_LOWER = (0.0, 1.0, 0.0, 0.0, 0.2)
@@ -81,6 +81,11 @@ HIGHER_FROM = 3
 #: What a model raises at unknowns it is not defined for (gmt.ParameterError is a
 #: ValueError): a start vector that raises one is passed over.
 UNEVALUATED = (ValueError, FloatingPointError)
+#: Runs whose current amplitudes I_m lie within this fraction of the next larger one are one
+#: drive level (:func:`drive_levels`): a lab sets its amplitudes in steps far coarser (the
+#: paper's runs: 0.6 and 1 A) than its current regulation holds them (the outside lab A
+#: file: I_m from 0.603 to 0.606 A at its lower level, 1.003 to 1.006 A at its upper).
+LEVEL_GAP = 0.1
 
 
 @dataclass
@@ -113,6 +118,10 @@ class Fit:
     #: of features (a part of heldout_chi2_y and heldout_chi2_b)
     heldout_chi2_higher: float = 0.0
     heldout_n_higher: int = 0
+    #: the current amplitude I_m of each held-out run, [A], and its held-out excess chi^2
+    #: (chi^2 - n) of y, of B and of the drift terms (the per-run parts of the totals)
+    heldout_run_amplitudes: tuple = ()
+    heldout_run_excess: tuple = ()
 
     def _heldout_part(self, channel) -> tuple:
         """(chi^2, number of features) of the held-out ``channel`` ("y", "B", "drift")."""
@@ -128,6 +137,15 @@ class Fit:
     def heldout_excess_in(self, channels) -> float:
         """chi^2 - n over the held-out features of ``channels`` ("y", "B", "drift")."""
         return sum(chi - n for chi, n in map(self._heldout_part, channels))
+
+    def heldout_excess_by_level(self, channels) -> dict:
+        """{I_m of a drive level [A]: held-out excess chi^2 of ``channels`` over its runs}
+        (levels: :func:`drive_levels`; {} without per-run parts)."""
+        idx = [("y", "B", "drift").index(c) for c in channels]
+        out = {}
+        for level, runs in drive_levels(self.heldout_run_amplitudes):
+            out[level] = float(sum(self.heldout_run_excess[r][i] for r in runs for i in idx))
+        return out
 
     def heldout_dispersion(self, channel) -> float:
         """chi^2 per held-out feature of ``channel`` ("y", "B", "drift"): about 1 where the
@@ -254,6 +272,21 @@ def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=No
     return base, x, float(2.0 * best.cost), int(best.fun.size), cov
 
 
+def drive_levels(amplitudes) -> list:
+    """[(I_m of the level [A], indices of its runs)] of current amplitudes ``amplitudes``
+    [A], the levels rising: sorted, a new level where an amplitude exceeds the one before
+    by more than :data:`LEVEL_GAP` of it; a level's I_m is its runs' mean."""
+    order = np.argsort(amplitudes, kind="stable")
+    groups = []
+    for i in order:
+        a = float(amplitudes[i])
+        if groups and a <= amplitudes[groups[-1][-1]] * (1.0 + LEVEL_GAP):
+            groups[-1].append(int(i))
+        else:
+            groups.append([int(i)])
+    return [(float(np.mean([amplitudes[i] for i in g])), g) for g in groups]
+
+
 def predictive_chi2(ev: Evaluator, held: Batch, cand: Candidate, base, x, cov) -> float:
     """chi^2 of the held-out residuals with the fit's own uncertainty (module docstring)."""
     factor = base_factor(base)
@@ -288,8 +321,11 @@ def score(ev: Evaluator, cand: Candidate, base, x, chi2_train, n_train, held: Ba
     predicted = ev.predict(held, base, cand, x)
     y, b, s_off, s_y1 = predicted
     cy, cb, cd = parts_of(held, *predicted)
-    n_parts = tuple(int(v) for v in np.sum([ev.n_features(rf) for rf in held.runs], axis=0))
+    n_runs = np.array([ev.n_features(rf) for rf in held.runs], float)
+    n_parts = tuple(int(v) for v in np.sum(n_runs, axis=0))
     n = sum(n_parts)
+    run_excess = tuple(tuple(float(v) for v in row)
+                       for row in np.column_stack((cy, cb, cd)) - n_runs)
     higher = slice(HIGHER_FROM - 1, None)
     chi_higher = float(sum(np.sum(c[:, higher]) for c in harmonic_chi2(held, y, b)))
     n_higher = 2 * y[:, higher].shape[1] * (len(held) + int(np.sum(held.has_b)))
@@ -318,7 +354,9 @@ def score(ev: Evaluator, cand: Candidate, base, x, chi2_train, n_train, held: Ba
                score=chi + (cand.n_params if k is None else k) * math.log(max(n, 2)),
                parameters=cand.parameters(x, ev.context), at_bounds=cand.at_bounds(x),
                effective_params=k, heldout_n_parts=n_parts,
-               heldout_chi2_higher=chi_higher, heldout_n_higher=n_higher)
+               heldout_chi2_higher=chi_higher, heldout_n_higher=n_higher,
+               heldout_run_amplitudes=tuple(float(rf.current_amplitude) for rf in held.runs),
+               heldout_run_excess=run_excess)
 
 
 def fit_and_score(ev, train, held, cand, base0, starts=None) -> Fit:

@@ -30,6 +30,7 @@ import math
 import numpy as np
 
 from .candidates import Batch
+from .fit import drive_levels
 
 __all__ = ["contributions", "signature", "describe", "summary"]
 
@@ -103,12 +104,12 @@ def signature(ev, feats, fit) -> dict:
                      float(np.sqrt(np.mean(r[~falling] ** 2)))))
     total = sum(chi.values()) or 1.0
     f, a, rms, fall, rise = (np.array(c) for c in zip(*rows))
-    amps = sorted(set(np.round(a, 3)))
+    levels = drive_levels(a)
     amp_law = None
-    if len(amps) > 1:
-        lo = rms[np.isclose(a, amps[0], atol=1e-3)].mean()
-        hi = rms[np.isclose(a, amps[-1], atol=1e-3)].mean()
-        amp_law = float(math.log(hi / lo) / math.log(amps[-1] / amps[0])) if lo > 0 else None
+    if len(levels) > 1:
+        (a_lo, runs_lo), (a_hi, runs_hi) = levels[0], levels[-1]
+        lo, hi = rms[runs_lo].mean(), rms[runs_hi].mean()
+        amp_law = float(math.log(hi / lo) / math.log(a_hi / a_lo)) if lo > 0 else None
     harmonics = {}
     for key, v in harm.items():
         s = v.sum()
