@@ -67,7 +67,8 @@ from .candidates import Batch, Candidate, Evaluator, harmonic_chi2, parts_of
 from .linearfit import fit_linear, linear_member
 
 __all__ = ["BASE_LOWER", "BASE_UPPER", "HIGHER_FROM", "LEVEL_GAP", "MAX_EVALUATIONS",
-           "UNEVALUATED", "Fit", "base_factor", "drive_levels", "fit_candidate", "predictive_chi2", "score", "fit_and_score", "fit_all"]
+           "UNEVALUATED", "Fit", "base_factor", "drive_levels", "fit_candidate",
+           "predictive_chi2", "score", "fit_and_score", "fit_all"]
 
 #: Bounds of the base unknowns (K_h, n, K_e, K_ex, s).
 BASE_LOWER = (0.0, 1.0, 0.0, 0.0, 0.2)
