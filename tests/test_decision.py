@@ -607,3 +607,26 @@ def test_a_later_filter_on_y_must_remove_the_excess_at_every_drive_level():
     one_level = dataclasses.replace(before, heldout_run_amplitudes=(1.0,) * 4)
     assert rules.alike_at_levels(one_level, dataclasses.replace(
         after, heldout_run_amplitudes=(1.0,) * 4), one) == []
+
+
+def test_a_first_filter_on_y_must_remove_the_excess_at_every_drive_level():
+    # near labsim's thermal drift + a joint's backlash (seed 11 at 100 a period): a delay alone
+    # removed 50.0 % of the paper's excess, 37.2 % of y's at 0.6 A and 61.9 % at 1 A, and
+    # was named first; a linear filter on y acts alike at every amplitude
+    from types import SimpleNamespace
+
+    from smeha.diagnose import report
+
+    delay = _cls("transport_delay")
+    paper = _by_level(fit((), y=2000.0), (1000.0, 1000.0))
+    alone = _by_level(fit((delay,), y=994.0), (628.0, 366.0))
+    assert rules.passes(paper, alone)
+    assert not rules.passes_first(paper, alone)
+    # the true first filters removed 66.7-99.9 % at each level
+    assert rules.passes_first(paper, _by_level(fit((delay,), y=400.0), (300.0, 100.0)))
+    # a magnetic single is asked the rule over all channels only
+    sat = _cls("magnetization_saturation")
+    assert rules.passes_first(paper, _by_level(fit((sat,), y=994.0), (628.0, 366.0)))
+    # an unexplained report names the filter refused at a level, with its shares
+    clause = report._unalike_filters(SimpleNamespace(paper=paper, fits=[alone]))
+    assert "transport_delay 37.2 % at 0.6 A, 63.4 % at 1 A" in clause

@@ -16,7 +16,8 @@ The rules and their constants (:data:`WITHIN_NOISE`, :func:`passes`, ... below) 
   is named when it passes the rule
   against the paper's model on the held-out runs (:func:`passes`): it lowers
   the held-out score by more than :data:`MIN_BIC_DROP` **and** removes at
-  least :data:`MIN_EXPLAINED` of the paper's held-out excess chi^2 (chi^2 - n).
+  least :data:`MIN_EXPLAINED` of the paper's held-out excess chi^2 (chi^2 - n); a linear
+  filter on y does so at every drive level (:func:`smeha.diagnose.rules.passes_first`).
   Then every extension that can join it is fitted together with it (all
   unknowns and the loss coefficients refitted), and the best-ranked such
   combination is kept when it passes the same rule against the model before
@@ -79,8 +80,8 @@ from .joins import join_jobs, joined, ranked_forms, refit_job, start_vector
 from .linearfit import linear_member
 from .resolution import Refinement
 from .rules import (MIN_BIC_DROP, added_member, admitted, evidence_channels, firm_in,
-                    no_channel_worse, passes, passes_in_own, refusal, shows_signature,
-                    within_noise)
+                    no_channel_worse, passes, passes_first, passes_in_own, refusal,
+                    shows_signature, within_noise)
 
 __all__ = ["MAX_CAUSES", "CONTINUATIONS", "CONTINUE_SETTLED", "Selection", "leader",
            "simplest_lookalike", "select", "showing", "also_consistent"]
@@ -132,7 +133,7 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
     timelike = goes_with_time(Batch(train.runs + held.runs), MIN_BIC_DROP)
     best = simplest_lookalike(leader(singles), singles)
     tried, order, first_in = [], [], ()
-    if not passes(paper, best):
+    if not passes_first(paper, best):
         best = _evident_first(paper, singles, timelike)
         first_in = evidence_channels(best.candidate.members[0]) if best is not None else ()
     if best is None:
@@ -464,8 +465,8 @@ def also_consistent(paper: Fit, fits, chosen: Fit, first_cause: str) -> list:
     """Other causes the held-out data do not separate from the first named one.
 
     The best form of each other cause that passes the rule against the paper
-    (:func:`passes`), shows its form's signature (:func:`showing`) and whose score is
-    within :data:`MIN_BIC_DROP` of the named single cause's. Empty for ``none`` and
+    (:func:`smeha.diagnose.rules.passes_first`), shows its form's signature
+    (:func:`showing`) and whose score is within :data:`MIN_BIC_DROP` of the named single cause's. Empty for ``none`` and
     ``unexplained``.
     """
     if not chosen.causes:
@@ -476,7 +477,7 @@ def also_consistent(paper: Fit, fits, chosen: Fit, first_cause: str) -> list:
     for f in showing(paper, [f for f in fits if len(f.causes) == 1]):
         if f.cause in chosen.causes:
             continue
-        if passes(paper, f) and f.score - ref.score <= MIN_BIC_DROP:
+        if passes_first(paper, f) and f.score - ref.score <= MIN_BIC_DROP:
             if f.cause not in best or f.score < best[f.cause].score:
                 best[f.cause] = f
     return sorted(best.values(), key=lambda f: f.score)

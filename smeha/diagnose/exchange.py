@@ -12,7 +12,7 @@ from __future__ import annotations
 from .candidates import Candidate
 from .fit import Fit, fit_all
 from .joins import joined, ranked_forms, start_vector
-from .rules import MIN_BIC_DROP, added_member, channels, firm_in, passes, refusal
+from .rules import MIN_BIC_DROP, added_member, channels, firm_in, passes_first, refusal
 
 __all__ = ["SWAP_CANDIDATES", "FORMS_TRIED", "lookalike_margin", "exchange", "pruned", "earned"]
 
@@ -63,7 +63,8 @@ def exchange(ev, train, held, paper: Fit, current: Fit, order, singles, tried, s
     # SWAP_CANDIDATES of them
     inside = set(current.causes)
     useful = [f[0] for f in ranked_forms(
-        [s for s in singles if s.cause not in inside and passes(paper, s)], 1).values()]
+        [s for s in singles if s.cause not in inside and passes_first(paper, s)],
+        1).values()]
     useful = useful[:SWAP_CANDIDATES]
     # and each member's best-ranked other forms (FORMS_TRIED in all with its own)
     forms = ranked_forms([s for s in singles if s.cause in inside

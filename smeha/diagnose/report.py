@@ -10,8 +10,8 @@ from gmt import extensions as ext
 from .candidates import CAUSES, FORMS, Batch, Evaluator, label
 from . import remainder
 from .decision import leader
-from .rules import (MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, channels, explained, passes,
-                    within_noise)
+from .rules import (MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, alike_at_levels, channels,
+                    explained, explained_at, passes, within_noise)
 from .workflow import CONFUSABLE_WITHOUT_B
 
 __all__ = ["SIGNALS", "SCALE_SPAN", "characterise", "cautions", "y_worse_caution",
@@ -263,7 +263,7 @@ def _verdict_lines(d) -> list[str]:
     else:
         out.append("unexplained: the paper's model is outside noise and no candidate removes "
                    f"at least {100 * MIN_EXPLAINED:g} % of its held-out excess with a BIC drop "
-                   f"above {MIN_BIC_DROP:g}")
+                   f"above {MIN_BIC_DROP:g}" + _unalike_filters(d))
     return out
 
 
@@ -327,6 +327,22 @@ def y_worse_caution(paper_misfit: float, extended_misfit: float,
             f"(misfit {paper_misfit * 1e6:.4g} -> {extended_misfit * 1e6:.4g} um, gain "
             f"{paper_misfit / extended_misfit:.3g}x): what it explains is {where}; "
             "for y, the displacement and the flow, the paper's model is the better one")
+
+
+def _unalike_filters(d) -> str:
+    """The linear filters on y that pass the rule against the paper on the sum of the drive
+    levels but not at each (:func:`smeha.diagnose.rules.passes_first`), as a clause, or ""."""
+    p = d.paper
+    parts = []
+    for f in sorted(d.fits, key=lambda f: f.score):
+        member = f.candidate.members[0]
+        if passes(p, f) and alike_at_levels(p, f, member):
+            shares = ", ".join(f"{100 * explained_at(p, f, member, level):.3g} % at "
+                               f"{level:.3g} A" for level in
+                               p.heldout_excess_by_level(channels(member)))
+            parts.append(f"{f.label} {shares} of the excess in y and the drift")
+    return ("; where a linear filter on y, at every drive level (it acts alike at every "
+            "amplitude): " + "; ".join(parts)) if parts else ""
 
 
 def _named_lines(d) -> list[str]:
