@@ -466,8 +466,8 @@ def also_consistent(paper: Fit, fits, chosen: Fit, first_cause: str) -> list:
 
     The best form of each other cause that passes the rule against the paper
     (:func:`smeha.diagnose.rules.passes_first`), shows its form's signature
-    (:func:`showing`) and whose score is within :data:`MIN_BIC_DROP` of the named single cause's. Empty for ``none`` and
-    ``unexplained``.
+    (:func:`showing`) and whose score is within :data:`MIN_BIC_DROP` of the named single
+    cause's. Empty for ``none`` and ``unexplained``.
     """
     if not chosen.causes:
         return []
