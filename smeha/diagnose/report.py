@@ -11,7 +11,7 @@ from .candidates import CAUSES, FORMS, Batch, Evaluator, label
 from . import remainder
 from .decision import leader
 from .rules import (MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, alike_at_levels, channels,
-                    explained, explained_at, passes, within_noise)
+                    explained, passes, shares_in_words, within_noise)
 from .workflow import CONFUSABLE_WITHOUT_B
 
 __all__ = ["SIGNALS", "SCALE_SPAN", "characterise", "cautions", "y_worse_caution",
@@ -337,10 +337,8 @@ def _unalike_filters(d) -> str:
     for f in sorted(d.fits, key=lambda f: f.score):
         member = f.candidate.members[0]
         if passes(p, f) and alike_at_levels(p, f, member):
-            shares = ", ".join(f"{100 * explained_at(p, f, member, level):.3g} % at "
-                               f"{level:.3g} A" for level in
-                               p.heldout_excess_by_level(channels(member)))
-            parts.append(f"{f.label} {shares} of the excess in y and the drift")
+            parts.append(f"{f.label} {shares_in_words(p, f, member)} of the excess in y and "
+                         "the drift")
     return ("; where a linear filter on y, at every drive level (it acts alike at every "
             "amplitude): " + "; ".join(parts)) if parts else ""
 

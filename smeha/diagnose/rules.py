@@ -25,11 +25,10 @@ from .fit import Fit
 
 __all__ = ["WITHIN_NOISE", "MIN_BIC_DROP", "MIN_EXPLAINED", "MIN_SHARE", "MIN_SHARE_WITH_B",
            "channels", "evidence_channels", "share", "significant", "explained", "passes",
-           "passes_in_own", "passes_first", "alike_at_levels", "explained_at",
-           "shows_signature",
-           "downstream_identifiable", "firm_in",
-           "no_channel_worse",
-           "beyond_forms", "within_noise", "refusal", "admitted", "added_member"]
+           "passes_in_own", "passes_first", "alike_at_levels", "level_shares", "explained_at",
+           "shares_in_words", "shows_signature", "downstream_identifiable", "firm_in",
+           "no_channel_worse", "beyond_forms", "within_noise", "refusal", "admitted",
+           "added_member"]
 
 #: Reduced chi^2 at or below which a model "explains the data within noise".
 WITHIN_NOISE = 2.0
@@ -166,17 +165,31 @@ def alike_at_levels(current: Fit, new: Fit, added) -> list:
     before = current.heldout_excess_by_level(channels(added))
     if len(before) < 2:
         return []
-    shares = [(level, explained_at(current, new, added, level)) for level in before
-              if before[level] > MIN_BIC_DROP]
-    return [(level, part) for level, part in shares if part < MIN_EXPLAINED]
+    return [(level, part) for level, part in level_shares(current, new, added).items()
+            if before[level] > MIN_BIC_DROP and part < MIN_EXPLAINED]
+
+
+def level_shares(current: Fit, new: Fit, added) -> dict:
+    """{I_m of a drive level [A]: fraction of ``current``'s held-out excess in ``added``'s
+    channels there that ``new`` removes}
+    (:meth:`smeha.diagnose.fit.Fit.heldout_excess_by_level`)."""
+    chans = channels(added)
+    before = current.heldout_excess_by_level(chans)
+    after = new.heldout_excess_by_level(chans)
+    return {level: 1.0 - max(after[level], 0.0) / max(before[level], 1e-12)
+            for level in before}
 
 
 def explained_at(current: Fit, new: Fit, added, level) -> float:
     """Fraction of ``current``'s held-out excess in ``added``'s channels at the drive level
-    ``level`` (:meth:`smeha.diagnose.fit.Fit.heldout_excess_by_level`) that ``new`` removes."""
-    chans = channels(added)
-    before = current.heldout_excess_by_level(chans)[level]
-    return 1.0 - max(new.heldout_excess_by_level(chans)[level], 0.0) / max(before, 1e-12)
+    ``level`` that ``new`` removes (:func:`level_shares`)."""
+    return level_shares(current, new, added)[level]
+
+
+def shares_in_words(current: Fit, new: Fit, added) -> str:
+    """:func:`level_shares` as words, e.g. "39.7 % at 0.6 A, 63.1 % at 1 A"."""
+    return ", ".join(f"{100 * part:.3g} % at {level:.3g} A"
+                     for level, part in level_shares(current, new, added).items())
 
 
 def downstream_identifiable(current: Fit, added) -> bool:
@@ -300,14 +313,11 @@ def refusal(paper: Fit, current: Fit, new: Fit, other_forms, sense: bool,
                    "removed" if part >= 0 else f"the excess in "
                    f"{_listed(channels(added), current)} grown by {-100 * part:.3g} %")
                 + f" (at least {100 * MIN_EXPLAINED:g} % must go)")
-    unalike = alike_at_levels(current, new, added)
-    if unalike:
-        levels = new.heldout_excess_by_level(channels(added))
-        shares = ", ".join(f"{100 * explained_at(current, new, added, level):.3g} % at "
-                           f"{level:.3g} A" for level in levels)
+    if alike_at_levels(current, new, added):
         return (f"a linear filter on y acts alike at every drive amplitude, and it removes "
-                f"{shares} of the excess in {_listed(channels(added), current)} (at least "
-                f"{100 * MIN_EXPLAINED:g} % must go at each)")
+                f"{shares_in_words(current, new, added)} of the excess in "
+                f"{_listed(channels(added), current)} (at least {100 * MIN_EXPLAINED:g} % "
+                "must go at each)")
     if not shows_signature(current, new, added):
         return (f"it changes the fundamentals alone: the held-out chi^2 of y's and B's "
                 f"harmonics from the third up {current.heldout_chi2_higher:.4g} -> "
