@@ -561,7 +561,7 @@ def test_a_magnetic_cause_is_judged_in_b_where_an_effect_on_y_alone_holds_y():
 
 
 def test_drive_levels_group_runs_by_current_amplitude():
-    # the outside lab A file's fitted I_m (0.603-0.606 A and 1.003-1.006 A) form two levels;
+    # the outside lab A file's peak currents (0.603-0.606 A, 1.003-1.006 A) form two levels;
     # amplitudes a factor 1.05 apart are one level (LEVEL_GAP 0.1), 1.2 apart two
     levels = drive_levels([0.6028, 1.0019, 0.6034, 1.0063, 0.6059])
     assert [lv for lv, _ in levels] == pytest.approx([(0.6028 + 0.6034 + 0.6059) / 3,

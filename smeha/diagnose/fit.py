@@ -85,7 +85,7 @@ UNEVALUATED = (ValueError, FloatingPointError)
 #: Runs whose current amplitudes I_m lie within this fraction of the next larger one are one
 #: drive level (:func:`drive_levels`): a lab sets its amplitudes in steps far coarser (the
 #: paper's runs: 0.6 and 1 A) than its current regulation holds them (the outside lab A
-#: file: I_m from 0.603 to 0.606 A at its lower level, 1.003 to 1.006 A at its upper).
+#: file: peak currents from 0.603 to 0.606 A at its lower level, 1.003 to 1.006 A at its upper).
 LEVEL_GAP = 0.1
 
 
