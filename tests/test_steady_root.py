@@ -1,12 +1,14 @@
 """The paper's part of the permeability beside a magnetisation-stage extension: its root.
 
-:func:`gmt.extensions.steady.paper_permeability` solves |mu_p(a) + p| = |B_1| / (mu_0 H_m)
+:func:`gmt.extensions.paperpart.paper_permeability` solves |mu_p(a) + p| = |B_1| / (mu_0 H_m)
 for a = |mu_p|, mu'' from eq 16 and mu' from eq 20. Near the point where eq 16's mu''
 reaches |mu_p| (the cap) mu' collapses and a second, spurious root appears. The
 reference here is a brute-force scan of the same equation, eq 16 written out in this
 file, on a fine grid of a (no iteration), and the case is the one where the iteration used
 to stall by the cap: labsim's Preisach density with saturation, 200 Hz at 1 A (loss coefficients of that fit,
-the adder p the density gave there).
+the adder p the density gave there). Each case is solved twice: with the adder as a
+function of M_1 (the secant and regula falsi of a saturation's stage) and as the constant
+an operator of H gives (``constant``, Newton's method; gmt.extensions.steady.stage_adder).
 """
 import math
 
@@ -15,7 +17,7 @@ import pytest
 
 import gmt
 from gmt.constants import MU_0
-from gmt.extensions.steady import LOSS_ANGLE_CAP, paper_permeability, uncapped_limit
+from gmt.extensions.paperpart import LOSS_ANGLE_CAP, paper_permeability, uncapped_limit
 
 LOSS = (135421.88, 1.9105760, 4004.9444, 7.4208)
 FREQ = 200.0
@@ -46,6 +48,20 @@ def _roots_by_scan(p):
     return a[idx]
 
 
+def _adder(p, kind):
+    """p as the magnetisation stage gives it: a function of M_1, or a constant."""
+    if kind == "function":
+        return lambda m1: p + 0.0 * m1
+
+    def constant(m1):
+        return p
+    constant.constant = p
+    return constant
+
+
+KINDS = ("function", "constant")
+
+
 def test_the_case_has_a_trap_by_the_cap():
     # the premise: the scan's root lies well below the cap, and just below the cap
     # |mu + p| - modulus comes back to within 0.2 % of zero, where an iteration from the
@@ -56,20 +72,22 @@ def test_the_case_has_a_trap_by_the_cap():
     assert np.min(np.abs(np.abs(_mu(a) + P) - MODULUS)) < 0.002 * MODULUS
 
 
+@pytest.mark.parametrize("kind", KINDS)
 @pytest.mark.parametrize("t", np.linspace(0.9, 1.1, 21))
-def test_least_root_is_taken(t):
+def test_least_root_is_taken(t, kind):
     # the adder as a function of M_1 (constant here, as the density's is); tolerance: the
     # scan's grid step, 4.6e-5 in a. Before the fix half of these p (0.9-1.1 times the
     # case's) came back at the cap, |mu_p| 2.55 for 2.12
     p = t * P
-    mu = paper_permeability(LOSS, FREQ, HM, MODULUS, adder=lambda m1: p + 0.0 * m1)
+    mu = paper_permeability(LOSS, FREQ, HM, MODULUS, adder=_adder(p, kind))
     assert abs(mu) == pytest.approx(_roots_by_scan(p)[0], abs=5e-5)
     assert abs(abs(mu + p) - MODULUS) < 1e-10
 
 
-def test_no_root_below_the_cap():
+@pytest.mark.parametrize("kind", KINDS)
+def test_no_root_below_the_cap(kind):
     # p = 0: the closed form |mu_p| = modulus (eqs 16, 20), here above the cap
-    mu = paper_permeability(LOSS, FREQ, HM, MODULUS, adder=lambda m1: 0.0 * m1)
+    mu = paper_permeability(LOSS, FREQ, HM, MODULUS, adder=_adder(0.0, kind))
     assert abs(mu) == pytest.approx(MODULUS, rel=1e-12)
     assert MODULUS > float(uncapped_limit(LOSS, FREQ, HM))
 
@@ -82,13 +100,27 @@ def test_uncapped_limit_is_where_mu_imag_reaches_the_cap():
     assert math.isinf(float(uncapped_limit((0.0, 1.5, 0.0, 0.0), FREQ, HM)))
 
 
-def test_arrays_of_runs():
+@pytest.mark.parametrize("kind", KINDS)
+def test_arrays_of_runs(kind):
     # one run with the adder, one without losses: each its own root
     loss = LOSS
     f = np.array([FREQ, 50.0])
     hm = np.array([HM, 0.6 * HM])
     modulus = np.array([MODULUS, 4.0])
     p = np.array([P, 0.5])
-    mu = paper_permeability(loss, f, hm, modulus, adder=lambda m1: p + 0.0 * m1)
+    mu = paper_permeability(loss, f, hm, modulus, adder=_adder(p, kind))
     assert np.allclose(np.abs(mu + p), modulus, rtol=1e-12)
     assert abs(mu[0]) == pytest.approx(_roots_by_scan(P)[0], abs=5e-5)
+
+
+@pytest.mark.parametrize("inner", [None, "constant"])
+def test_the_vacuum_share_adds_to_a_constant_adder(inner):
+    # the unshielded vacuum field per H_m adds to p (an eddy form's vacuum_share): the
+    # root with p + vacuum given as a function of M_1 is the same (iterations' tolerance)
+    vacuum = 0.05 - 0.01j
+    adder = None if inner is None else _adder(P, inner)
+    mu = paper_permeability(LOSS, FREQ, HM, MODULUS, adder=adder, vacuum=vacuum)
+    p = vacuum + (0.0 if inner is None else P)
+    ref = paper_permeability(LOSS, FREQ, HM, MODULUS, adder=_adder(p, "function"))
+    assert mu == pytest.approx(ref, rel=1e-10)
+    assert abs(abs(mu + p) - MODULUS) < 1e-10

@@ -20,7 +20,8 @@ from gmt import extensions as ext
 from gmt.design_point import DriveMonitor
 from gmt.extensions import FORMS, REGISTRY, VARIANTS, ModalBank, SectionBank
 from gmt.extensions.preisach import COERCIVE_GRID, INTERACTION_GRID
-from gmt.extensions.steady import mu_imag_from_losses, steady_state
+from gmt.extensions.paperpart import mu_imag_from_losses
+from gmt.extensions.steady import steady_state
 from gmt.variants import ModelVariant
 
 P = gmt.TransducerParameters()

@@ -379,11 +379,12 @@ class Chain:
         With an eddy-current field stage (mean field g H) or a magnetisation-stage
         extension (which changes M, its fundamental too), the coil's B_m belongs
         to the whole; the paper's part keeps eqs 16 and 20 at its own flux
-        density (:func:`gmt.extensions.steady.paper_permeability`, as the
+        density (:func:`gmt.extensions.paperpart.paper_permeability`, as the
         periodic forms). Otherwise the point is returned as it is.
         """
         from .extensions._base import Steady
-        from .extensions.steady import paper_permeability, stage_adder, switching_gain
+        from .extensions.paperpart import paper_permeability
+        from .extensions.steady import stage_adder, switching_gain
 
         field = [(c, v) for c, v in components if c.stage == "field"]
         magnetic = [(c, v) for c, v in components if c.stage == "magnetization"]

@@ -319,7 +319,7 @@ class Extension:
 
         ``adder`` gives the fundamental the magnetisation stage adds per unit
         H_m for the paper part's M_1, for
-        :func:`gmt.extensions.steady.paper_permeability` (None: none).
+        :func:`gmt.extensions.paperpart.paper_permeability` (None: none).
         """
         return None
 

@@ -416,7 +416,8 @@ class EddyDiffusionForm(FilterBankState, Extension):
         (eqs 25, 28): with M_s = (mu - 1) H_m at the surface, its fundamental is
         2 c M_b <g> M_s and its second harmonic c M_s^2 <g^2> / 2.
         """
-        from .steady import force_gain, paper_permeability
+        from .paperpart import paper_permeability
+        from .steady import force_gain
 
         dif = cls.diffusion_of(values)
         w, hm = steady.angular_frequency, steady.field_amplitude

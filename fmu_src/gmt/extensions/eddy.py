@@ -281,7 +281,8 @@ class EddyLagForm(FilterBankState, Extension):
 
     @classmethod
     def steady_field(cls, values, steady, adder=None):
-        from .steady import force_gain, paper_permeability
+        from .paperpart import paper_permeability
+        from .steady import force_gain
 
         hm, w = steady.field_amplitude, steady.angular_frequency
         g1 = cls.field_gain(values, w)

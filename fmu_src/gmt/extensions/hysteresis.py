@@ -15,7 +15,7 @@ H_m as the play operators do (not as eq 16's K_h B_m^n term, which follows
 B_m), and its harmonics. The sensing coil measures the sum, so the paper's part
 is the one whose flux density makes the total's |B_1| the measured B_m, with
 eq 16's mu'' at its own flux density
-(:func:`gmt.extensions.steady.paper_permeability`).
+(:func:`gmt.extensions.paperpart.paper_permeability`).
 
 * periodic form: :meth:`PrandtlIshlinskii.periodic` in closed form for
   H = H_m cos(theta), added to M (:meth:`HysteresisForm.steady_output`);

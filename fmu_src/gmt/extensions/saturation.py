@@ -17,7 +17,7 @@ would see without saturation; the coil sees the total.
 
 * periodic form: M_sat(M) over one period (:meth:`SaturationForm.steady_output`;
   the paper's part of M is the one whose saturated total gives the measured
-  B_m, :func:`gmt.extensions.steady.paper_permeability`);
+  B_m, :func:`gmt.extensions.paperpart.paper_permeability`);
 * time-stepped form: memoryless, per sample M becomes M_sat(M);
 * parameter: M_s [A/m] > M_b; the diagnosis fits M_b/M_s in (0, 1).
 """

@@ -17,7 +17,7 @@ The stages (:data:`gmt.extensions.STAGES`):
 1. **field**: the paper's part of the magnetisation: its complex
    permeability (mu'' of eq 16 from the loss coefficients, mu' of eq 20) at
    the flux density that makes the total's |B_1| the run's measured B_m
-   (:func:`paper_permeability`; the measured B_m itself when nothing else
+   (:func:`gmt.extensions.paperpart.paper_permeability`; the measured B_m itself when nothing else
    changes the fundamental), M_1 = (mu - 1) H_m (eq 5), B_1 = mu_0 mu H_m
    (eq 4). While M is that sinusoid the force of eqs 25 and 28,
    A_r E^H K_lambda (M_b + M)^2, has F_1 = 2 c M_b M_1 and F_2 = c M_1^2 / 2
@@ -49,14 +49,12 @@ import numpy as np
 from ..constants import MU_0
 from ..mechanics import zoh_closed_form
 from ._base import FieldState, Steady
+from .paperpart import paper_permeability
 
 #: Points per period on which the magnetisation stage samples M.
 GRID = 128
 #: Harmonics of y and B the evaluation returns by default.
 HARMONICS = 8
-#: mu'' of eq 16 is held at most this fraction of |mu| (a loss angle short of 90 degrees:
-#: mu' of eq 20 stays real); where eq 16 asks more the permeability is on its cap.
-LOSS_ANGLE_CAP = 0.999
 
 
 class SteadyResult(NamedTuple):
@@ -66,183 +64,9 @@ class SteadyResult(NamedTuple):
     flux_density: np.ndarray
 
 
-def mu_imag_from_losses(loss, frequency, flux_density_amplitude, field_amplitude):
-    """mu'' of eq 16 (eqs 7, 9, 11, 13) for loss = (K_h, n, K_e, K_ex), [-] (arrays allowed).
-
-    pi f mu_0 mu'' H_m^2 = K_h B_m^n f + K_e (B_m f)^2 + K_ex (B_m f)^1.5.
-    """
-    kh, n, ke, kex = loss
-    bm, f = flux_density_amplitude, frequency
-    p = kh * bm ** n * f + ke * (bm * f) ** 2 + kex * (bm * f) ** 1.5
-    return p / (math.pi * f * MU_0 * field_amplitude * field_amplitude)
-
-
 def force_gain(params):
     """c = A_r E^H K_lambda, force per unit magnetisation squared, [N m^2/A^2] (eqs 25, 28)."""
     return params.rod_area * params.youngs_modulus * params.magnetostriction_coefficient
-
-
-def paper_permeability(loss, frequency, field_amplitude, modulus, gain=1.0, adder=None,
-                       loss_flux_factor=1.0, vacuum=0.0):
-    """mu_p = mu' - j mu'' of the paper's part of the magnetisation, [-] (arrays allowed).
-
-    The coil measures |B_1| = mu_0 H_m |mu_p g + p| = mu_0 H_m ``modulus`` (eq 22),
-    where g is the field stage's mean field per applied field (1 without eddy
-    currents) and p the fundamental the magnetisation stage adds to M per unit
-    H_m, ``adder(M_1)`` of the paper part's fundamental M_1 = (mu_p - 1) g H_m
-    (None: p = 0). mu''_p follows eq 16 at the paper part's own flux density
-    amplitude, mu_0 |mu_p| H_m times ``loss_flux_factor`` (capped just below
-    |mu_p|), and mu'_p eq 20, mu'_p = sqrt(|mu_p|^2 - mu''_p^2). For p = 0 this
-    is |mu_p| = modulus / |g| in closed form (the paper's eqs 16, 20 for g = 1);
-    otherwise |mu_p| = a is the least root of |mu_p(a) g + p| - modulus, the one on the
-    branch where mu'' is short of its cap (:func:`_first_root`). ``vacuum`` is the
-    unshielded vacuum field per H_m the coil sees outside the field stage's lag
-    (:meth:`gmt.extensions.Extension.vacuum_share`), added to p.
-    """
-    g = np.asarray(gain, dtype=complex)
-    hm = np.asarray(field_amplitude, dtype=float)
-
-    def mu_of(a):
-        mu_i = np.minimum(mu_imag_from_losses(loss, frequency, MU_0 * a * hm * loss_flux_factor,
-                                              hm), LOSS_ANGLE_CAP * a)
-        return np.sqrt(a * a - mu_i * mu_i) - 1j * mu_i
-
-    a = modulus / np.abs(g)
-    if np.any(vacuum):  # unshielded vacuum flux the coil sees adds a constant to p
-        inner = adder
-
-        def adder(m1):
-            return vacuum + (0.0 if inner is None else inner(m1))
-    if adder is not None:
-        def err(a):
-            mu = mu_of(a)
-            return np.abs(mu * g + adder((mu - 1.0) * g * hm)) - modulus
-
-        a, converged = _secant(err, a, modulus, np.abs(g))
-        # a root where eq 16's loss angle is large may be the second one by the cap
-        # (_first_root): there, and where the secant did not converge, the least root
-        suspect = ~converged | (-mu_of(a).imag / a > SECANT_TRUSTED)
-        if np.any(suspect):
-            first, found = _first_root(err, modulus / np.abs(g), uncapped_limit(
-                loss, frequency, hm, loss_flux_factor), modulus)
-            a = np.where(suspect & found, first, a)
-    return mu_of(a)
-
-
-#: mu''/|mu_p| of eq 16 up to which the secant's root is taken as it is, without the scan
-#: of :func:`_first_root` (a saving: the scan costs some 20 evaluations of the stage). The
-#: spurious roots seen lay at 0.999 (on the cap), the least roots beside them at 0.83 and
-#: 0.93 (labsim's Preisach density with saturation and with eddy diffusion, 200 Hz at 1 A);
-#: a heuristic bound, not a proof that no second root lies lower.
-SECANT_TRUSTED = 0.9
-
-
-#: Points of the scan for the first root of |mu_p g + p| - modulus (:func:`_first_root`).
-ROOT_SCAN = 12
-
-
-def _first_root(err, a0, a_cap, modulus):
-    """(a, found): the least a in (0, min(a_cap, 4 a0)] with err(a) = 0, per run, and
-    whether there is one; ``a0`` the closed form modulus / |g| (arrays of runs).
-
-    |mu_p g + p| grows with a = |mu_p| while eq 16's mu'' is well below a, but near the
-    cap (:data:`LOSS_ANGLE_CAP`) mu' = sqrt(a^2 - mu''^2) collapses and |mu_p g + p| can
-    fall again: a second, spurious root lies there, the loss angle near 90 degrees. The
-    secant iteration from the closed form found either (labsim's Preisach density with
-    saturation at 200 Hz and 1 A: it stalled by the cap as M_b/M_s passed 0.006, y's
-    fundamental by 11 um, and the combination's fit could not descend). So the first sign
-    change on :data:`ROOT_SCAN` points is bracketed and refined by regula falsi with the
-    Illinois modification (Dowell & Jarratt, BIT 11 (1971) 168-174).
-    """
-    top = np.minimum(a_cap, 4.0 * a0)
-    lo = np.full_like(a0, 1e-9 * np.max(a0))
-    e_lo = err(lo)
-    hi = np.full_like(a0, np.nan)
-    e_hi = np.full_like(a0, np.nan)
-    for k in range(1, ROOT_SCAN + 1):
-        a = top * k / ROOT_SCAN
-        e = err(a)
-        open_ = np.isnan(hi)
-        found = open_ & (e >= 0.0) & (e_lo < 0.0)
-        hi, e_hi = np.where(found, a, hi), np.where(found, e, e_hi)
-        step_up = open_ & ~found & (e < 0.0)
-        lo, e_lo = np.where(step_up, a, lo), np.where(step_up, e, e_lo)
-    bracketed = ~np.isnan(hi)
-    if not np.any(bracketed):
-        return a0, bracketed
-    hi = np.where(bracketed, hi, lo)
-    e_hi = np.where(bracketed, e_hi, e_lo)
-    side = np.zeros(np.shape(a0))
-    a = lo
-    for _ in range(60):
-        a = np.where(e_hi != e_lo, (lo * e_hi - hi * e_lo) / np.where(e_hi != e_lo,
-                                                                       e_hi - e_lo, 1.0), lo)
-        e = err(a)
-        if np.all(~bracketed | (np.abs(e) <= 1e-13 * modulus)):
-            break
-        up = e < 0.0
-        # Illinois: halve the value kept at the end that stayed twice in a row
-        e_hi = np.where(up & (side < 0), 0.5 * e_hi, e_hi)
-        e_lo = np.where(~up & (side > 0), 0.5 * e_lo, e_lo)
-        lo, e_lo = np.where(up, a, lo), np.where(up, e, e_lo)
-        hi, e_hi = np.where(up, hi, a), np.where(up, e_hi, e)
-        side = np.where(up, -1.0, 1.0)
-    return a, bracketed
-
-
-def _secant(err, a, modulus, gain_modulus):
-    """(a, converged): the root of err by the secant method from the closed form ``a``,
-    a fixed-point step off it first (steps within a factor 2, so that a stays positive; a
-    slope that is not positive replaced by |g|), and whether |err| fell to 1e-13 of the
-    modulus, per run."""
-    e0 = err(a)
-    a1 = a * modulus / (e0 + modulus)
-    for _ in range(30):
-        e1 = err(a1)
-        if np.all(np.abs(e1) <= 1e-13 * modulus):
-            return a1, np.full(np.shape(a1), True)
-        slope = np.where(a1 != a, (e1 - e0) / np.where(a1 != a, a1 - a, 1.0), gain_modulus)
-        slope = np.where(slope > 0.0, slope, gain_modulus)  # |mu_p g + p| grows with a
-        a, e0, a1 = a1, e1, np.clip(a1 - e1 / slope, 0.5 * a1, 2.0 * a1)
-    return a1, np.abs(err(a1)) <= 1e-10 * modulus
-
-
-def uncapped_limit(loss, frequency, field_amplitude, loss_flux_factor=1.0):
-    """a_cap: the |mu_p| at which eq 16's mu'' reaches :data:`LOSS_ANGLE_CAP` |mu_p|, [-].
-
-    At B_m = mu_0 a H_m (times ``loss_flux_factor``) eq 16 gives mu''/a = c_h a^(n-1) +
-    c_e a + c_x a^0.5, all c >= 0 and n >= 1: ln(mu''/a) is a convex, nondecreasing
-    function of ln a (a log-sum-exp), so Newton's method in ln a reaches its one crossing
-    of ln(cap) monotonically after its first step. inf where the cap is never reached
-    below a = 1e9, 1e-6 where it is reached already there. Arrays of runs allowed.
-    """
-    kh, n, ke, kex = loss
-    hm = np.asarray(field_amplitude, dtype=float)
-    f = np.asarray(frequency, dtype=float)
-    b1 = MU_0 * hm * loss_flux_factor  # B_m per unit a
-    d = math.pi * f * MU_0 * hm * hm
-    coef = (kh * b1 ** n * f / d, ke * (b1 * f) ** 2 / d, kex * (b1 * f) ** 1.5 / d)
-    powers = (n - 1.0, 1.0, 0.5)
-    u_lo, u_hi = math.log(1e-6), math.log(1e9)
-    target = math.log(LOSS_ANGLE_CAP)
-
-    def g_and_slope(u):
-        terms = [c * np.exp(p * u) for c, p in zip(coef, powers)]
-        total = sum(terms)
-        slope = sum(p * t for p, t in zip(powers, terms))
-        with np.errstate(divide="ignore"):
-            return np.log(total) - target, slope / np.where(total > 0, total, 1.0)
-
-    never = g_and_slope(np.full(np.shape(d), u_hi))[0] < 0.0
-    always = g_and_slope(np.full(np.shape(d), u_lo))[0] >= 0.0
-    u = np.full(np.shape(d), 0.0)
-    for _ in range(60):
-        g, slope = g_and_slope(u)
-        step = np.where(slope > 0, g / np.where(slope > 0, slope, 1.0), 0.0)
-        u = np.clip(u - step, u_lo, u_hi)
-        if np.all(np.abs(step) <= 1e-12):
-            break
-    return np.where(never, np.inf, np.where(always, 1e-6, np.exp(u)))
 
 
 def complex_permeability(steady: Steady, adder=None):
@@ -306,6 +130,8 @@ def stage_adder(magnetic, steady: Steady):
         def constant(m1):
             return p
         constant.memo = memo
+        # p itself, for paper_permeability's Newton iteration
+        constant.constant = p
         return constant
 
     def adder(m1):
