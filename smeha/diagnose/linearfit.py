@@ -298,7 +298,7 @@ def _joint(prob, base, w, chi2, other, lam, rounds=None):
         # the floored columns: the cap in 70, cost up to 4.5 times); bvls was never higher,
         # in a third of trf's time. The same minimiser is now found in the problem's
         # normal equations by :func:`smeha.diagnose.boxsolve.bounded_least_squares`, in a
-        # sixth of bvls's time (its module docstring)
+        # third to a quarter of bvls's time (its module docstring)
         # ||a v - rhs|| reduced to its triangular factor (a QR decomposition): the same
         # minimiser, with as many rows as unknowns
         a, rhs = _reduced(a, jw @ w - r0)
