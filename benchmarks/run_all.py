@@ -39,6 +39,7 @@ BENCHMARKS = {
     "position_realtime": ([], ["--repeats", "1", "--modes", "compensated"]),
     "timedomain_step_cost": ([], ["--runs", "2", "--steps", "3000"]),
     "blas_threads": ([], ["--rows", "4000", "--repeat", "3"]),
+    "bounded_solve": ([], ["--problems", "20"]),
 }
 
 

@@ -19,7 +19,9 @@ The rules and their constants (:data:`WITHIN_NOISE`, :func:`passes`, ... below) 
   least :data:`MIN_EXPLAINED` of the paper's held-out excess chi^2 (chi^2 - n); a linear
   filter on y does so at every drive level (:func:`smeha.diagnose.rules.passes_first`).
   Then every extension that can join it is fitted together with it (all
-  unknowns and the loss coefficients refitted), and the best-ranked such
+  unknowns and the loss coefficients refitted; beside the Preisach density each such
+  combination is screened first and the few that fit best are fitted in full:
+  :func:`smeha.diagnose.joins.screened_round`), and the best-ranked such
   combination is kept when it passes the same rule against the model before
   it, that model refitted from its own values by the same steps (:func:`_settled`; a
   combination that fits the training runs worse than that model, which it holds, is
@@ -76,7 +78,8 @@ from .candidates import Batch
 from .driftlaw import goes_with_time
 from .exchange import FORMS_TRIED, SWAP_CANDIDATES, exchange, lookalike_margin
 from .fit import Fit, fit_all
-from .joins import join_jobs, joined, ranked_forms, refit_job, start_vector
+from .joins import (join_jobs, joined, ranked_forms, refit_job, screened_round,
+                    start_vector)
 from .linearfit import linear_member
 from .resolution import Refinement
 from .rules import (MIN_BIC_DROP, added_member, admitted, evidence_channels, firm_in,
@@ -116,6 +119,9 @@ class Selection(NamedTuple):
     #: the channels the first cause was judged in where it did not pass the rule over all
     #: of them (the drift terms: :func:`_evident_first`; B: :func:`_magnetic_first`), else ()
     first_in: tuple = ()
+    #: the combinations beside the density screened and not fitted in full
+    #: (smeha.diagnose.joins.screened_round), as their screens left them
+    screened: tuple = ()
 
 
 def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None) -> Selection:
@@ -158,17 +164,27 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
             first_in = ("B",)
     current, order = best, order or [best.cause]
     stopped = ""
+    screened_only = []
     while not within_noise(current):
         if len(current.causes) >= MAX_CAUSES:
             stopped = f"at most {MAX_CAUSES} causes are named"
             break
         # the combinations are fitted from current's values by the same steps as current
         # refitted from them, the reference each is judged against (:func:`_settled`)
-        out = fit_all(ev, train, held, [refit_job(current)] + join_jobs(
-            ev, train, [(current, (), s) for s in singles]), workers)
-        reference = _settled(current, out[0])
-        round_fits = _rescued(ev, train, held, current, reference,
-                              [f for f in out[1:] if isinstance(f, Fit)], workers)
+        if linear_member(current.candidate) is not None:
+            # beside the density the combinations are screened from the reference first,
+            # the few that fit best fitted in full (smeha.diagnose.joins.screened_round)
+            reference = _settled(current, fit_all(ev, train, held, [refit_job(current)],
+                                                  workers)[0])
+            fits, screened = screened_round(ev, train, held, current, reference, singles,
+                                            workers)
+            screened_only += screened
+        else:
+            out = fit_all(ev, train, held, [refit_job(current)] + join_jobs(
+                ev, train, [(current, (), s) for s in singles]), workers)
+            reference = _settled(current, out[0])
+            fits = [f for f in out[1:] if isinstance(f, Fit)]
+        round_fits = _rescued(ev, train, held, current, reference, fits, workers)
         tried += round_fits
         if not round_fits:
             stopped = "no further cause could be fitted beside the model"
@@ -232,7 +248,8 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         current = nxt
         current, order = exchange(ev, train, held, paper, current, order, singles, tried,
                                   sense, workers, timelike)
-    return Selection(order[0], current, tried, order, stopped, first_in)
+    return Selection(order[0], current, tried, order, stopped, first_in,
+                     tuple(screened_only))
 
 
 def showing(paper: Fit, singles) -> list:

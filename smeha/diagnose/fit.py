@@ -360,21 +360,23 @@ def score(ev: Evaluator, cand: Candidate, base, x, chi2_train, n_train, held: Ba
                heldout_run_excess=run_excess)
 
 
-def fit_and_score(ev, train, held, cand, base0, starts=None) -> Fit:
+def fit_and_score(ev, train, held, cand, base0, starts=None, screen=False) -> Fit:
     """:func:`fit_candidate` (or, for a linear family, :func:`smeha.diagnose.linearfit.fit_linear`)
-    then :func:`score`."""
+    then :func:`score`; ``screen``: a linear family's screen (fit_linear), scored without
+    the fit's own uncertainty (its predictive chi^2 is its chi^2)."""
     if linear_member(cand) is not None:
         base, x, chi2, n, cov, k = fit_linear(ev, train, cand, base0, fit_candidate,
-                                              start=starts[0] if starts else None)
+                                              start=starts[0] if starts else None,
+                                              screen=screen)
         return score(ev, cand, base, x, chi2, n, held, cov, k=k)
     base, x, chi2, n, cov = fit_candidate(ev, train, cand, base0, starts)
     return score(ev, cand, base, x, chi2, n, held, cov)
 
 
-def _fit_or_reason(ev, train, held, cand, base0, starts):
+def _fit_or_reason(ev, train, held, cand, base0, starts, screen=False):
     """:func:`fit_and_score`, or the ValueError's message when the fit fails."""
     try:
-        return fit_and_score(ev, train, held, cand, base0, starts=starts)
+        return fit_and_score(ev, train, held, cand, base0, starts=starts, screen=screen)
     except ValueError as exc:
         return str(exc)
 
@@ -383,7 +385,8 @@ def fit_all(ev, train, held, jobs, workers=None) -> list:
     """:func:`fit_and_score` of independent candidates, side by side in ``workers``
     processes (:func:`smeha.pool.run_jobs`; default :func:`smeha.pool.default_workers`).
 
-    ``jobs`` holds (candidate, base0, starts) tuples; the result holds, in
+    ``jobs`` holds (candidate, base0, starts) tuples, or (candidate, base0, starts,
+    screen) for a linear family's screen (:func:`fit_and_score`); the result holds, in
     job order, each one's :class:`Fit` or, where its fit failed, the reason (str). The
     fits do not depend on each other, so the result does not depend on ``workers``.
     """

@@ -162,11 +162,13 @@ class _Problem:
 
 
 def fit_linear(ev: Evaluator, train: Batch, cand: Candidate, base0, fit_candidate,
-               start=None) -> tuple:
+               start=None, screen=False) -> tuple:
     """Fit a candidate with a linear member (module docstring).
 
     Returns (base, x, chi^2, n, cov, k): as :func:`smeha.diagnose.fit.fit_candidate`
-    plus the effective number of the candidate's parameters k.
+    plus the effective number of the candidate's parameters k. ``screen``: one round of
+    the alternation and no joint steps, cov None (a combination's screen,
+    :func:`smeha.diagnose.joins.screened_round`).
     """
     lin = linear_member(cand)
     prob = _Problem(ev, train, cand, lin)
@@ -176,10 +178,11 @@ def fit_linear(ev: Evaluator, train: Batch, cand: Candidate, base0, fit_candidat
     elif start is not None and len(cand.members) > 1:
         starts = [_screened_members(prob, base0, starts[0])]
     best = None
-    rounds = ROUNDS if start is None else COMBINATION_ROUNDS
+    rounds = 1 if screen else ROUNDS if start is None else COMBINATION_ROUNDS
     for x0 in starts:
         out = _alternate(ev, train, prob, base0, x0, fit_candidate, rounds)
-        out = _joint(prob, *out)
+        if not screen:
+            out = _joint(prob, *out)
         if best is None or out[2] < best[2]:
             best = out
     base, w, chi2, other, lam = best
@@ -187,7 +190,7 @@ def fit_linear(ev: Evaluator, train: Batch, cand: Candidate, base0, fit_candidat
     jac = prob.jacobian(base, w, other, r0)
     free = w > 0
     k = effective_dof(jac, prob.penalty, lam, free) + other.size
-    cov = _covariance(ev, train, cand, prob, base, w, other, jac, lam)
+    cov = None if screen else _covariance(ev, train, cand, prob, base, w, other, jac, lam)
     return base, prob.x_of(w, other), float(r0 @ r0), int(r0.size), cov, k
 
 

@@ -386,6 +386,11 @@ def _named_lines(d) -> list[str]:
                    f"excess{where}; no second cause named")
     if d.stopped:
         out.append(f"no further cause named: {d.stopped}")
+    if d.screened:
+        out.append("screened beside the density and not fitted in full (each fitted the "
+                   "training runs worse than those that were): "
+                   + ", ".join(f"{f.label} (training chi^2 {f.train_chi2:.4g})"
+                               for f in d.screened))
     out.append(f"parameters of the extended model: {_fmt_params(e.parameters)}")
     out += [f"caution, {c}" for c in cautions(d)]
     if e.weak:
@@ -542,6 +547,8 @@ def as_dict(d) -> dict:
         "extended": _fit_dict(d.extended),
         "selection_stopped": d.stopped,
         "first_judged_in": list(d.first_in),
+        "screened_only": [{"label": f.label, "causes": list(f.causes),
+                           "train_chi2": f.train_chi2} for f in d.screened],
         "also_consistent": [{"cause": f.cause, "form": f.form, "score": f.score,
                              "score_above_named": f.score - d.extended.score,
                              "heldout_rms_um": f.heldout_rms * 1e6}

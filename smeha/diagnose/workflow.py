@@ -62,6 +62,9 @@ class Diagnosis:
     #: the channels the first cause was judged in where it did not pass the rule over all
     #: (smeha.diagnose.decision.Selection.first_in), else ()
     first_in: tuple = ()
+    #: the combinations beside the density screened and not fitted in full
+    #: (smeha.diagnose.joins.screened_round)
+    screened: tuple = ()
 
     @property
     def causes(self) -> list:
@@ -312,7 +315,7 @@ def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
                      characterisation=character, context=context,
                      also_consistent=also_consistent(paper, fits, chosen, cause),
                      combinations=sel.tried, skipped=skipped, order=sel.order,
-                     stopped=sel.stopped, first_in=sel.first_in)
+                     stopped=sel.stopped, first_in=sel.first_in, screened=sel.screened)
     diag.evidence = evidence(diag) + [f"candidate not fitted, left out: {why}"
                                        for why in unfitted]
     return diag
