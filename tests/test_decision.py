@@ -442,6 +442,55 @@ def test_a_joined_cause_starts_where_the_training_chi2_is_least():
     assert cand.split(x)[at] == (-2.7, 0.5)  # the value fitted alone, nearer still
 
 
+def test_beside_the_density_the_combinations_are_screened_and_the_best_fitted_in_full(
+        monkeypatch):
+    # joins.screened_round: every combination screened from the reference's values with
+    # the added cause at its neutral values; the SCREEN_KEEP least training chi^2 and the
+    # best drift fitted in full from where their screens ended, the others reported as
+    # screened only. The fits are given (fit_all replaced): the bookkeeping is checked
+    hyst = _cls("rate_independent_hysteresis", "preisach")
+    added = [_cls("transport_delay"), _cls("magnetization_saturation"),
+             _cls("eddy_current_diffusion", "slab_magnetization"),
+             _cls("mechanical_resonance", "one_dof"), _cls("thermal_drift")]
+    reference = dataclasses.replace(fit((hyst,), train=1e5),
+                                    x=tuple(np.arange(hyst.fit.size, dtype=float)))
+    singles = [dataclasses.replace(fit((m,)), x=tuple(m.fit.starts[0])) for m in added]
+    # the screens' training chi^2 by added cause: the drift ranks last
+    screened_chi2 = {"transport_delay": 9e4, "magnetization_saturation": 5e4,
+                     "eddy_current_diffusion": 2e4, "mechanical_resonance": 7e4,
+                     "thermal_drift": 9.9e4}
+    calls = []
+
+    def fake_fit_all(ev, train, held, jobs, workers=None):
+        calls.append(jobs)
+        out = []
+        for cand, base, starts, *screen in jobs:
+            cause = next(m.cause for m in cand.members if m is not hyst)
+            train_chi2 = screened_chi2[cause] * (1.0 if screen else 0.5)
+            out.append(dataclasses.replace(fit(cand.members, train=train_chi2),
+                                           x=tuple(starts[0])))
+        return out
+
+    monkeypatch.setattr(joins, "fit_all", fake_fit_all)
+    monkeypatch.setattr(joins, "join_start", lambda ev, train, cand, current, added, alone:
+                        joins.start_vector(cand, current, added, alone))
+    full, screened = joins.screened_round(None, None, None, reference, reference, singles)
+    screens, fulls = calls
+    assert all(job[3] is True for job in screens) and len(screens) == len(added)
+    for cand, base, starts, _ in screens:
+        member = next(m for m in cand.members if m is not hyst)
+        parts = dict(zip(cand.members, cand.split(starts[0])))
+        assert parts[member] == tuple(member.fit.neutral)
+        assert parts[hyst] == reference.x
+    # the three least (SCREEN_KEEP), then the drift, ranked last but judged in its own terms
+    assert joins.SCREEN_KEEP == 3
+    kept = [next(m.cause for m in f.candidate.members if m is not hyst) for f in full]
+    assert kept == ["eddy_current_diffusion", "magnetization_saturation",
+                    "mechanical_resonance", "thermal_drift"]
+    assert [len(job) for job in fulls] == [3] * len(full)  # fitted in full, not screened
+    assert [f.causes for f in screened] == [("rate_independent_hysteresis", "transport_delay")]
+
+
 def test_a_refused_cause_is_told_the_first_rule_it_fails_with_its_figures():
     # every rule of a later cause (smeha.diagnose.rules, module docstring) in turn: the
     # refusal names it with the numbers it was judged on; "" where the cause is admitted

@@ -248,8 +248,11 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         current = nxt
         current, order = exchange(ev, train, held, paper, current, order, singles, tried,
                                   sense, workers, timelike)
-    return Selection(order[0], current, tried, order, stopped, first_in,
-                     tuple(screened_only))
+    # a screened combination fitted in full later (the exchange step) is not screened only
+    full = {frozenset(f.candidate.members) for f in tried + [current]}
+    screened_only = tuple(f for f in screened_only
+                          if frozenset(f.candidate.members) not in full)
+    return Selection(order[0], current, tried, order, stopped, first_in, screened_only)
 
 
 def showing(paper: Fit, singles) -> list:
