@@ -61,10 +61,11 @@ def paper_permeability(loss, frequency, field_amplitude, modulus, gain=1.0, adde
     """
     g = np.asarray(gain, dtype=complex)
     hm = np.asarray(field_amplitude, dtype=float)
-    law = _permeability_law(loss, frequency, hm, loss_flux_factor)
 
     def mu_of(a):
-        return law(a)[0]
+        mu_i = np.minimum(mu_imag_from_losses(loss, frequency, MU_0 * a * hm * loss_flux_factor,
+                                              hm), LOSS_ANGLE_CAP * a)
+        return np.sqrt(a * a - mu_i * mu_i) - 1j * mu_i
 
     a = modulus / np.abs(g)
     if np.any(vacuum):  # unshielded vacuum flux the coil sees adds a constant to p
@@ -78,6 +79,8 @@ def paper_permeability(loss, frequency, field_amplitude, modulus, gain=1.0, adde
         return mu_of(a)
     constant = getattr(adder, "constant", None)
     if constant is not None:
+        law = _permeability_law(loss, frequency, hm, loss_flux_factor)
+
         def err(a):
             mu, slope = law(a)
             z = mu * g + constant
@@ -116,7 +119,8 @@ def _loss_coefficients(loss, frequency, field_amplitude, loss_flux_factor=1.0):
 
 def _permeability_law(loss, frequency, field_amplitude, loss_flux_factor=1.0):
     """a -> (mu_p(a), d mu_p / d a): mu'' of eq 16 at a = |mu_p| (:func:`_loss_coefficients`),
-    capped at :data:`LOSS_ANGLE_CAP` a, and mu' = sqrt(a^2 - mu''^2) of eq 20, [-]."""
+    capped at :data:`LOSS_ANGLE_CAP` a, and mu' = sqrt(a^2 - mu''^2) of eq 20, [-]: the
+    value of ``mu_of`` in :func:`paper_permeability` (to rounding), with its derivative."""
     n = loss[1]
     c_h, c_e, c_x = _loss_coefficients(loss, frequency, field_amplitude, loss_flux_factor)
 
