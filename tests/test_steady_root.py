@@ -5,8 +5,8 @@ for a = |mu_p|, mu'' from eq 16 and mu' from eq 20. Near the point where eq 16's
 reaches |mu_p| (the cap) mu' collapses and a second, spurious root appears. The
 reference here is a brute-force scan of the same equation, eq 16 written out in this
 file, on a fine grid of a (no iteration), and the case is the one where the iteration used
-to stall by the cap: labsim's Preisach density with saturation, 200 Hz at 1 A (loss coefficients of that fit,
-the adder p the density gave there). Each case is solved twice: with the adder as a
+to stall by the cap: labsim's Preisach density with saturation, 200 Hz at 1 A (loss
+coefficients of that fit, the adder p the density gave there). Each case is solved twice: with the adder as a
 function of M_1 (the secant and regula falsi of a saturation's stage) and as the constant
 an operator of H gives (``constant``, Newton's method; gmt.extensions.steady.stage_adder).
 """
