@@ -17,6 +17,7 @@ import math
 
 from .candidates import Candidate
 from .fit import UNEVALUATED, Fit, fit_all
+from .rules import added_member
 
 __all__ = ["SCREEN_KEEP", "ranked_forms", "refit_job", "joined", "join_jobs", "join_start",
            "start_vector", "screened_round"]
@@ -54,19 +55,22 @@ def join_jobs(ev, train, joins) -> list:
     ``keep`` (all of them when empty) plus ``single``'s extension, started from their
     fitted values, the added one's from the better of its value fitted alone and its
     form's own starts (:func:`join_start`); those that cannot combine are left out."""
-    jobs = []
+    return [(cand, current.base, [join_start(ev, train, cand, current, member, single.x)])
+            for current, cand, member, single in _combinations(joins)]
+
+
+def _combinations(joins):
+    """(current, the combination's candidate, the member it adds, single) of each
+    (current, keep, single) in ``joins`` whose extension can join ``current``'s members
+    ``keep`` (all of them when empty)."""
     for current, keep, single in joins:
         member = single.candidate.members[0]
         members = tuple(keep) or current.candidate.members
         if member in members or member.cause in {m.cause for m in members}:
             continue
         cand = Candidate(members)
-        if not cand.combinable(member):
-            continue
-        cand = cand.plus(member)
-        jobs.append((cand, current.base, [join_start(ev, train, cand, current, member,
-                                                      single.x)]))
-    return jobs
+        if cand.combinable(member):
+            yield current, cand.plus(member), member, single
 
 
 def join_start(ev, train, cand: Candidate, current: Fit, added, alone) -> tuple:
@@ -123,28 +127,22 @@ def screened_round(ev, train, held, current: Fit, reference: Fit, singles,
     On labsim's Preisach hysteresis with eddy diffusion (seed 3 at 800 samples a period)
     the first round's ten combinations were each fitted in full from their join starts
     and eight again from their neutral values, having ended worse than the reference
-    (:func:`smeha.diagnose.decision._rescued`): 10 778 evaluations of the model.
-    Screened, 2 017 for the ten screens and 3 077 for the four fitted in full (the two
+    (:func:`smeha.diagnose.decision._rescued`): 10 778 evaluations of the model (f0ce0db).
+    Screened, 2 110 for the ten screens and 3 102 for the four fitted in full (the two
     eddy forms on the magnetisation, the lag form, the drift), and the same causes were
     named (2026-11-28)."""
-    jobs = join_jobs(ev, train, [(reference, (), s) for s in singles])
     screens = []
-    for cand, base, starts in jobs:
-        added = next(m for m in cand.members if m not in reference.candidate.members)
-        if added.fit.neutral is not None:
-            starts = [start_vector(cand, reference, added, added.fit.neutral)]
-        screens.append((cand, base, starts, True))
+    for _, cand, added, single in _combinations([(reference, (), s) for s in singles]):
+        start = (start_vector(cand, reference, added, added.fit.neutral)
+                 if added.fit.neutral is not None
+                 else join_start(ev, train, cand, reference, added, single.x))
+        screens.append((cand, reference.base, [start], True))
     screened = sorted((f for f in fit_all(ev, train, held, screens, workers)
                        if isinstance(f, Fit)), key=lambda f: f.train_chi2)
     keep = screened[:SCREEN_KEEP]
-    evident = [f for f in screened if _added(reference, f).evidence]
+    evident = [f for f in screened if added_member(reference, f).evidence]
     if evident and all(evident[0] is not f for f in keep):
         keep.append(evident[0])
     full = [f for f in fit_all(ev, train, held, [refit_job(f) for f in keep], workers)
             if isinstance(f, Fit)]
     return full, [f for f in screened if all(f is not k for k in keep)]
-
-
-def _added(model: Fit, fit: Fit):
-    """The member ``fit`` adds to ``model``."""
-    return next(m for m in fit.candidate.members if m not in model.candidate.members)
