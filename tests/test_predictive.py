@@ -27,6 +27,9 @@ class _LinearEvaluator:
         z = np.concatenate((np.asarray(base[:NB]) / self.factor[:NB], np.asarray(x)))
         return self.a @ z - self.d
 
+    def residuals_stacked(self, held, bases, cand, x):
+        return np.array([self.residuals(held, b, cand, x) for b in bases])
+
 
 class _Candidate:
     def __init__(self, n):

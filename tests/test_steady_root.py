@@ -124,3 +124,24 @@ def test_the_vacuum_share_adds_to_a_constant_adder(inner):
     ref = paper_permeability(LOSS, FREQ, HM, MODULUS, adder=_adder(p, "function"))
     assert mu == pytest.approx(ref, rel=1e-10)
     assert abs(abs(mu + p) - MODULUS) < 1e-10
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_runs_root_does_not_depend_on_the_runs_solved_with_it(kind):
+    # the diagnosis evaluates a point and its finite-difference steps as one batch
+    # (smeha.diagnose.differences): each run's root must be the one it has solved alone,
+    # bit for bit (the iterations hold a run once it has converged). The batch mixes the
+    # case by the cap (scanned for its least root), runs stepped by 1.5e-8 in the loss
+    # coefficients (converging at other iterations) and a run without losses
+    steps = [1.0, 1.0 + 1.5e-8, 1.0 - 3e-8, 1.0 + 1e-3]
+    loss = tuple(np.array([v * s for s in steps] + [0.0 if k != 1 else 1.5])
+                 for k, v in enumerate(LOSS))
+    f = np.array([FREQ] * 4 + [50.0])
+    hm = np.array([HM] * 4 + [0.6 * HM])
+    modulus = np.array([MODULUS] * 4 + [4.0])
+    p = np.array([P, 1.05 * P, 0.95 * P, P, 0.5])
+    together = paper_permeability(loss, f, hm, modulus, adder=_adder(p, kind))
+    for j in range(f.size):
+        alone = paper_permeability(tuple(v[j:j + 1] for v in loss), f[j:j + 1], hm[j:j + 1],
+                                   modulus[j:j + 1], adder=_adder(p[j:j + 1], kind))
+        assert together[j] == alone[0]

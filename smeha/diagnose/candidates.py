@@ -184,9 +184,29 @@ class Batch:
         self.y_sd = np.array([np.sqrt(rf.y_var + extra(rf.y_prop_var)) for rf in self.runs])
         self.b_sd = np.array([np.sqrt(rf.b_var + extra(rf.b_prop_var)) if rf.has_b
                               else np.ones(rf.y.size) for rf in self.runs])
+        self.__dict__.pop("_stacks", None)
 
     def __len__(self):
         return len(self.runs)
+
+    def stacked(self, copies: int) -> "Batch":
+        """These runs ``copies`` times over, copy after copy (one evaluation of several
+        parameter vectors, :meth:`Evaluator.residuals_stacked`); kept for the next call."""
+        cache = self.__dict__.setdefault("_stacks", {})
+        if copies not in cache:
+            out = Batch.__new__(Batch)
+            out.runs = self.runs * copies
+            for name in ("frequency", "current_amplitude", "flux_density_amplitude", "has_b",
+                         "ratio", "drift", "drift_sd", "y1_slope", "y1_slope_sd"):
+                setattr(out, name, np.tile(getattr(self, name), copies))
+            for name in ("y", "b", "y_sd", "b_sd"):
+                setattr(out, name, np.tile(getattr(self, name), (copies, 1)))
+            cache[copies] = out
+        return cache[copies]
+
+    def __getstate__(self):
+        # the stacked copies are rebuilt where needed, not sent to the workers
+        return {k: v for k, v in self.__dict__.items() if k != "_stacks"}
 
 
 #: Largest change of ln B_m of the Gauss-Newton step of a run without B (predict).
@@ -215,6 +235,21 @@ def parts_of(batch: Batch, y, b, s_off, s_y1) -> tuple:
     return np.sum(dy, axis=1), np.sum(db, axis=1), cd
 
 
+def _residual_rows(batch: Batch, predicted, copies: int) -> np.ndarray:
+    """(copies, n): the residuals of :meth:`Evaluator.residuals` of each copy of a batch
+    stacked ``copies`` times (:meth:`Batch.stacked`; 1: ``batch`` itself), from
+    :meth:`Evaluator.predict`'s tuple."""
+    y, b, s_off, s_y1 = predicted
+    dy = ((y - batch.y) / batch.y_sd).reshape(copies, -1)
+    parts = [dy.real, dy.imag]
+    if batch.has_b.any():
+        db = ((b - batch.b) / batch.b_sd)[batch.has_b].reshape(copies, -1)
+        parts += [db.real, db.imag]
+    ds = ((s_y1 - batch.y1_slope) / batch.y1_slope_sd).reshape(copies, -1)
+    parts += [((s_off - batch.drift) / batch.drift_sd).reshape(copies, -1), ds.real, ds.imag]
+    return np.hstack(parts)
+
+
 class Evaluator:
     """Periodic steady state of candidates for batches of runs (module docstring)."""
 
@@ -233,20 +268,25 @@ class Evaluator:
         the force, and so y, scales with s (eqs 25, 28).
         """
         loss, scale = tuple(base[:4]), (base[4] if len(base) > 4 else 1.0)
+        # base's entries may be arrays, one value per run (residuals_stacked)
+        per_run = np.ndim(scale) > 0
         comps = cand.components(x, self.context) if components is None else components
         bm = batch.flux_density_amplitude if flux is None else np.asarray(flux, float)
 
         def evaluate(bm):
             res = steady_state(self.params, batch.frequency, batch.current_amplitude, bm,
                                loss, comps, harmonics=self.k.size)
-            return res.displacement * scale, res.flux_density
+            return (res.displacement * (np.asarray(scale)[:, None] if per_run else scale),
+                    res.flux_density)
 
         if flux is None and not batch.has_b.all():
             nob = ~batch.has_b
             bm = bm.copy()
             bm[nob] = flux_density_from_ratio(self.params, batch.frequency[nob],
                                               batch.current_amplitude[nob],
-                                              batch.ratio[nob] / scale, comps)
+                                              batch.ratio[nob] / (
+                                                  np.asarray(scale)[nob] if per_run
+                                                  else scale), comps)
             # B_m of a run without B is its own unknown: one Gauss-Newton step in ln B_m on
             # that run's y harmonics from the path's estimate (module docstring)
             y0, _ = evaluate(bm)
@@ -266,10 +306,16 @@ class Evaluator:
         s_y1 = np.zeros(len(batch), complex)
         for cls, values in comps:
             if cls.stage == "strain":
+                # the drift's terms depend on the run, not on the base: once per run of a
+                # stacked batch (its Y_1 slope is linear in Y_1)
+                seen = {}
                 for j, rf in enumerate(batch.runs):
-                    gain, s_off[j], s_y1[j] = cls.feature_drift(
-                        values, rf.time, rf.t_start, rf.t_mid, rf.current_amplitude, y[j, 0],
-                        rf.frequency)
+                    if id(rf) not in seen:
+                        seen[id(rf)] = cls.feature_drift(
+                            values, rf.time, rf.t_start, rf.t_mid, rf.current_amplitude, 1.0,
+                            rf.frequency)
+                    gain, s_off[j], per_y1 = seen[id(rf)]
+                    s_y1[j] = per_y1 * y[j, 0]
                     y[j] = y[j] * gain
         return y, b, s_off, s_y1
 
@@ -279,15 +325,25 @@ class Evaluator:
         y's harmonics (real, imaginary), B's for the runs that have them, then
         the three drift features of each run.
         """
-        y, b, s_off, s_y1 = self.predict(batch, base, cand, x, components=components)
-        dy = (y - batch.y) / batch.y_sd
-        parts = [dy.real.ravel(), dy.imag.ravel()]
-        if batch.has_b.any():
-            db = ((b - batch.b) / batch.b_sd)[batch.has_b]
-            parts += [db.real.ravel(), db.imag.ravel()]
-        ds = (s_y1 - batch.y1_slope) / batch.y1_slope_sd
-        parts += [(s_off - batch.drift) / batch.drift_sd, ds.real, ds.imag]
-        return np.concatenate(parts)
+        predicted = self.predict(batch, base, cand, x, components=components)
+        return _residual_rows(batch, predicted, 1)[0]
+
+    def residuals_stacked(self, batch: Batch, bases, cand: Candidate = PAPER, x=(),
+                          components=None):
+        """:meth:`residuals` for each base vector of ``bases`` (the same ``x``), one row
+        each, (len(bases), n): all in one evaluation of the runs stacked
+        (:meth:`Batch.stacked`), which costs little more than one of ``batch`` (the work is
+        per call, not per run: the finite differences of the base unknowns,
+        :mod:`smeha.diagnose.differences`). ``components``: as :meth:`predict`'s, for the
+        stacked runs (per-run weights of a density)."""
+        copies = len(bases)
+        stack = batch.stacked(copies)
+        if all(tuple(b) == tuple(bases[0]) for b in bases):
+            base = tuple(bases[0])
+        else:
+            base = tuple(np.repeat(np.asarray(col, float), len(batch)) for col in zip(*bases))
+        predicted = self.predict(stack, base, cand, x, components=components)
+        return _residual_rows(stack, predicted, copies)
 
     def parts(self, batch: Batch, base, cand: Candidate = PAPER, x=()):
         """chi^2 per run of y (harmonics), of B (0 without B), of the drift features."""

@@ -64,6 +64,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from .candidates import Batch, Candidate, Evaluator, harmonic_chi2, parts_of
+from .differences import jacobian, relative_steps, scipy_steps
 from .linearfit import fit_linear, linear_member
 
 __all__ = ["BASE_LOWER", "BASE_UPPER", "HIGHER_FROM", "LEVEL_GAP", "MAX_EVALUATIONS",
@@ -227,17 +228,34 @@ def _split(z, nb, base0, factor):
     return tuple(float(v) for v in base), tuple(float(v) for v in z[nb:])
 
 
+class _Training:
+    """The training residuals of ``cand``, one vector or several stacked: the problem
+    :func:`fit_candidate` solves unless it is given another."""
+
+    def __init__(self, ev: Evaluator, train: Batch, cand: Candidate):
+        self.ev, self.train, self.cand = ev, train, cand
+
+    def residuals(self, base, x):
+        return self.ev.residuals(self.train, base, self.cand, x)
+
+    def stacked(self, bases, x):
+        return self.ev.residuals_stacked(self.train, bases, self.cand, x)
+
+
 def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=None,
-                  residuals=None, max_evaluations=MAX_EVALUATIONS) -> tuple:
+                  problem=None, max_evaluations=MAX_EVALUATIONS) -> tuple:
     """Least squares on the training features: (base, x, chi^2, residuals, cov).
 
     ``base0`` is (K_h, n, K_e, K_ex, s) to start from; ``starts`` replaces the
     candidate's own start
     vectors (e.g. a combination started from its members' fitted values).
     ``cov`` is the covariance (J^T J)^-1 of the unknowns (the base ones over
-    :func:`base_factor`, then the candidate's), [-]. ``residuals(base, x)``
-    replaces the training residuals of ``cand`` (the linear family's fit holds
-    its weights in it, :mod:`smeha.diagnose.linearfit`).
+    :func:`base_factor`, then the candidate's), [-]. ``problem`` replaces the training
+    residuals of ``cand``: an object with ``residuals(base, x)`` and ``stacked(bases,
+    x)`` (one row per base vector; the linear family's fit holds its weights in it,
+    :mod:`smeha.diagnose.linearfit`). The Jacobian is scipy's forward differences
+    ('2-point'), its base columns evaluated together
+    (:mod:`smeha.diagnose.differences`).
     """
     nb = len(BASE_LOWER)
     factor = base_factor(base0)
@@ -245,12 +263,17 @@ def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=No
     b0[1] = min(max(base0[1], 1.0 + 1e-6), 3.0 - 1e-6)
     lo = np.concatenate((BASE_LOWER[:nb], cand.lower)).astype(float)
     hi = np.concatenate((BASE_UPPER[:nb], cand.upper)).astype(float)
+    problem = _Training(ev, train, cand) if problem is None else problem
 
     def fun(z):
-        base, x = _split(z, nb, base0, factor)
-        if residuals is not None:
-            return residuals(base, x)
-        return ev.residuals(train, base, cand, x)
+        return problem.residuals(*_split(z, nb, base0, factor))
+
+    def stacked(zs):
+        return problem.stacked([_split(z, nb, base0, factor)[0] for z in zs],
+                               _split(zs[0], nb, base0, factor)[1])
+
+    def jac(z):
+        return jacobian(stacked, fun, z, scipy_steps(z, lo, hi), nb)[0]
 
     best = None
     for start in (starts if starts is not None else cand.starts()):
@@ -258,7 +281,7 @@ def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=No
         pad = 1e-9 * (1.0 + np.abs(np.where(np.isfinite(lo), lo, 0.0)))
         z0 = np.minimum(np.maximum(z0, lo + pad), np.where(np.isfinite(hi), hi - pad, np.inf))
         try:
-            sol = least_squares(fun, z0, bounds=(lo, hi), x_scale="jac",
+            sol = least_squares(fun, z0, jac=jac, bounds=(lo, hi), x_scale="jac",
                                 max_nfev=max_evaluations, xtol=1e-10, ftol=1e-10)
         except UNEVALUATED:
             continue
@@ -299,18 +322,17 @@ def predictive_chi2(ev: Evaluator, held: Batch, cand: Candidate, base, x, cov) -
         b, xx = _split(z, nb, base, factor)
         return ev.residuals(held, b, cand, xx)
 
-    r = res(z0)
+    def stacked(zs):
+        return ev.residuals_stacked(held, [_split(z, nb, base, factor)[0] for z in zs], cand,
+                                    _split(zs[0], nb, base, factor)[1])
+
     # an unknown the fit held (a density's weight at zero: its row and column of cov are
     # zero, smeha.diagnose.linearfit) adds nothing to J Cov J^T: its column is not needed
-    # (most of a density's weights; each column costs a held-out evaluation)
-    jac = np.zeros((r.size, z0.size))
-    for j in np.flatnonzero(np.any(cov != 0.0, axis=1)):
-        dz = 1e-6 * max(abs(z0[j]), 1e-3)
-        if z0[j] + dz > upper[j]:  # step into the allowed range
-            dz = -dz
-        z = z0.copy()
-        z[j] += dz
-        jac[:, j] = (res(z) - r) / dz
+    # (most of a density's weights; each column costs a held-out evaluation); steps into
+    # the allowed range
+    jac, r = jacobian(stacked, res, z0, relative_steps(z0, upper), nb,
+                      columns=np.flatnonzero(np.any(cov != 0.0, axis=1)))
+    jac = np.ascontiguousarray(jac)  # C order: the products round as before the stacking
     c = np.eye(r.size) + jac @ cov @ jac.T
     return float(r @ np.linalg.solve(c, r))
 

@@ -35,6 +35,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import nnls
 
+from . import differences
 from .boxsolve import bounded_least_squares
 from .candidates import Batch, Candidate, Evaluator
 
@@ -108,19 +109,23 @@ class _Problem:
     def residuals(self, base, w, other):
         return self.ev.residuals(self.train, base, self.cand, self.x_of(w, other))
 
+    def stacked(self, bases, w, other):
+        """:meth:`residuals` of each base vector of ``bases``, one row each."""
+        return self.ev.residuals_stacked(self.train, bases, self.cand, self.x_of(w, other))
+
     def jacobian(self, base, w, other, r0):
         """d r / d w by finite differences, every column in one evaluation: the training
         runs stacked once per weight, each copy with that weight stepped (the density's
         weights may be given per run, PreisachForm.periodic_output)."""
         runs, nw = self.train.runs, w.size
-        stacked = Batch(runs * nw)
         comps = list(self.cand.components(self.x_of(w, other), self.ev.context))
         lin = [k for k, (cls, _) in enumerate(comps) if getattr(cls, "linear", False)][0]
         cls, values = comps[lin]
         rows = np.repeat(np.eye(nw) * WEIGHT_STEP + w, len(runs), axis=0)
         comps[lin] = (cls, dict(values, weights_A_per_m=rows))
-        r = self.ev.residuals(stacked, base, self.cand, (), components=tuple(comps))
-        return ((self._per_copy(r, nw) - r0[None, :]) / WEIGHT_STEP).T
+        r = self.ev.residuals_stacked(self.train, [base] * nw, self.cand, (),
+                                      components=tuple(comps))
+        return ((r - r0[None, :]) / WEIGHT_STEP).T
 
     def row_runs(self):
         """The training run of each residual (the order of :meth:`residuals`)."""
@@ -130,26 +135,6 @@ class _Problem:
         b = np.repeat(np.flatnonzero(self.train.has_b), k)
         runs = np.arange(n)
         return np.concatenate((y, y, b, b, runs, runs, runs))
-
-    def _per_copy(self, r, copies):
-        """Split stacked residuals (y's, B's, drift blocks over all rows) into one
-        residual vector per copy of the training runs, ordered as :meth:`residuals`."""
-        n = len(self.train.runs)
-        k = self.train.y.shape[1]
-        nb = int(self.train.has_b.sum())
-        ny = copies * n * k
-        yr, yi = r[:ny].reshape(copies, n * k), r[ny:2 * ny].reshape(copies, n * k)
-        pos = 2 * ny
-        parts = [yr, yi]
-        if nb:
-            nbb = copies * nb * k
-            parts += [r[pos:pos + nbb].reshape(copies, nb * k),
-                      r[pos + nbb:pos + 2 * nbb].reshape(copies, nb * k)]
-            pos += 2 * nbb
-        for _ in range(3):
-            parts.append(r[pos:pos + copies * n].reshape(copies, n))
-            pos += copies * n
-        return np.hstack(parts)
 
     def solve(self, jac, r0, w, lam):
         """The penalised NNLS weights for the linearisation (module docstring, step 2)."""
@@ -208,7 +193,7 @@ def _alternate(ev, train, prob, base0, x0, fit_candidate, rounds=ROUNDS):
         held.w = w
         base, other, _, _, _ = fit_candidate(ev, train, held.unknowns(), base,
                                              starts=[tuple(other)],
-                                             residuals=held.residuals,
+                                             problem=held,
                                              max_evaluations=ROUND_EVALUATIONS)
         other = np.asarray(other, float)
         r0 = prob.residuals(base, w, other)
@@ -339,27 +324,29 @@ def _joint(prob, base, w, chi2, other, lam, rounds=None):
 def _unknowns_jacobian(prob, base, w, other, factor, r0, upper=None):
     """d r / d (z, other) by forward differences, the weights ``w`` held: z the base's first
     ``factor.size`` unknowns over ``factor`` (as :func:`smeha.diagnose.fit.fit_candidate`
-    scales them), then the other unknowns; a step that would pass ``upper`` (bounds of z
-    and other) is taken backwards. ``r0``: the residuals at (base, w, other)."""
+    scales them), then the other unknowns; a step of 1e-6 of the value (at least 1e-9)
+    that would pass ``upper`` (bounds of z and other) is taken backwards
+    (:func:`smeha.diagnose.differences.relative_steps`), the base columns evaluated
+    together. ``r0``: the residuals at (base, w, other)."""
     nb = factor.size
-    z0 = np.asarray(base[:nb]) / factor
-    cols = []
-    for j in range(nb + other.size):
-        value = z0[j] if j < nb else other[j - nb]
-        dz = 1e-6 * max(abs(value), 1e-3)
-        if upper is not None and value + dz > upper[j]:
-            dz = -dz
-        if j < nb:
-            z = z0.copy()
-            z[j] += dz
-            b = np.array(base, float)
-            b[:nb] = z * factor
-            cols.append((prob.residuals(tuple(b), w, other) - r0) / dz)
-        else:
-            o = other.copy()
-            o[j - nb] += dz
-            cols.append((prob.residuals(base, w, o) - r0) / dz)
-    return np.column_stack(cols) if cols else np.zeros((r0.size, 0))
+    z0 = np.concatenate((np.asarray(base[:nb]) / factor, other))
+    if upper is None:
+        upper = np.full(z0.size, np.inf)
+
+    def split(z):
+        b = np.array(base, float)
+        b[:nb] = z[:nb] * factor
+        return tuple(b), z[nb:]
+
+    def stacked(zs):
+        return prob.stacked([split(z)[0] for z in zs], w, other)
+
+    def single(z):
+        return prob.residuals(base, w, z[nb:])
+
+    jac, _ = differences.jacobian(stacked, single, z0, differences.relative_steps(z0, upper),
+                                  nb, r0=r0)
+    return np.ascontiguousarray(jac)
 
 
 def _reduced(a, b):
@@ -505,3 +492,6 @@ class _HeldWeights:
 
     def residuals(self, base, x_other):
         return self.prob.residuals(base, self.w, np.asarray(x_other, float))
+
+    def stacked(self, bases, x_other):
+        return self.prob.stacked(bases, self.w, np.asarray(x_other, float))

@@ -14,7 +14,11 @@ constant), |mu_p(a) g + p| and its derivative in a are explicit and Newton's met
 solves it (:func:`_newton`), the least root by a scan and a bracketed Newton iteration
 (:func:`_first_root_newton`). Otherwise (a saturation maps M through its law) the secant
 method (:func:`_secant`) and regula falsi (:func:`_first_root`) need only the function.
-Both end where |err| is within 1e-13 of the modulus.
+Both end where |err| is within 1e-13 of the modulus, each run held from the iteration
+it gets there: a run's root does not depend on the runs solved with it (the diagnosis
+evaluates a point and its finite-difference steps as one batch,
+``smeha.diagnose.differences``; a run iterated on while others converged moved by up to
+that tolerance, 1e-5 of a derivative over a step of 1.5e-8).
 """
 from __future__ import annotations
 
@@ -162,7 +166,7 @@ def _first_root(err, a0, a_cap, modulus):
     Illinois modification (Dowell & Jarratt, BIT 11 (1971) 168-174).
     """
     top = np.minimum(a_cap, 4.0 * a0)
-    lo = np.full_like(a0, 1e-9 * np.max(a0))
+    lo = 1e-9 * np.asarray(a0, dtype=float)
     e_lo = err(lo)
     hi = np.full_like(a0, np.nan)
     e_hi = np.full_like(a0, np.nan)
@@ -181,11 +185,13 @@ def _first_root(err, a0, a_cap, modulus):
     e_hi = np.where(bracketed, e_hi, e_lo)
     side = np.zeros(np.shape(a0))
     a = lo
+    done = ~bracketed
     for _ in range(60):
-        a = np.where(e_hi != e_lo, (lo * e_hi - hi * e_lo) / np.where(e_hi != e_lo,
-                                                                       e_hi - e_lo, 1.0), lo)
+        a = np.where(done, a, np.where(e_hi != e_lo, (lo * e_hi - hi * e_lo) / np.where(
+            e_hi != e_lo, e_hi - e_lo, 1.0), lo))
         e = err(a)
-        if np.all(~bracketed | (np.abs(e) <= 1e-13 * modulus)):
+        done = done | (np.abs(e) <= 1e-13 * modulus)
+        if np.all(done):
             break
         up = e < 0.0
         # Illinois: halve the value kept at the end that stayed twice in a row
@@ -204,13 +210,15 @@ def _secant(err, a, modulus, gain_modulus):
     modulus, per run."""
     e0 = err(a)
     a1 = a * modulus / (e0 + modulus)
+    done = np.zeros(np.shape(a1), dtype=bool)
     for _ in range(30):
         e1 = err(a1)
-        if np.all(np.abs(e1) <= 1e-13 * modulus):
+        done = done | (np.abs(e1) <= 1e-13 * modulus)
+        if np.all(done):
             return a1, np.full(np.shape(a1), True)
         slope = np.where(a1 != a, (e1 - e0) / np.where(a1 != a, a1 - a, 1.0), gain_modulus)
         slope = np.where(slope > 0.0, slope, gain_modulus)  # |mu_p g + p| grows with a
-        a, e0, a1 = a1, e1, np.clip(a1 - e1 / slope, 0.5 * a1, 2.0 * a1)
+        a, e0, a1 = a1, e1, np.where(done, a1, np.clip(a1 - e1 / slope, 0.5 * a1, 2.0 * a1))
     return a1, np.abs(err(a1)) <= 1e-10 * modulus
 
 
@@ -236,7 +244,7 @@ def _first_root_newton(err, a0, a_cap, modulus):
     ed., 2007, sec. 9.4)."""
     a0 = np.asarray(a0, dtype=float)
     top = np.minimum(a_cap, 4.0 * a0)
-    tiny = np.full_like(a0, 1e-9 * np.max(a0))
+    tiny = 1e-9 * a0
     grid = np.concatenate((tiny[None], top[None] * (np.arange(1, ROOT_SCAN + 1)
                                                     / ROOT_SCAN).reshape((-1,) + (1,) * a0.ndim)))
     e = err(grid)[0]
@@ -252,16 +260,18 @@ def _first_root_newton(err, a0, a_cap, modulus):
     lo, hi = np.where(bracketed, lo, a0), np.where(bracketed, hi, a0)
     span = np.where(bracketed, e_hi - e_lo, 1.0)
     a = np.where(bracketed, lo - e_lo * (hi - lo) / span, a0)  # the chord's root
+    done = ~bracketed
     for _ in range(60):
         ea, slope = err(a)
-        if np.all(~bracketed | (np.abs(ea) <= 1e-13 * modulus)):
+        done = done | (np.abs(ea) <= 1e-13 * modulus)
+        if np.all(done):
             break
         below = ea < 0.0
         lo, hi = np.where(below, a, lo), np.where(below, hi, a)
         with np.errstate(divide="ignore", invalid="ignore"):
             step = a - ea / slope
         inside = np.isfinite(step) & (step > lo) & (step < hi)
-        a = np.where(bracketed, np.where(inside, step, 0.5 * (lo + hi)), a0)
+        a = np.where(done, a, np.where(inside, step, 0.5 * (lo + hi)))
     return a, bracketed
 
 
@@ -291,11 +301,13 @@ def uncapped_limit(loss, frequency, field_amplitude, loss_flux_factor=1.0):
     never = g_and_slope(np.full(shape, u_hi))[0] < 0.0
     always = g_and_slope(np.full(shape, u_lo))[0] >= 0.0
     u = np.full(shape, 0.0)
+    done = np.zeros(shape, dtype=bool)
     for _ in range(60):
         g, slope = g_and_slope(u)
         step = np.where(slope > 0, g / np.where(slope > 0, slope, 1.0), 0.0)
-        u = np.clip(u - step, u_lo, u_hi)
-        if np.all(np.abs(step) <= 1e-12):
+        u = np.where(done, u, np.clip(u - step, u_lo, u_hi))
+        done = done | (np.abs(step) <= 1e-12)
+        if np.all(done):
             break
     return np.where(never, np.inf, np.where(always, 1e-6, np.exp(u)))
 

@@ -1,0 +1,143 @@
+"""The diagnosis' finite differences with the base columns evaluated together.
+
+:mod:`smeha.diagnose.differences` claims the Jacobian scipy's least squares would take by
+its own forward differences ('2-point'), evaluated in fewer calls. The reference is scipy
+itself, :func:`scipy.optimize.least_squares` with ``jac="2-point"``: the Jacobian it
+returns when stopped at its first evaluation, and its iterates, on functions written here.
+The model's side of the claim, that the runs stacked once per base vector give each
+vector's residuals as one evaluation of it would, is checked on labsim data (an
+implementation apart from the candidates), bit for bit: a difference of one rounding in
+a residual is 1e-8 of a derivative over a step of 1.5e-8.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import least_squares
+
+import gmt
+from labsim_runs import runs as labsim_runs
+from smeha.diagnose import differences
+from smeha.diagnose.candidates import Batch, Candidate, Evaluator, candidates
+
+N_STACKED = 3
+
+
+def _model(z):
+    """A smooth vector function of 5 unknowns, 12 residuals (an exponential fit's)."""
+    t = np.linspace(0.0, 2.0, 12)
+    return z[0] * np.exp(-z[1] * t) + z[2] * np.sin(z[3] * t) + z[4] ** 2 * t - np.cos(t)
+
+
+def _stacked(points):
+    return np.array([_model(p) for p in points])
+
+
+BOUNDS = (np.array([0.0, -1.0, -np.inf, 0.5, 1.0]), np.array([5.0, 1.0, np.inf, 0.5 + 1e-9, 9.0]))
+
+
+@pytest.mark.parametrize("z", [
+    [1.0, 0.2, -3.0, 0.5 + 5e-10, 2.0],    # one unknown in a range narrower than its step
+    [5.0 - 1e-12, 1.0 - 1e-9, 0.0, 0.5, 9.0 - 1e-10],  # on and by upper bounds
+    [0.0, -1.0, 1e6, 0.5 + 1e-9, 1.0],     # on lower bounds, a large value
+])
+def test_the_steps_and_columns_are_scipys(z):
+    # scipy's Jacobian at its start (moved strictly inside the bounds by least_squares)
+    ref = least_squares(_model, np.array(z), bounds=BOUNDS, max_nfev=1)
+    steps = differences.scipy_steps(ref.x, *BOUNDS)
+    jac, r0 = differences.jacobian(_stacked, _model, ref.x, steps, N_STACKED)
+    np.testing.assert_array_equal(jac, ref.jac)
+    np.testing.assert_array_equal(r0, _model(ref.x))
+
+
+def test_least_squares_takes_the_same_path_as_with_its_own_differences():
+    # the Jacobian is handed over in scipy's memory order (its columns contiguous): the
+    # trust-region solver's products round as with its own, and the iterates agree to
+    # the bit (with the columns in C order they parted at the second step on the
+    # diagnosis' fits)
+    t = np.linspace(0.0, 3.0, 40)
+    data = 2.0 * np.exp(-0.7 * t) + 0.3 * np.sin(2.1 * t) + 0.01 * np.cos(17.0 * t)
+
+    def fun(z):
+        return z[0] * np.exp(-z[1] * t) + z[2] * np.sin(z[3] * t) - data
+
+    lo, hi = np.array([0.0, 0.0, -1.0, 1.0]), np.array([5.0, 3.0, 1.0, 4.0])
+
+    def jac(z):
+        return differences.jacobian(lambda ps: np.array([fun(p) for p in ps]), fun, z,
+                                    differences.scipy_steps(z, lo, hi), 2)[0]
+
+    z0 = np.array([1.0, 1e-12, 0.5, 3.0])
+    for max_nfev in (2, 5, 50):
+        ours = least_squares(fun, z0, jac=jac, bounds=(lo, hi), x_scale="jac",
+                             max_nfev=max_nfev, xtol=1e-12, ftol=1e-12)
+        theirs = least_squares(fun, z0, bounds=(lo, hi), x_scale="jac", max_nfev=max_nfev,
+                               xtol=1e-12, ftol=1e-12)
+        np.testing.assert_array_equal(ours.x, theirs.x)
+
+
+def test_relative_steps_and_chosen_columns():
+    # the rule of the linearisations in smeha.diagnose.linearfit and fit.predictive_chi2,
+    # written out here: 1e-6 max(|z|, 1e-3), backwards where it would pass the upper bound
+    z = np.array([2.0, 0.0, -3.0, 0.5, 1.0])
+    upper = np.array([np.inf, np.inf, np.inf, 0.5, np.inf])
+    steps = differences.relative_steps(z, upper)
+    np.testing.assert_array_equal(steps, [2e-6, 1e-9, 3e-6, -5e-7, 1e-6])
+    r0 = _model(z)
+    jac, _ = differences.jacobian(_stacked, _model, z, steps, N_STACKED, columns=[0, 3],
+                                  r0=r0)
+    for j in range(z.size):
+        if j in (0, 3):
+            zj = z.copy()
+            zj[j] += steps[j]
+            np.testing.assert_array_equal(jac[:, j], (_model(zj) - r0) / steps[j])
+        else:
+            assert not jac[:, j].any()
+
+
+@pytest.fixture(scope="module")
+def labsim_batch():
+    """Ten runs of labsim's Preisach hysteresis with coil heating, 100 samples a period,
+    three of them without a sense voltage, as the diagnosis' features."""
+    from smeha.diagnose.workflow import _usable_features
+
+    params = gmt.TransducerParameters()
+    data = labsim_runs({"rate_independent_hysteresis": 1.0, "thermal_drift": 1.0}, seed=4,
+                       noise_um=0.05, samples_per_cycle=100,
+                       formulations={"rate_independent_hysteresis": "preisach_random"})
+    for r in data[:3]:
+        r.sense_voltage = None
+    feats, _ = _usable_features(data, params)
+    rfs = list(feats.values())[:10]
+    hmax = max(params.field_per_ampere * rf.current_amplitude for rf in rfs)
+    return Evaluator(params, hmax), Batch(rfs)
+
+
+@pytest.mark.parametrize("label", ["paper", "rate_independent_hysteresis (preisach)",
+                                   "rate_independent_hysteresis ()",
+                                   "eddy_current_diffusion (cylinder_magnetization)",
+                                   "thermal_drift", "mechanical_resonance (two_dof)"])
+def test_each_stacked_copy_is_its_own_evaluation(labsim_batch, label):
+    ev, batch = labsim_batch
+    assert not batch.has_b.all() and batch.has_b.any()
+    cand = {c.label: c for c in candidates()}[label]
+    x = cand.starts()[1 if len(cand.starts()) > 1 else 0]
+    if label.endswith("(preisach)"):  # a density with weights (its starts have none)
+        x = tuple(x[:2]) + tuple(4e3 if k % 3 == 0 else v for k, v in enumerate(x[2:]))
+    base = (9.6e4, 1.84, 2.0e4, 2.0, 1.05)  # losses where the root is scanned for
+    bases = [base] + [tuple(v * (1.0 + 1.5e-8 * (i == j)) for i, v in enumerate(base))
+                      for j in range(5)] + [(1.2e5, 2.1, 1.0e3, 0.0, 0.9)]
+    rows = ev.residuals_stacked(batch, bases, cand, x)
+    assert rows.shape[0] == len(bases)
+    for b, row in zip(bases, rows):
+        np.testing.assert_array_equal(row, ev.residuals(batch, b, cand, x))
+
+
+def test_a_combination_stacked(labsim_batch):
+    ev, batch = labsim_batch
+    forms = {c.label: c.members[0] for c in candidates()[1:]}
+    cand = Candidate((forms["eddy_current_diffusion (slab)"], forms["thermal_drift"]))
+    x = cand.starts()[1]
+    bases = [(9.6e4, 1.84, 3.6e3, 2.0, 1.05), (9.6e4, 1.84 + 2e-8, 3.6e3, 2.0, 1.05)]
+    for b, row in zip(bases, ev.residuals_stacked(batch, bases, cand, x)):
+        np.testing.assert_array_equal(row, ev.residuals(batch, b, cand, x))
