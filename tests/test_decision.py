@@ -298,7 +298,7 @@ def test_a_density_combination_that_stopped_short_is_continued_while_it_gains(mo
     passes = iter([(1.19e5, 6.0e4), (1.18e5, 5.99e4), (1.0e5, 1.0e4)])
     calls = []
 
-    def fake_fit_all(ev, train, held, jobs, workers=None):
+    def fake_fit_all(ev, train, held, jobs, workers=None, costs=None):
         calls.append([job[0] for job in jobs])
         ref_chi2, combo_chi2 = next(passes)
         return [fit((hyst,), train=ref_chi2), fit((slab, hyst), train=combo_chi2)]
@@ -356,7 +356,7 @@ def test_a_magnetic_cause_beside_the_density_must_beat_the_density_on_a_finer_gr
     eddy = _cls("eddy_current_diffusion", "slab_magnetization")
     fitted = []
 
-    def fake_fit_all(ev, train, held, jobs, workers=None):
+    def fake_fit_all(ev, train, held, jobs, workers=None, costs=None):
         fitted.extend(job[0] for job in jobs)
         return [fit((finer_density,), b=24_605.0 - sum(N_PARTS))]
 
@@ -461,7 +461,7 @@ def test_beside_the_density_the_combinations_are_screened_and_the_best_fitted_in
                      "thermal_drift": 9.9e4}
     calls = []
 
-    def fake_fit_all(ev, train, held, jobs, workers=None):
+    def fake_fit_all(ev, train, held, jobs, workers=None, costs=None):
         calls.append(jobs)
         out = []
         for cand, base, starts, *screen in jobs:
@@ -489,6 +489,64 @@ def test_beside_the_density_the_combinations_are_screened_and_the_best_fitted_in
                     "mechanical_resonance", "thermal_drift"]
     assert [len(job) for job in fulls] == [3] * len(full)  # fitted in full, not screened
     assert [f.causes for f in screened] == [("rate_independent_hysteresis", "transport_delay")]
+
+
+@pytest.mark.parametrize("drops, speculated", [
+    ({"eddy_current_diffusion": 0.05}, True),          # a B-and-y cause moved the fit
+    ({"eddy_current_diffusion": 0.005}, False),        # too little to be named soon
+    ({"transport_delay": 0.05}, False),                # y only: the finer grid not asked
+])
+def test_a_screened_round_fits_the_finer_density_beside_its_full_fits(
+        monkeypatch, drops, speculated):
+    # joins.screened_round with a Refinement of the reference: where a kept combination's
+    # screen lowered the reference's training chi^2 by more than SPECULATE_FINER with a
+    # cause acting on B and y, the finer model is the first job of the full fits' batch
+    # (costliest first) and handed over: the Refinement does not fit it again
+    from smeha.diagnose.resolution import Refinement
+
+    hyst = _cls("rate_independent_hysteresis", "preisach")
+    added = [_cls("transport_delay"), _cls("eddy_current_diffusion", "slab_magnetization")]
+    reference = dataclasses.replace(fit((hyst,), train=1e5),
+                                    x=tuple(np.arange(hyst.fit.size, dtype=float)))
+    singles = [dataclasses.replace(fit((m,)), x=tuple(m.fit.starts[0])) for m in added]
+    calls = []
+
+    def fake_fit_all(ev, train, held, jobs, workers=None, costs=None):
+        calls.append((jobs, costs))
+        out = []
+        for cand, base, starts, *screen in jobs:
+            others = [m.cause for m in cand.members if m is not hyst]
+            drop = drops.get(others[0], 0.0) if others else 0.0
+            out.append(dataclasses.replace(fit(cand.members, train=1e5 * (1.0 - drop)),
+                                           x=tuple(starts[0]) if starts else (), seconds=1.0))
+        return out
+
+    monkeypatch.setattr(joins, "fit_all", fake_fit_all)
+    refinement = Refinement(None, None, None, reference)
+    full, _ = joins.screened_round(None, None, None, reference, reference, singles,
+                                   refinement=refinement)
+    assert len(full) == 2 and len(calls) == 2
+    jobs, costs = calls[1]
+    assert (len(jobs) == 3) is speculated
+    assert refinement.pending is not speculated
+    if speculated:
+        assert jobs[0] == refinement.job() and costs[0] == max(costs)
+        assert [m.form for m in refinement.finer.candidate.members] == ["preisach"]
+        assert len(calls) == 2  # not fitted again
+
+
+def test_fit_all_hands_out_the_costliest_first_and_keeps_the_job_order(monkeypatch):
+    # the longest-processing-time rule (smeha.diagnose.fit.fit_all's costs); in one
+    # process the jobs run in the order they are handed out
+    from smeha.diagnose import fit as fit_mod
+
+    ran = []
+    monkeypatch.setattr(fit_mod, "_fit_or_reason", lambda ev, train, held, name: ran.append(
+        name) or name.upper())
+    jobs = [("a",), ("b",), ("c",), ("d",)]
+    out = fit_mod.fit_all(None, None, None, jobs, workers=1, costs=[1.0, 5.0, 1.0, 3.0])
+    assert ran == ["b", "d", "a", "c"]  # ties in job order
+    assert out == ["A", "B", "C", "D"]
 
 
 def test_a_refused_cause_is_told_the_first_rule_it_fails_with_its_figures():

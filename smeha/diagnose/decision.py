@@ -176,14 +176,16 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
             # the few that fit best fitted in full (smeha.diagnose.joins.screened_round)
             reference = _settled(current, fit_all(ev, train, held, [refit_job(current)],
                                                   workers)[0])
+            finer = Refinement(ev, train, held, reference, workers)
             fits, screened = screened_round(ev, train, held, current, reference, singles,
-                                            workers)
+                                            workers, finer)
             screened_only += screened
         else:
             out = fit_all(ev, train, held, [refit_job(current)] + join_jobs(
                 ev, train, [(current, (), s) for s in singles]), workers)
             reference = _settled(current, out[0])
             fits = [f for f in out[1:] if isinstance(f, Fit)]
+            finer = Refinement(ev, train, held, reference, workers)
         round_fits = _rescued(ev, train, held, current, reference, fits, workers)
         tried += round_fits
         if not round_fits:
@@ -227,8 +229,8 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         if evident_leader is not None and all(evident_leader is not f for f in tries):
             tries.append(evident_leader)
         # and beside a discretised form (the density) a cause acting on its channels must
-        # beat that form on a finer grid (smeha.diagnose.resolution)
-        finer = Refinement(ev, train, held, reference, workers)
+        # beat that form on a finer grid (smeha.diagnose.resolution; `finer`, made with the
+        # round's reference, may hold it already)
 
         def refused(f, reference):
             return (refusal(paper, reference, f, other_forms, sense, timelike)

@@ -60,6 +60,20 @@ class Refinement:
         self._finer = None
 
     @property
+    def pending(self) -> bool:
+        """True while the finer model is not fitted and ``current`` has one."""
+        return self._finer is None and finer_candidate(self.current.candidate) is not None
+
+    def job(self) -> tuple:
+        """The finer model's fit job, for a caller that fits it beside others
+        (:func:`smeha.diagnose.joins.screened_round`), then hands it over (:meth:`given`)."""
+        return finer_job(self.current)
+
+    def given(self, fit) -> None:
+        """The finer model's fit (or the reason it failed) of :meth:`job`, fitted elsewhere."""
+        self._finer = fit
+
+    @property
     def finer(self):
         """The finer model's fit (or the reason its fit failed), fitted on first use."""
         if self._finer is None:
