@@ -20,9 +20,6 @@ from labsim_runs import runs as labsim_runs
 from smeha.diagnose import differences
 from smeha.diagnose.candidates import Batch, Candidate, Evaluator, candidates
 
-N_STACKED = 3
-
-
 def _model(z):
     """A smooth vector function of 5 unknowns, 12 residuals (an exponential fit's)."""
     t = np.linspace(0.0, 2.0, 12)
@@ -45,7 +42,7 @@ def test_the_steps_and_columns_are_scipys(z):
     # scipy's Jacobian at its start (moved strictly inside the bounds by least_squares)
     ref = least_squares(_model, np.array(z), bounds=BOUNDS, max_nfev=1)
     steps = differences.scipy_steps(ref.x, *BOUNDS)
-    jac, r0 = differences.jacobian(_stacked, _model, ref.x, steps, N_STACKED)
+    jac, r0 = differences.jacobian(_stacked, ref.x, steps)
     np.testing.assert_array_equal(jac, ref.jac)
     np.testing.assert_array_equal(r0, _model(ref.x))
 
@@ -64,8 +61,8 @@ def test_least_squares_takes_the_same_path_as_with_its_own_differences():
     lo, hi = np.array([0.0, 0.0, -1.0, 1.0]), np.array([5.0, 3.0, 1.0, 4.0])
 
     def jac(z):
-        return differences.jacobian(lambda ps: np.array([fun(p) for p in ps]), fun, z,
-                                    differences.scipy_steps(z, lo, hi), 2)[0]
+        return differences.jacobian(lambda ps: np.array([fun(p) for p in ps]), z,
+                                    differences.scipy_steps(z, lo, hi))[0]
 
     z0 = np.array([1.0, 1e-12, 0.5, 3.0])
     for max_nfev in (2, 5, 50):
@@ -84,7 +81,7 @@ def test_relative_steps_and_chosen_columns():
     steps = differences.relative_steps(z, upper)
     np.testing.assert_array_equal(steps, [2e-6, 1e-9, 3e-6, -5e-7, 1e-6])
     r0 = _model(z)
-    jac, _ = differences.jacobian(_stacked, _model, z, steps, N_STACKED, columns=[0, 3],
+    jac, _ = differences.jacobian(_stacked, z, steps, columns=[0, 3],
                                   r0=r0)
     for j in range(z.size):
         if j in (0, 3):
@@ -118,6 +115,9 @@ def labsim_batch():
                                    "eddy_current_diffusion (cylinder_magnetization)",
                                    "thermal_drift", "mechanical_resonance (two_dof)"])
 def test_each_stacked_copy_is_its_own_evaluation(labsim_batch, label):
+    # the points of a Jacobian: the base stepped in each unknown, the candidate's unknowns
+    # stepped each (per run where the form takes them so: the hysteresis operators), and a
+    # point far off
     ev, batch = labsim_batch
     assert not batch.has_b.all() and batch.has_b.any()
     cand = {c.label: c for c in candidates()}[label]
@@ -125,19 +125,31 @@ def test_each_stacked_copy_is_its_own_evaluation(labsim_batch, label):
     if label.endswith("(preisach)"):  # a density with weights (its starts have none)
         x = tuple(x[:2]) + tuple(4e3 if k % 3 == 0 else v for k, v in enumerate(x[2:]))
     base = (9.6e4, 1.84, 2.0e4, 2.0, 1.05)  # losses where the root is scanned for
-    bases = [base] + [tuple(v * (1.0 + 1.5e-8 * (i == j)) for i, v in enumerate(base))
-                      for j in range(5)] + [(1.2e5, 2.1, 1.0e3, 0.0, 0.9)]
-    rows = ev.residuals_stacked(batch, bases, cand, x)
-    assert rows.shape[0] == len(bases)
-    for b, row in zip(bases, rows):
-        np.testing.assert_array_equal(row, ev.residuals(batch, b, cand, x))
+    points = [(base, x)]
+    points += [(tuple(v * (1.0 + 1.5e-8 * (i == j)) for i, v in enumerate(base)), x)
+               for j in range(5)]
+    points += [(base, tuple(v + 1e-7 * (i == j) for i, v in enumerate(x)))
+               for j in range(min(len(x), 5))]
+    points += [((1.2e5, 2.1, 1.0e3, 0.0, 0.9), x)]
+    rows = ev.residuals_stacked(batch, points, cand)
+    assert rows.shape[0] == len(points)
+    for (b, xx), row in zip(points, rows):
+        np.testing.assert_array_equal(row, ev.residuals(batch, b, cand, xx))
 
 
 def test_a_combination_stacked(labsim_batch):
+    # the density's rate factor stepped (per run) beside a drift stepped (evaluated apart)
     ev, batch = labsim_batch
     forms = {c.label: c.members[0] for c in candidates()[1:]}
-    cand = Candidate((forms["eddy_current_diffusion (slab)"], forms["thermal_drift"]))
-    x = cand.starts()[1]
-    bases = [(9.6e4, 1.84, 3.6e3, 2.0, 1.05), (9.6e4, 1.84 + 2e-8, 3.6e3, 2.0, 1.05)]
-    for b, row in zip(bases, ev.residuals_stacked(batch, bases, cand, x)):
-        np.testing.assert_array_equal(row, ev.residuals(batch, b, cand, x))
+    cand = Candidate((forms["rate_independent_hysteresis (preisach)"],
+                      forms["thermal_drift"]))
+    x = np.array(cand.starts()[0], float)
+    x[2::4] = 3e3
+    base = (9.6e4, 1.84, 3.6e3, 2.0, 1.05)
+    points = [(base, tuple(x))]
+    for j in (0, 1, x.size - 3):
+        xj = x.copy()
+        xj[j] += 1e-7
+        points.append((base, tuple(xj)))
+    for (b, xx), row in zip(points, ev.residuals_stacked(batch, points, cand)):
+        np.testing.assert_array_equal(row, ev.residuals(batch, b, cand, xx))

@@ -27,8 +27,8 @@ class _LinearEvaluator:
         z = np.concatenate((np.asarray(base[:NB]) / self.factor[:NB], np.asarray(x)))
         return self.a @ z - self.d
 
-    def residuals_stacked(self, held, bases, cand, x):
-        return np.array([self.residuals(held, b, cand, x) for b in bases])
+    def residuals_stacked(self, held, points, cand):
+        return np.array([self.residuals(held, b, cand, x) for b, x in points])
 
 
 class _Candidate:

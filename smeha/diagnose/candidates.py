@@ -120,6 +120,24 @@ class Candidate:
         """(extension class, SI parameters) of each member for unknowns ``x``."""
         return tuple((m, m.from_fit(xm, context)) for m, xm in zip(self.members, self.split(x)))
 
+    def stacked_components(self, xs, context, runs):
+        """:meth:`components` for a batch of ``runs`` runs stacked once per x of ``xs``, copy
+        after copy (:meth:`Evaluator.residuals_stacked`): a member whose unknowns are the same
+        in every x as usual, one whose unknowns differ in its values per run
+        (``stack_values``), or None where such a member's form cannot take them per run."""
+        out = []
+        parts = [self.split(x) for x in xs]
+        for k, m in enumerate(self.members):
+            mine = [p[k] for p in parts]
+            if all(v == mine[0] for v in mine):
+                out.append((m, m.from_fit(mine[0], context)))
+                continue
+            values = m.stack_values([m.from_fit(v, context) for v in mine], runs)
+            if values is None:
+                return None
+            out.append((m, values))
+        return tuple(out)
+
     def parameters(self, x, context) -> dict:
         """The SI parameters: the member's, or by member variant name for a combination."""
         comps = self.components(x, context)
@@ -328,21 +346,38 @@ class Evaluator:
         predicted = self.predict(batch, base, cand, x, components=components)
         return _residual_rows(batch, predicted, 1)[0]
 
-    def residuals_stacked(self, batch: Batch, bases, cand: Candidate = PAPER, x=(),
+    def residuals_stacked(self, batch: Batch, points, cand: Candidate = PAPER,
                           components=None):
-        """:meth:`residuals` for each base vector of ``bases`` (the same ``x``), one row
-        each, (len(bases), n): all in one evaluation of the runs stacked
-        (:meth:`Batch.stacked`), which costs little more than one of ``batch`` (the work is
-        per call, not per run: the finite differences of the base unknowns,
-        :mod:`smeha.diagnose.differences`). ``components``: as :meth:`predict`'s, for the
-        stacked runs (per-run weights of a density)."""
-        copies = len(bases)
+        """:meth:`residuals` at each (base, x) of ``points``, one row each, (len(points), n):
+        in one evaluation of the runs stacked (:meth:`Batch.stacked`), which costs little
+        more than one of ``batch`` (the work is per call, not per run: the finite
+        differences of :mod:`smeha.diagnose.differences`). The base vectors enter per run;
+        so do the unknowns of a member whose form takes its parameters per run
+        (``stack_values``: :meth:`Candidate.stacked_components`); where the points differ in
+        another member's unknowns, one stacked evaluation per distinct x. ``components``:
+        as :meth:`predict`'s, for the stacked runs (per-run weights of a density; the
+        points' x are then not read)."""
+        copies = len(points)
+        bases = [tuple(b) for b, _ in points]
+        xs = [tuple(x) for _, x in points]
+        if components is None:
+            components = (cand.components(xs[0], self.context) if len(set(xs)) == 1
+                          else cand.stacked_components(xs, self.context, len(batch)))
+        if components is None:
+            out = None
+            for x in dict.fromkeys(xs):
+                idx = [i for i, xi in enumerate(xs) if xi == x]
+                rows = self.residuals_stacked(batch, [points[i] for i in idx], cand)
+                if out is None:
+                    out = np.empty((copies, rows.shape[1]))
+                out[idx] = rows
+            return out
         stack = batch.stacked(copies)
-        if all(tuple(b) == tuple(bases[0]) for b in bases):
-            base = tuple(bases[0])
+        if len(set(bases)) == 1:
+            base = bases[0]
         else:
             base = tuple(np.repeat(np.asarray(col, float), len(batch)) for col in zip(*bases))
-        predicted = self.predict(stack, base, cand, x, components=components)
+        predicted = self.predict(stack, base, cand, (), components=components)
         return _residual_rows(stack, predicted, copies)
 
     def parts(self, batch: Batch, base, cand: Candidate = PAPER, x=()):

@@ -10,8 +10,9 @@ so the point and its steps in the base unknowns are evaluated as one batch of th
 stacked once per step (:meth:`smeha.diagnose.candidates.Evaluator.residuals_stacked`).
 On labsim's Preisach density with eddy diffusion (10 training runs), one evaluation of
 the paper's model took 0.091 ms and the same for 8 copies of the runs 0.107 ms; the
-density's 1.24 ms and 1.57 ms. The candidate's own unknowns change the extensions' parameters,
-which are numbers for all runs: their columns take one evaluation each.
+density's 1.24 ms and 1.57 ms. The candidate's own unknowns change its extensions'
+parameters: stacked too where the form takes them per run (the hysteresis operators'
+``stack_values``), one evaluation each otherwise.
 
 The columns are those of the steps given (each column's difference over its step), so
 the Jacobian is the one the fit's own rule of steps gives, evaluated in fewer calls:
@@ -53,21 +54,19 @@ def relative_steps(z, upper) -> np.ndarray:
     return np.where(z + h > np.asarray(upper, float), -h, h)
 
 
-def jacobian(stacked, single, z, steps, n_stacked, columns=None, r0=None) -> tuple:
+def jacobian(stacked, z, steps, columns=None, r0=None) -> tuple:
     """(J, r(z)): d r / d z by forward differences over ``steps``.
 
-    ``stacked(zs)`` gives the residuals of several vectors that differ only in their
-    first ``n_stacked`` entries, one row each (:meth:`smeha.diagnose.candidates.
-    Evaluator.residuals_stacked`); ``single(z)`` the residuals of one. ``columns``: the
-    indices of the columns wanted (default all; the others are zero). ``r0``: r(z) where
-    the caller has it, else the stacked evaluation's first row.
+    ``stacked(zs)`` gives the residuals of several vectors, one row each, in as few
+    evaluations as their differences allow (:meth:`smeha.diagnose.candidates.Evaluator.
+    residuals_stacked`). ``columns``: the indices of the columns wanted (default all; the
+    others are zero). ``r0``: r(z) where the caller has it, else evaluated with the steps.
     """
     z = np.asarray(z, float)
     steps = np.asarray(steps, float)
     wanted = np.arange(z.size) if columns is None else np.asarray(columns, int)
-    front = [j for j in wanted if j < n_stacked]
     points = [] if r0 is not None else [z]
-    for j in front:
+    for j in wanted:
         zj = z.copy()
         zj[j] += steps[j]
         points.append(zj)
@@ -78,11 +77,6 @@ def jacobian(stacked, single, z, steps, n_stacked, columns=None, r0=None) -> tup
     # built by columns and returned transposed (Fortran order), as scipy's differences
     # are: the trust-region solver's products then round as they do with scipy's own
     columns_first = np.zeros((z.size, r0.size))
-    for k, j in enumerate(front):
+    for k, j in enumerate(wanted):
         columns_first[j] = (rows[k] - r0) / steps[j]
-    for j in wanted:
-        if j >= n_stacked:
-            zj = z.copy()
-            zj[j] += steps[j]
-            columns_first[j] = (single(zj) - r0) / steps[j]
     return columns_first.T, r0

@@ -242,8 +242,8 @@ class _Training:
     def residuals(self, base, x):
         return self.ev.residuals(self.train, base, self.cand, x)
 
-    def stacked(self, bases, x):
-        return self.ev.residuals_stacked(self.train, bases, self.cand, x)
+    def stacked(self, points):
+        return self.ev.residuals_stacked(self.train, points, self.cand)
 
 
 def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=None,
@@ -255,11 +255,10 @@ def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=No
     vectors (e.g. a combination started from its members' fitted values).
     ``cov`` is the covariance (J^T J)^-1 of the unknowns (the base ones over
     :func:`base_factor`, then the candidate's), [-]. ``problem`` replaces the training
-    residuals of ``cand``: an object with ``residuals(base, x)`` and ``stacked(bases,
-    x)`` (one row per base vector; the linear family's fit holds its weights in it,
+    residuals of ``cand``: an object with ``residuals(base, x)`` and ``stacked(points)``
+    (one row per (base, x); the linear family's fit holds its weights in it,
     :mod:`smeha.diagnose.linearfit`). The Jacobian is scipy's forward differences
-    ('2-point'), its base columns evaluated together
-    (:mod:`smeha.diagnose.differences`).
+    ('2-point'), its columns evaluated together (:mod:`smeha.diagnose.differences`).
     """
     nb = len(BASE_LOWER)
     factor = base_factor(base0)
@@ -273,11 +272,10 @@ def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=No
         return problem.residuals(*_split(z, nb, base0, factor))
 
     def stacked(zs):
-        return problem.stacked([_split(z, nb, base0, factor)[0] for z in zs],
-                               _split(zs[0], nb, base0, factor)[1])
+        return problem.stacked([_split(z, nb, base0, factor) for z in zs])
 
     def jac(z):
-        return jacobian(stacked, fun, z, scipy_steps(z, lo, hi), nb)[0]
+        return jacobian(stacked, z, scipy_steps(z, lo, hi))[0]
 
     best = None
     for start in (starts if starts is not None else cand.starts()):
@@ -322,19 +320,14 @@ def predictive_chi2(ev: Evaluator, held: Batch, cand: Candidate, base, x, cov) -
     z0 = np.concatenate((np.asarray(base[:nb]) / factor[:nb], np.asarray(x, float)))
     upper = np.concatenate((BASE_UPPER[:nb], cand.upper))
 
-    def res(z):
-        b, xx = _split(z, nb, base, factor)
-        return ev.residuals(held, b, cand, xx)
-
     def stacked(zs):
-        return ev.residuals_stacked(held, [_split(z, nb, base, factor)[0] for z in zs], cand,
-                                    _split(zs[0], nb, base, factor)[1])
+        return ev.residuals_stacked(held, [_split(z, nb, base, factor) for z in zs], cand)
 
     # an unknown the fit held (a density's weight at zero: its row and column of cov are
     # zero, smeha.diagnose.linearfit) adds nothing to J Cov J^T: its column is not needed
     # (most of a density's weights; each column costs a held-out evaluation); steps into
     # the allowed range
-    jac, r = jacobian(stacked, res, z0, relative_steps(z0, upper), nb,
+    jac, r = jacobian(stacked, z0, relative_steps(z0, upper),
                       columns=np.flatnonzero(np.any(cov != 0.0, axis=1)))
     jac = np.ascontiguousarray(jac)  # C order: the products round as before the stacking
     c = np.eye(r.size) + jac @ cov @ jac.T

@@ -109,9 +109,11 @@ class _Problem:
     def residuals(self, base, w, other):
         return self.ev.residuals(self.train, base, self.cand, self.x_of(w, other))
 
-    def stacked(self, bases, w, other):
-        """:meth:`residuals` of each base vector of ``bases``, one row each."""
-        return self.ev.residuals_stacked(self.train, bases, self.cand, self.x_of(w, other))
+    def stacked(self, points, w):
+        """:meth:`residuals` at each (base, other) of ``points``, the weights ``w``, one row
+        each."""
+        return self.ev.residuals_stacked(
+            self.train, [(b, self.x_of(w, o)) for b, o in points], self.cand)
 
     def jacobian(self, base, w, other, r0):
         """d r / d w by finite differences, every column in one evaluation: the training
@@ -123,7 +125,7 @@ class _Problem:
         cls, values = comps[lin]
         rows = np.repeat(np.eye(nw) * WEIGHT_STEP + w, len(runs), axis=0)
         comps[lin] = (cls, dict(values, weights_A_per_m=rows))
-        r = self.ev.residuals_stacked(self.train, [base] * nw, self.cand, (),
+        r = self.ev.residuals_stacked(self.train, [(base, ())] * nw, self.cand,
                                       components=tuple(comps))
         return ((r - r0[None, :]) / WEIGHT_STEP).T
 
@@ -334,18 +336,16 @@ def _unknowns_jacobian(prob, base, w, other, factor, r0, upper=None):
         upper = np.full(z0.size, np.inf)
 
     def split(z):
+        if np.array_equal(z[:nb], z0[:nb]):  # a step in the other unknowns: base as it is
+            return tuple(base), z[nb:]
         b = np.array(base, float)
         b[:nb] = z[:nb] * factor
         return tuple(b), z[nb:]
 
     def stacked(zs):
-        return prob.stacked([split(z)[0] for z in zs], w, other)
+        return prob.stacked([split(z) for z in zs], w)
 
-    def single(z):
-        return prob.residuals(base, w, z[nb:])
-
-    jac, _ = differences.jacobian(stacked, single, z0, differences.relative_steps(z0, upper),
-                                  nb, r0=r0)
+    jac, _ = differences.jacobian(stacked, z0, differences.relative_steps(z0, upper), r0=r0)
     return np.ascontiguousarray(jac)
 
 
@@ -493,5 +493,5 @@ class _HeldWeights:
     def residuals(self, base, x_other):
         return self.prob.residuals(base, self.w, np.asarray(x_other, float))
 
-    def stacked(self, bases, x_other):
-        return self.prob.stacked(bases, self.w, np.asarray(x_other, float))
+    def stacked(self, points):
+        return self.prob.stacked([(b, np.asarray(o, float)) for b, o in points], self.w)

@@ -300,6 +300,14 @@ class Extension:
         raise NotImplementedError
 
     @classmethod
+    def stack_values(cls, values_list, runs):
+        """The SI parameters of a batch of runs stacked once per entry of ``values_list``
+        (``runs`` runs a copy, copy after copy), as the periodic form reads them with one
+        value per run; None (the default) where the form takes its parameters for all
+        runs only (the diagnosis then evaluates each copy apart)."""
+        return None
+
+    @classmethod
     def at_bounds(cls, x, tolerance=1e-3) -> tuple:
         """Names of the unknowns within ``tolerance`` of the bound range of a bound."""
         out = []

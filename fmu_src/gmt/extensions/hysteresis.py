@@ -61,11 +61,16 @@ from .magnetic import MagnetizationStage
 PLAY_GRID = (0.005, 1.0, 40)
 
 
+@functools.lru_cache(maxsize=8)
 def play_thresholds(field_max, grid=PLAY_GRID):
-    """The diagnosis' play thresholds r_j and their widths dr_j for H_max [A/m], [A/m]."""
+    """The diagnosis' play thresholds r_j and their widths dr_j for H_max [A/m], [A/m]
+    (read-only; cached: every evaluation of the form asks)."""
     low, high, count = grid
     edges = field_max * np.geomspace(low, high, count + 1)
-    return np.sqrt(edges[1:] * edges[:-1]), np.diff(edges)
+    out = np.sqrt(edges[1:] * edges[:-1]), np.diff(edges)
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 @dataclass(frozen=True)
@@ -129,11 +134,16 @@ class PrandtlIshlinskii:
         phase : array
             theta, [rad].
         """
+        return self.play_outputs(field_amplitude, phase) @ np.asarray(self.weights,
+                                                                      dtype=float)
+
+    def play_outputs(self, field_amplitude, phase):
+        """The plays' periodic outputs (:meth:`periodic` before the weights), shape of the
+        broadcast inputs + (plays,), [A/m]."""
         hm, th = np.broadcast_arrays(np.asarray(field_amplitude, dtype=float),
                                      np.mod(np.asarray(phase, dtype=float), 2 * np.pi))
-        z = _play_outputs(tuple(float(r) for r in self.thresholds), hm.shape,
-                          hm.tobytes(), th.tobytes())
-        return z @ np.asarray(self.weights, dtype=float)
+        return _play_outputs(tuple(float(r) for r in self.thresholds), hm.shape,
+                             hm.tobytes(), th.tobytes())
 
 
 @functools.lru_cache(maxsize=16)
@@ -194,6 +204,16 @@ class HysteresisForm(MagnetizationStage, Extension):
                 "weights": [float(v) for v in x[0] * p / p.sum()]}
 
     @classmethod
+    def stack_values(cls, values_list, runs):
+        """One row of weights a run (the thresholds are the data's, the same in each)."""
+        thresholds = values_list[0]["thresholds_A_per_m"]
+        if any(v["thresholds_A_per_m"] != thresholds for v in values_list):
+            return None
+        return {"thresholds_A_per_m": thresholds,
+                "weights": np.repeat(np.array([v["weights"] for v in values_list], float),
+                                     runs, axis=0)}
+
+    @classmethod
     def at_bounds(cls, x, tolerance=1e-3):
         # chi = 0 is the paper's model (no hysteresis), not a bound pressed on
         return tuple(n for n in super().at_bounds(x, tolerance)
@@ -206,7 +226,18 @@ class HysteresisForm(MagnetizationStage, Extension):
             return magnetization + memo["output"]
         sw = np.asarray(steady.switching_gain)[..., None]  # the field stage's
         hm = np.asarray(steady.field_amplitude)[..., None]
-        out = cls.operator_of(values).periodic(np.abs(sw) * hm, theta + np.angle(sw))
+        w = np.asarray(values["weights"], float)
+        if w.ndim == 1:
+            out = cls.operator_of(values).periodic(np.abs(sw) * hm, theta + np.angle(sw))
+        else:  # a row of weights a run (stack_values): the plays' outputs weighted per row
+            plays = PrandtlIshlinskii(tuple(values["thresholds_A_per_m"]), tuple(w[0]))
+            z = plays.play_outputs(np.abs(sw) * hm, theta + np.angle(sw))
+            out = np.empty(z.shape[:-1])
+            groups = {}
+            for i, row in enumerate(w):
+                groups.setdefault(row.tobytes(), []).append(i)
+            for idx in groups.values():
+                out[idx] = z[idx] @ w[idx[0]]
         if memo is not None:
             memo["output"] = out
         return magnetization + out

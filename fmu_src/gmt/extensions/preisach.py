@@ -111,12 +111,17 @@ SUBGRID = 6
 PERIODIC_HARMONICS = 24
 
 
+@functools.lru_cache(maxsize=8)
 def node_grid(field_max, coercive=COERCIVE_GRID, interaction=INTERACTION_GRID):
-    """(h_c nodes, h_u nodes) for H_max [A/m], [A/m]."""
+    """(h_c nodes, h_u nodes) for H_max [A/m], [A/m] (read-only; cached: every evaluation
+    of the form asks)."""
     c0, c1, nc = coercive
     u0, u1, nu = interaction
-    return (field_max * np.geomspace(c0, c1, int(nc)),
-            field_max * np.linspace(u0, u1, int(nu)))
+    out = (field_max * np.geomspace(c0, c1, int(nc)),
+           field_max * np.linspace(u0, u1, int(nu)))
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 def refined_weights(weights, grid, finer_grid):
@@ -409,11 +414,31 @@ class PreisachForm(MagnetizationStage, Extension):
 
     @staticmethod
     def rate_factor(values, frequency):
-        """g(f) = 1 / (1 + (f/f_r)^q): the share of the population that switches at f, [-]."""
+        """g(f) = 1 / (1 + (f/f_r)^q): the share of the population that switches at f, [-]
+        (f_r and q may be given per run, :meth:`stack_values`)."""
         fr, q = values["rate_frequency_Hz"], values["rate_exponent"]
+        f = np.asarray(frequency, float)
+        if np.ndim(fr) or np.ndim(q):
+            fr, q = np.asarray(fr, float), np.asarray(q, float)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                return np.where(np.isinf(fr), 1.0, 1.0 / (1.0 + (f / fr) ** q))
         if math.isinf(fr):
-            return np.ones_like(np.asarray(frequency, float))
-        return 1.0 / (1.0 + (np.asarray(frequency, float) / fr) ** q)
+            return np.ones_like(f)
+        return 1.0 / (1.0 + (f / fr) ** q)
+
+    @classmethod
+    def stack_values(cls, values_list, runs):
+        """f_r and q per run, where the copies share the weights and the grid (weights per
+        run are a matrix product over the runs, which rounds otherwise than a run's own:
+        a copy would not be its own evaluation to the bit; None then)."""
+        first = values_list[0]
+        keys = ("coercive_fields_A_per_m", "interaction_fields_A_per_m", "weights_A_per_m")
+        if any(v[k] != first[k] for v in values_list for k in keys):
+            return None
+        out = dict(first)
+        for key in ("rate_frequency_Hz", "rate_exponent"):
+            out[key] = np.repeat(np.array([v[key] for v in values_list], float), runs)
+        return out
 
     @classmethod
     def smoothness(cls):
