@@ -40,6 +40,7 @@ BENCHMARKS = {
     "timedomain_step_cost": ([], ["--runs", "2", "--steps", "3000"]),
     "blas_threads": ([], ["--rows", "4000", "--repeat", "3"]),
     "bounded_solve": ([], ["--problems", "20"]),
+    "stacked_differences": (["--diagnose"], ["--repeats", "1"]),
 }
 
 
