@@ -153,3 +153,15 @@ def test_a_combination_stacked(labsim_batch):
         points.append((base, tuple(xj)))
     for (b, xx), row in zip(points, ev.residuals_stacked(batch, points, cand)):
         np.testing.assert_array_equal(row, ev.residuals(batch, b, cand, xx))
+
+
+def test_stacked_batches_are_kept_within_their_bound(labsim_batch):
+    # Batch.stacked: one copy is the batch itself; the last STACKS_KEPT sizes are kept
+    _, batch = labsim_batch
+    assert batch.stacked(1) is batch
+    first = batch.stacked(2)
+    assert batch.stacked(2) is first
+    np.testing.assert_array_equal(first.y, np.vstack((batch.y, batch.y)))
+    for copies in range(3, 3 + Batch.STACKS_KEPT):
+        batch.stacked(copies)
+    assert len(batch._stacks) == Batch.STACKS_KEPT and 2 not in batch._stacks

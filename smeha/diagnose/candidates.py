@@ -207,11 +207,19 @@ class Batch:
     def __len__(self):
         return len(self.runs)
 
+    #: Stacked batches kept (:meth:`stacked`), the most recently made.
+    STACKS_KEPT = 8
+
     def stacked(self, copies: int) -> "Batch":
         """These runs ``copies`` times over, copy after copy (one evaluation of several
-        parameter vectors, :meth:`Evaluator.residuals_stacked`); kept for the next call."""
+        parameter vectors, :meth:`Evaluator.residuals_stacked`); the last
+        :data:`STACKS_KEPT` sizes are kept for the next calls."""
+        if copies == 1:
+            return self
         cache = self.__dict__.setdefault("_stacks", {})
         if copies not in cache:
+            while len(cache) >= self.STACKS_KEPT:
+                cache.pop(next(iter(cache)))
             out = Batch.__new__(Batch)
             out.runs = self.runs * copies
             for name in ("frequency", "current_amplitude", "flux_density_amplitude", "has_b",
