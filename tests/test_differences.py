@@ -156,8 +156,8 @@ def test_a_combination_stacked(labsim_batch):
 
 
 def test_stacked_batches_are_kept_within_their_bound(labsim_batch):
-    # Batch.stacked: one copy is the batch itself; the last STACKS_KEPT sizes are kept
-    _, batch = labsim_batch
+    # Batch.stacked: one copy is the batch itself; the last STACKS_KEPT sizes made are kept
+    batch = Batch(labsim_batch[1].runs)  # its own, nothing stacked yet
     assert batch.stacked(1) is batch
     first = batch.stacked(2)
     assert batch.stacked(2) is first
