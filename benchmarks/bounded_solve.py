@@ -36,19 +36,16 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "fmu_src"), str(ROOT)]
 
-FORMULATIONS = {"rate_independent_hysteresis": "preisach_random",
-                "eddy_current_diffusion": "diffusion_random"}
-
 
 def record_problems(effects, seed, samples_per_cycle, limit):
     """The bounded problems (a, b, lower, upper) of one diagnosis, up to ``limit``."""
-    from labsim_runs import runs
+    from labsim_runs import TEXTBOOK_FORMULATIONS, runs
 
     from smeha import diagnose
     from smeha.diagnose import linearfit
 
     data = runs({e: 1.0 for e in effects}, seed=seed, noise_um=0.05,
-                samples_per_cycle=samples_per_cycle, formulations=FORMULATIONS)
+                samples_per_cycle=samples_per_cycle, formulations=TEXTBOOK_FORMULATIONS)
     problems = []
     solve = linearfit.bounded_least_squares
 

@@ -40,31 +40,21 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "fmu_src"), str(ROOT)]
 
-FORMULATIONS = {"rate_independent_hysteresis": "preisach_random",
-                "eddy_current_diffusion": "diffusion_random"}
-
 
 def _data(effects, seed, samples_per_cycle):
-    from labsim_runs import runs
+    from labsim_runs import TEXTBOOK_FORMULATIONS, runs
 
     return runs({e: 1.0 for e in effects}, seed=seed, noise_um=0.05,
-                samples_per_cycle=samples_per_cycle, formulations=FORMULATIONS)
+                samples_per_cycle=samples_per_cycle, formulations=TEXTBOOK_FORMULATIONS)
 
 
 def _problem(data):
-    """(evaluator, training batch, the paper's base values) as the diagnosis builds them."""
+    """(evaluator, training batch, base start values) as the diagnosis prepares them."""
     import gmt
-    from smeha.diagnose import workflow
-    from smeha.diagnose.candidates import Batch, Evaluator
+    from smeha.diagnose.workflow import _prepared
 
-    params = gmt.TransducerParameters()
-    feats, skipped = workflow._usable_features(data, params)
-    _, train_runs = workflow._heldout_and_training(data, feats, skipped, None)
-    hmax = max(params.field_per_ampere * rf.current_amplitude for rf in feats.values())
-    ev = Evaluator(params, hmax)
-    base0 = workflow._loss_start(train_runs, params) + (1.0,)
-    workflow.propagate_errors(ev, feats.values(), base0)
-    return ev, Batch([feats[r.name] for r in train_runs]), base0
+    _, _, _, _, ev, base0, train, _ = _prepared(data, None, gmt.TransducerParameters())
+    return ev, train, base0
 
 
 def _median_time(fn, repeats):

@@ -1,4 +1,4 @@
-"""Forward-difference Jacobians whose base columns are evaluated together.
+"""Forward-difference Jacobians whose columns are evaluated together.
 
 Every fit of the diagnosis linearises its residuals in the base unknowns (eq 16's loss
 coefficients and the strain scale s: :mod:`smeha.diagnose.fit`) and in the candidate's

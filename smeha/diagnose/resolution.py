@@ -77,7 +77,7 @@ class Refinement:
     def finer(self):
         """The finer model's fit (or the reason its fit failed), fitted on first use."""
         if self._finer is None:
-            self._finer = fit_all(*self._args, [finer_job(self.current)], self.workers)[0]
+            self._finer = fit_all(*self._args, [self.job()], self.workers)[0]
         return self._finer
 
     def passed_by(self, new: Fit, added) -> bool:

@@ -276,11 +276,10 @@ def diagnose(runs, holdout=None, params: gmt.TransducerParameters | None = None,
         return _diagnose(runs, holdout, params, causes, workers)
 
 
-def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
-    """:func:`diagnose` on checked arguments."""
-    from .report import characterise, evidence
-
-    check_plausible(runs, params)
+def _prepared(runs, holdout, params) -> tuple:
+    """What every fit of a diagnosis shares, from plausible runs: (features by run name,
+    skipped runs, held-out names, training runs, the evaluator, the base start values
+    (K_h, n, K_e, K_ex, s), the training batch, the held-out batch)."""
     feats, skipped = _usable_features(runs, params)
     holdout, train_runs = _heldout_and_training(runs, feats, skipped, holdout)
     hmax = max(params.field_per_ampere * rf.current_amplitude for rf in feats.values())
@@ -289,7 +288,17 @@ def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
     propagate_errors(ev, feats.values(), base0)
     train = Batch([feats[r.name] for r in train_runs])
     held = Batch([feats[h] for h in holdout])
-    context = {"params": params, "field_max": hmax, "evaluator": ev,
+    return feats, skipped, holdout, train_runs, ev, base0, train, held
+
+
+def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
+    """:func:`diagnose` on checked arguments."""
+    from .report import characterise, evidence
+
+    check_plausible(runs, params)
+    feats, skipped, holdout, train_runs, ev, base0, train, held = _prepared(runs, holdout,
+                                                                           params)
+    context = {"params": params, "field_max": ev.field_max, "evaluator": ev,
                "features": feats}
     # the strain scale s is fitted with or without a sense voltage: without one each run's
     # B_m follows y's fundamental, and s shows in the harmonics' ratio to it (eq 25's
