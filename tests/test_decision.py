@@ -361,7 +361,8 @@ def test_a_magnetic_cause_beside_the_density_must_beat_the_density_on_a_finer_gr
         return [fit((finer_density,), b=24_605.0 - sum(N_PARTS))]
 
     monkeypatch.setattr(resolution, "fit_all", fake_fit_all)
-    alone = fit((density,), b=195_609.0)
+    uniform = (3.0, 2.5) + tuple(100.0 * _cells(11, 19).ravel())
+    alone = dataclasses.replace(fit((density,), b=195_609.0), x=uniform)
     check = resolution.Refinement(None, None, None, alone)
     assert check.passed_by(fit((density, _cls("transport_delay")), b=1000.0),
                            _cls("transport_delay"))
@@ -387,18 +388,19 @@ def _cells(nc, nu):
     return np.outer(axis(nc), axis(nu))
 
 
-def test_the_finer_model_of_a_combination_starts_from_its_own_values():
-    # smeha.diagnose.resolution.finer_job: in a combination the other member keeps its
-    # fitted values and the density's rate factor is carried as it is, its weights to the
-    # finer grid (1.5 times the nodes along each axis: 16 x 28 = 448 weights for 11 x 19);
-    # a single density is fitted from its own starts (no start given)
+def test_the_finer_model_starts_from_the_fitted_values():
+    # smeha.diagnose.resolution.finer_job: the other member keeps its fitted values and the
+    # density's rate factor is carried as it is, its weights projected on the finer grid
+    # (1.5 times the nodes along each axis: 16 x 28 = 448 weights for 11 x 19;
+    # projected_weights, checked against relays switched in time in test_preisach); a
+    # single density starts there too (until 2026-11-29 from its own starts)
+    from gmt.extensions.preisach import projected_weights
     from smeha.diagnose import resolution
     density = _cls("rate_independent_hysteresis", "preisach")
     saturation = _cls("magnetization_saturation")
     cand = Candidate((density, saturation))
-    # a uniform density: each node's weight its cell, half a spacing at the grid's ends
-    x = ((3.0, 2.5) + tuple(100.0 * _cells(11, 19).ravel())
-         + tuple(0.1 * (k + 1) for k in range(saturation.fit.size)))
+    weights = 100.0 * _cells(11, 19).ravel()
+    x = ((3.0, 2.5) + tuple(weights) + tuple(0.1 * (k + 1) for k in range(saturation.fit.size)))
     pair = dataclasses.replace(fit((density, saturation)), candidate=cand, x=x)
     finer_cand, base, starts = resolution.finer_job(pair)
     assert finer_cand == Candidate((density.finer, saturation)) and base == pair.base
@@ -407,12 +409,11 @@ def test_the_finer_model_of_a_combination_starts_from_its_own_values():
     assert len(own[density.finer]) == 2 + 16 * 28
     assert own[density.finer][:2] == (3.0, 2.5)
     assert own[saturation] == x[density.fit.size:]
-    # it stays uniform, each finer node holding the share of its smaller cell: (10/15) x
-    # (18/27) of a coarse node's (the spacings' ratio along ln h_c and h_u)
-    assert np.allclose(own[density.finer][2:],
-                       100.0 * (10 / 15) * (18 / 27) * _cells(16, 28).ravel(), rtol=1e-12)
+    projected = projected_weights(weights, density.grid, density.finer.grid)
+    assert np.array_equal(own[density.finer][2:], projected)
     alone = dataclasses.replace(fit((density,)), x=x[:density.fit.size])
-    assert resolution.finer_job(alone) == (Candidate((density.finer,)), alone.base, None)
+    assert resolution.finer_job(alone) == (Candidate((density.finer,)), alone.base,
+                                           [(3.0, 2.5) + tuple(projected)])
 
 
 def test_a_joined_cause_starts_where_the_training_chi2_is_least():

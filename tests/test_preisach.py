@@ -15,7 +15,7 @@ import pytest
 import gmt
 from gmt.extensions.preisach import (COERCIVE_GRID, INTERACTION_GRID, FinerPreisachForm,
                                      PreisachForm, _relays, node_grid, node_harmonics,
-                                     refined_weights, relay_harmonics, synthesise)
+                                     projected_weights, relay_harmonics, synthesise)
 from smeha.diagnose.linearfit import effective_dof
 
 H_MAX = 14000.0
@@ -88,30 +88,37 @@ def test_periodic_output_of_several_runs_matches_relays_switched_in_time():
 @pytest.mark.parametrize("spread", [0.3, 1.0])
 def test_a_density_carried_to_the_finer_grid_is_the_same_population(spread):
     # a smooth population (log-normal in h_c about 0.3 H_max, normal in h_u about
-    # 0.05 H_max) on the diagnosis' grid, and refined_weights' weights for it on the finer
-    # one, each switched relay by relay over two periods (stepped_relays, not the closed
-    # form): the same loop. Bilinear interpolation of a density that varies over one
-    # coercive cell (0.35 in ln h_c) misses by the cell's curvature: within 4 % of the
-    # swing (3.1 % measured at 0.4 H_max, most of it a constant: the relays that drive
-    # leaves unswitched hold their demagnetised state, which flips at h_u = 0, where the
-    # two grids' cells differ; 1.2 % at H_max); the total weight (the
-    # saturation magnetisation, a trapezoid sum on either grid) within 0.5 % (0.15 %
-    # measured: the two sums of a density that curves within a cell differ by that)
+    # 0.05 H_max) on the diagnosis' grid, and projected_weights' weights for it on the
+    # finer one, each switched relay by relay over two periods (stepped_relays, not the
+    # closed form the projection matches): the same loops at every drive level. The
+    # finer grid's relays sit elsewhere, so a density that curves within one coarse cell
+    # (0.35 in ln h_c) is matched, not reproduced. Measured: within 1.03 % of the H_max
+    # loop's swing at 0.1-1 H_max (tolerance 1.5 %); of each loop's own swing 2.4 % at
+    # 0.4 H_max and 0.8 % at H_max (tolerance 3 %; bilinear interpolation of the density,
+    # the carrying before 2026-11-29, measured 3.1 % and 1.2 %). The total weight (the
+    # saturation magnetisation) is not matched as such, only the outputs, and the relays
+    # by the triangle's edge switch at H_max alone: within 1 % (0.02 % and 0.48 %)
     hc, hu = node_grid(1.0)
     c, u = np.meshgrid(np.log(hc), hu, indexing="ij")
     w = np.exp(-(c - math.log(0.3)) ** 2 / spread - (u - 0.05) ** 2 / (0.1 * spread)).ravel()
     w *= 1e5 / w.sum()
-    fine = refined_weights(w, PreisachForm.grid, FinerPreisachForm.grid)
+    fine = projected_weights(w, PreisachForm.grid, FinerPreisachForm.grid)
     assert fine.size == FinerPreisachForm.fit.size - 2
-    assert fine.sum() == pytest.approx(w.sum(), rel=5e-3)
+    assert np.all(fine >= 0)
+    assert fine.sum() == pytest.approx(w.sum(), rel=1e-2)
     theta = np.linspace(0, 2 * np.pi, 2000, endpoint=False)
-    for amplitude in (0.4 * H_MAX, H_MAX):
+    swing = None
+    for amplitude in (H_MAX, 0.7 * H_MAX, 0.4 * H_MAX, 0.1 * H_MAX):
         field = amplitude * np.cos(np.tile(theta, 2))
         loops = []
         for cls, weights in ((PreisachForm, w), (FinerPreisachForm, fine)):
             a, b, weight = _relays(*(tuple(g) for g in node_grid(H_MAX, *cls.grid)))
             loops.append(stepped_relays(a, b, weight @ weights, field)[2000:])
-        assert np.abs(loops[1] - loops[0]).max() <= 0.04 * np.ptp(loops[0])
+        swing = np.ptp(loops[0]) if swing is None else swing
+        miss = np.abs(loops[1] - loops[0]).max()
+        assert miss <= 0.015 * swing
+        if amplitude >= 0.4 * H_MAX:
+            assert miss <= 0.03 * np.ptp(loops[0])
 
 
 def test_loss_per_cycle_is_the_relays_loop_area_and_never_negative():

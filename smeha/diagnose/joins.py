@@ -163,8 +163,8 @@ def screened_round(ev, train, held, current: Fit, reference: Fit, singles,
     speculate = refinement is not None and refinement.pending and any(
         added_member(reference, f).signals == "B and y"
         and f.train_chi2 < (1.0 - SPECULATE_FINER) * reference.train_chi2 for f in keep)
-    # handed out the costliest first: the finer model (a density on twice the nodes,
-    # fitted from its own starts), then by the seconds of each one's screen
+    # handed out the costliest first: the finer model (a density on twice the nodes), then
+    # by the seconds of each one's screen
     done = fit_all(ev, train, held, ([refinement.job()] if speculate else []) + jobs, workers,
                    costs=([math.inf] if speculate else []) + [f.seconds for f in keep])
     if speculate:

@@ -35,15 +35,19 @@ def finer_candidate(cand: Candidate):
 
 
 def finer_job(fit: Fit) -> tuple:
-    """The fit job (candidate, base0, starts) of ``fit``'s model on the finer grid.
+    """The fit job (candidate, base0, starts) of ``fit``'s model on the finer grid: one
+    start, ``fit``'s values with each discretised member's carried to its finer form
+    (its ``finer_start``: the density's output held, :func:`gmt.extensions.preisach.
+    projected_weights`).
 
-    A single discretised form is fitted as every single is, from its own starts and
-    screened (:func:`smeha.diagnose.linearfit.fit_linear`); in a combination the other
-    members start from ``fit``'s values and the finer form from its own carried to the
-    finer nodes (its ``finer_start``)."""
+    Until 2026-11-29 a single density was fitted on the finer grid from its own starts,
+    as every single is. That fit often ended worse than the coarse one, and then the
+    check asked nothing a cause did not already pass beside the coarse density (labsim's
+    Preisach data at 800 samples a period, training chi^2 coarse / finer from its own
+    starts / finer from the projected fit: seed 3 1 778 / 2 210 / 857, seed 103 503 /
+    1 411 / 374, seed 108 58 718 / 1 500 / 643; with eddy diffusion beside, seed 3
+    1.85e6 / 3.9e7 / 1.53e6)."""
     cand = finer_candidate(fit.candidate)
-    if len(cand.members) == 1:
-        return cand, fit.base, None
     start = tuple(v for m, x in zip(fit.candidate.members, fit.candidate.split(fit.x))
                   for v in (m.finer_start(x) if m.finer else x))
     return cand, fit.base, [start]

@@ -124,18 +124,38 @@ def node_grid(field_max, coercive=COERCIVE_GRID, interaction=INTERACTION_GRID):
     return out
 
 
-def refined_weights(weights, grid, finer_grid):
-    """The node weights [A/m] of the density ``weights`` on ``grid`` carried to
-    ``finer_grid`` (each a (coercive, interaction) pair of (first, last, count), in units
-    of H_max): the density per unit (ln h_c, h_u), each weight over its node's cell (half
-    a spacing at the grid's ends), interpolated bilinearly at the finer nodes and times
-    their cells. The same population, a start for the finer fit, not a fit."""
-    hc, hu = node_grid(1.0, *grid)
-    fine_c, fine_u = node_grid(1.0, *finer_grid)
-    density = (np.asarray(weights, float).reshape(hc.size, hu.size)
-               / np.outer(_cells(np.log(hc)), _cells(hu)))
-    fine = _hat_weights(hc, fine_c, log=True) @ density @ _hat_weights(hu, fine_u).T
-    return (fine * np.outer(_cells(np.log(fine_c)), _cells(fine_u))).ravel()
+#: Field amplitudes (units of H_max, evenly spaced up to 1) at which
+#: :func:`projected_weights` matches a density's output on another grid.
+PROJECTION_AMPLITUDES = 24
+
+
+def projected_weights(weights, grid, finer_grid):
+    """The node weights [A/m] on ``finer_grid`` whose periodic output is nearest that of
+    ``weights`` on ``grid`` (each a (coercive, interaction) pair of (first, last, count),
+    in units of H_max): the nonnegative least-squares fit (Lawson & Hanson 1974, ch. 23)
+    of the finer nodes' harmonics c_0..c_K to the density's at
+    :data:`PROJECTION_AMPLITUDES` field amplitudes from H_max/24 to H_max. The same loops
+    at every drive level the data hold, a start for the finer fit, not a fit.
+
+    Interpolating the density bilinearly instead, as until 2026-11-29, missed its loops by
+    up to 3 % of their swing (a density that curves within one coarse cell), and the
+    diagnosis' training chi^2 rose from 1.8e3 to 6.2e7 (labsim's Preisach data, seed 3 at
+    800 samples a period); projected, to 2.3e4, the output within 0.3 %.
+    """
+    from scipy.optimize import nnls  # the diagnosis' only: the FMU's path imports numpy alone
+
+    amplitudes = np.arange(1, PROJECTION_AMPLITUDES + 1) / PROJECTION_AMPLITUDES
+
+    def harmonics(g):
+        # uncached: these amplitudes are not the data's, and the fits' cache is kept for
+        # those (:func:`_node_harmonics_cached`)
+        nodes = tuple(tuple(float(v) for v in axis) for axis in node_grid(1.0, *g))
+        return np.vstack([_node_harmonics_cached.__wrapped__(
+            *nodes, float(a), PERIODIC_HARMONICS).view(float).T for a in amplitudes])
+
+    target = harmonics(grid) @ np.asarray(weights, float)
+    fine, _ = nnls(harmonics(finer_grid), target, maxiter=100 * target.size)
+    return fine
 
 
 def _cells(nodes):
@@ -390,9 +410,10 @@ class PreisachForm(MagnetizationStage, Extension):
     @classmethod
     def finer_start(cls, x):
         """Unknowns ``x`` carried to :attr:`finer`'s: the rate factor as it is, the node
-        weights refined to its grid (:func:`refined_weights`), a start for its fit."""
+        weights projected on its grid (:func:`projected_weights`), a start for its fit."""
         lin = cls.linear_unknowns
-        return tuple(x[:lin.start]) + tuple(refined_weights(x[lin], cls.grid, cls.finer.grid))
+        return tuple(x[:lin.start]) + tuple(projected_weights(x[lin], cls.grid,
+                                                              cls.finer.grid))
 
     #: Rate factors the diagnosis screens before its alternation (smeha.diagnose.linearfit):
     #: log10 f_r [Hz] and q of a grid over the unknowns' range. Started from one point, the
