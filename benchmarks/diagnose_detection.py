@@ -24,7 +24,7 @@ only its public API is used) or, with ``--generator synthetic``, from the projec
         [--low-frequency-cycles 3] [--start-in-transient] [--log FILE.jsonl]
         [--json]
     python benchmarks/diagnose_detection.py --markdown STUDY.json[.gz]
-    python benchmarks/diagnose_detection.py --summary STUDY.json.gz,LOG.jsonl,...
+    python benchmarks/diagnose_detection.py --summary STUDY.json.gz,LOG.jsonl,... [--latest]
 
 The studies quoted in docs/DIAGNOSE.md are kept in benchmarks/detection/ (gzipped JSON).
 
@@ -306,6 +306,45 @@ def _load_results(paths):
     return out
 
 
+def _commit_times() -> dict:
+    """{abbreviated hash: commit time [s since the epoch]} of every commit in this
+    repository's history ({} outside git)."""
+    try:
+        out = subprocess.run(["git", "log", "--all", "--format=%h %H %ct"], cwd=TESTS.parent,
+                             capture_output=True, text=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        return {}
+    times = {}
+    for line in out.splitlines():
+        short, full, t = line.split()
+        times[short] = times[full] = int(t)
+    return times
+
+
+def latest(results) -> list:
+    """Of several results of one dataset (its case, seed, clock, strength, noise, sense
+    voltage and generator options), the one of the newest code: the latest commit time
+    of its ``code`` (``git describe`` output; a code not in this history counts as the
+    oldest, and of equal times the later result in ``results`` is kept)."""
+    times = _commit_times()
+
+    @functools.lru_cache(maxsize=None)
+    def commit_time(code):
+        return next((t for h, t in times.items() if code and h.startswith(code)), -1)
+
+    def when(r):
+        return commit_time(r.get("code", "").removesuffix("-dirty").split("-g")[-1])
+    newest = {}
+    for r in results:
+        key = (tuple(sorted(r["effects"])), r["seed"], str(r["rate"]), r["strength"],
+               r["noise_um"], r.get("sense_voltage", True),
+               json.dumps(r.get("labsim_options") or {}, sort_keys=True))
+        t = when(r)
+        if key not in newest or t >= newest[key][0]:
+            newest[key] = (t, r)
+    return [r for _, r in newest.values()]
+
+
 def summary_table(results, outside) -> str:
     """The issue's "done when" table of the results of several studies: per generator
     (labsim's formulations), sense voltage and kind of case, the share named at each
@@ -318,6 +357,8 @@ def summary_table(results, outside) -> str:
         kind = ("clean" if not effects else "outside effect alone" if not known
                 else "outside effect + " + known[0] if len(known) < len(effects)
                 else effects[0] if len(effects) == 1 else "pairs of two causes")
+        if r.get("strength", 1.0) != 1.0:  # the threshold studies apart from the others
+            kind += f" at strength {r['strength']:g}"
         return gen, r.get("sense_voltage", True), kind
     rates = list(dict.fromkeys(r["rate"] for r in results))
     keys = list(dict.fromkeys(group(r) for r in results))
@@ -379,12 +420,17 @@ def main(argv=None):
     ap.add_argument("--summary", metavar="STUDY[,STUDY...]",
                     help="print the done-when table of saved studies and --log files "
                          "together, and every dataset not named, and exit")
+    ap.add_argument("--latest", action="store_true",
+                    help="with --summary: of a dataset run by several codes, only the "
+                         "result of the newest commit")
     args = ap.parse_args(argv)
     if args.summary:
         sys.path.insert(0, str(TESTS))
         import labsim
 
-        print(summary_table(_load_results(args.summary.split(",")), labsim.OUTSIDE_EFFECTS))
+        results = _load_results(args.summary.split(","))
+        print(summary_table(latest(results) if args.latest else results,
+                            labsim.OUTSIDE_EFFECTS))
         return 0
     if args.markdown:
         with _open_text(args.markdown) as fh:

@@ -50,3 +50,34 @@ def test_the_summary_groups_an_outside_effect_alone_apart():
                  sense_voltage=True, strength=1.0, noise_um=0.05, gain=1.0)]
     table = detection.summary_table(rows, OUTSIDE)
     assert "| outside effect alone | 1/1 (100 %) |" in table
+
+
+def _run(code, causes, seed=0, strength=1.0):
+    return {"code": code, "effects": ["transport_delay"], "seed": seed, "rate": "800",
+            "strength": strength, "noise_um": 0.05, "sense_voltage": True,
+            "labsim_options": {}, "cause": causes[0] if causes else "none",
+            "causes": list(causes)}
+
+
+def test_latest_keeps_each_datasets_result_of_the_newest_commit(monkeypatch):
+    # --summary --latest: of one dataset run by several codes only the newest commit's
+    # result counts (commit times as git gives them; here given), whatever the files'
+    # order; a code not in the history counts as the oldest; other datasets stay apart
+    monkeypatch.setattr(detection, "_commit_times", lambda: {"aaaaaaa": 100, "bbbbbbb": 200})
+    old = _run("aaaaaaa", ["mechanical_resonance"])
+    new = _run("bbbbbbb-dirty", ["transport_delay"])
+    stranger = _run("ccccccc", ["thermal_drift"])
+    other_seed = _run("aaaaaaa", ["transport_delay"], seed=1)
+    weak = _run("aaaaaaa", [], strength=0.01)
+    out = detection.latest([new, stranger, old, other_seed, weak])
+    assert len(out) == 3
+    assert new in out and other_seed in out and weak in out
+
+
+def test_the_summary_keeps_the_threshold_strengths_apart():
+    # a weak effect answered none (the threshold study) is not a miss of the full-strength
+    # row
+    table = detection.summary_table([_run("a", ["transport_delay"]),
+                                     _run("a", [], strength=0.01)], OUTSIDE)
+    assert "| first forms | yes | transport_delay | 1/1 (100 %) |" in table
+    assert "| first forms | yes | transport_delay at strength 0.01 | 0/1 (0 %) |" in table
