@@ -6,9 +6,11 @@ reaches |mu_p| (the cap) mu' collapses and a second, spurious root appears. The
 reference here is a brute-force scan of the same equation, eq 16 written out in this
 file, on a fine grid of a (no iteration), and the case is the one where the iteration used
 to stall by the cap: labsim's Preisach density with saturation, 200 Hz at 1 A (loss
-coefficients of that fit, the adder p the density gave there). Each case is solved twice: with the adder as a
-function of M_1 (the secant and regula falsi of a saturation's stage) and as the constant
-an operator of H gives (``constant``, Newton's method; gmt.extensions.steady.stage_adder).
+coefficients of that fit, the adder p the density gave there). Each case is solved twice:
+with the adder as a function of M_1 (the secant and regula falsi of a saturation's stage)
+and as the constant an operator of H gives (``constant``, Newton's method;
+gmt.extensions.steady.stage_adder). Where the least root vanishes in the fold by the cap,
+the constant adder's closest approach is checked against the same scan's maximum.
 """
 import math
 
