@@ -9,8 +9,7 @@ to stall by the cap: labsim's Preisach density with saturation, 200 Hz at 1 A (l
 coefficients of that fit, the adder p the density gave there). Each case is solved twice:
 with the adder as a function of M_1 (the secant and regula falsi of a saturation's stage)
 and as the constant an operator of H gives (``constant``, Newton's method;
-gmt.extensions.steady.stage_adder). Where the least root vanishes in the fold by the cap,
-the constant adder's closest approach is checked against the same scan's maximum.
+gmt.extensions.steady.stage_adder).
 """
 import math
 
@@ -147,53 +146,3 @@ def test_a_runs_root_does_not_depend_on_the_runs_solved_with_it(kind):
         alone = paper_permeability(tuple(v[j:j + 1] for v in loss), f[j:j + 1], hm[j:j + 1],
                                    modulus[j:j + 1], adder=_adder(p[j:j + 1], kind))
         assert together[j] == alone[0]
-
-
-def _hump_max(p):
-    """(the largest |mu(a) + p| - modulus over a below the cap, the a there), by the scan
-    of this file (2e5 points up to the cap, no iteration)."""
-    a = np.linspace(1e-4, float(uncapped_limit(LOSS, FREQ, HM)), 200_001)
-    e = np.abs(_mu(a) + p) - MODULUS
-    return e.max(), a[np.argmax(e)]
-
-
-def _fold():
-    """t at which the hump of t P no longer reaches the modulus: its least root and the
-    falling one meet (bisection on the scan's maximum; 0.8 P has no root below the cap,
-    0.9 P has three)."""
-    lo, hi = 0.8, 0.9
-    for _ in range(40):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (lo, mid) if _hump_max(mid * P)[0] >= 0.0 else (mid, hi)
-    return hi
-
-
-def test_the_fold_by_the_cap_is_crossed_continuously():
-    # gmt.extensions.paperpart._first_root_newton: as the adder p = t P shrinks past the
-    # fold (t = 0.866), the least root below the cap vanishes. The root on the cap was
-    # taken there, and already before it, where the hump above the modulus was narrower
-    # than the scan's step: |mu_p| jumped by 0.29 to 2.64 (the fits stopped on that
-    # edge: labsim's Preisach + eddy, seed 19 at 800 a period). Now, while the hump's
-    # maximum comes within NEAR_ROOT of the modulus, a hump the scan stepped over is
-    # refined and its root taken, and where it falls short its maximum is taken:
-    # |mu_p| continuous over t = 0.84-0.95: neighbours 5.5e-4 apart differ by less than
-    # 0.05 (the least root's square-root law near the fold allows ~0.016 a step; measured
-    # 0.0094, and 0.29 with the code before, which fails here)
-    from gmt.extensions.paperpart import NEAR_ROOT
-    ts = np.linspace(0.84, 0.95, 201)
-    mus = [abs(paper_permeability(LOSS, FREQ, HM, MODULUS, adder=_adder(t * P, "constant")))
-           for t in ts]
-    assert np.max(np.abs(np.diff(mus))) < 0.05
-    # short of the fold: the scan's maximum within its step, |mu_p + p| short of the
-    # modulus by that maximum (1e-6 of the modulus: e is flat there)
-    p = 0.99 * _fold() * P  # the hump's maximum 0.23 % short of the modulus
-    e_max, a_max = _hump_max(p)
-    assert -NEAR_ROOT * MODULUS < e_max < 0.0
-    mu = paper_permeability(LOSS, FREQ, HM, MODULUS, adder=_adder(p, "constant"))
-    assert abs(mu) == pytest.approx(a_max, abs=5e-5)
-    assert abs(mu + p) - MODULUS == pytest.approx(e_max, abs=1e-6 * MODULUS)
-    # far from the fold the root on the cap stays, as before (0.5 P: 9 % short)
-    p = 0.5 * P
-    assert _hump_max(p)[0] < -NEAR_ROOT * MODULUS
-    mu = paper_permeability(LOSS, FREQ, HM, MODULUS, adder=_adder(p, "constant"))
-    assert abs(mu) == pytest.approx(_roots_by_scan(p)[0], abs=5e-5)

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..constants import MU_0
 
-__all__ = ["LOSS_ANGLE_CAP", "SECANT_TRUSTED", "ROOT_SCAN", "NEAR_ROOT", "mu_imag_from_losses",
+__all__ = ["LOSS_ANGLE_CAP", "SECANT_TRUSTED", "ROOT_SCAN", "mu_imag_from_losses",
            "paper_permeability", "uncapped_limit"]
 
 #: mu'' of eq 16 is held at most this fraction of |mu| (a loss angle short of 90 degrees:
@@ -236,35 +236,12 @@ def _newton(err, a, modulus, gain_modulus):
     return a, np.abs(err(a)[0]) <= 1e-10 * modulus
 
 
-#: Where no root lies below the cap but |mu_p g + p| comes within this share of the
-#: modulus at a local maximum there, that maximum is taken (:func:`_first_root_newton`).
-NEAR_ROOT = 1e-2
-
-
 def _first_root_newton(err, a0, a_cap, modulus):
     """(a, found) as :func:`_first_root`, ``err(a)`` giving the error and its derivative
     (:func:`_newton`): the :data:`ROOT_SCAN` points evaluated at once, the first sign
     change from below bracketed, and Newton's steps kept inside the bracket, bisection
     where one would leave it (the safeguard of Press et al., *Numerical Recipes*, 3rd
-    ed., 2007, sec. 9.4).
-
-    **The fold by the cap.** |mu_p g + p| rises with a, and near the cap, where mu'
-    collapses, falls before rising again on the capped branch. As the magnetisation
-    stage's share grows, the hump's least root and the falling one meet and vanish (a
-    fold), and the only root left lies on the cap: the run's B and y jumped there, and a
-    fit that reached the fold stopped on it, every step refused (labsim's Preisach +
-    eddy diffusion, seed 19 at 800 samples a period: the density's fit held a 200 Hz run
-    at the fold, |mu_p| 2.318 below the cap at 2.528; with a magnetisation diffusion form
-    beside it at tau = 1e-7 s, a0 moved by 1e-9 and the run took 2.644 on the cap, the
-    training chi^2 2.46e5 -> 1.64e7, and the eddy form's screen never recovered). So
-    where the scan finds err below zero throughout and the hump's maximum, refined by
-    bisection on the derivative's sign, comes within :data:`NEAR_ROOT` of the modulus,
-    that maximum is taken: the closest |B_1| the uncapped branch gives, continuous with
-    the root through the fold (B's fundamental then misses by up to that share, which the
-    fit sees). A maximum that reaches zero is a hump the scan stepped over: its rising
-    root is bracketed below it. Farther from zero the root on the cap stays, as for the
-    paper's own model (p = 0, where |mu_p| = a rises throughout and its closed form may
-    lie on the cap)."""
+    ed., 2007, sec. 9.4)."""
     a0 = np.asarray(a0, dtype=float)
     top = np.minimum(a_cap, 4.0 * a0)
     tiny = 1e-9 * a0
@@ -273,30 +250,18 @@ def _first_root_newton(err, a0, a_cap, modulus):
     e = err(grid)[0]
     rising = (e[1:] >= 0.0) & (e[:-1] < 0.0)
     bracketed = np.any(rising, axis=0)
+    if not np.any(bracketed):
+        return a0, bracketed
     k = np.argmax(rising, axis=0)[None]
     lo = np.take_along_axis(grid, k, axis=0)[0]
     hi = np.take_along_axis(grid, k + 1, axis=0)[0]
     e_lo = np.take_along_axis(e, k, axis=0)[0]
     e_hi = np.take_along_axis(e, k + 1, axis=0)[0]
-    near = np.zeros(np.shape(a0), dtype=bool)
-    short = ~bracketed & np.all(e < 0.0, axis=0)
-    if np.any(short):
-        peak, e_peak, hump_lo, e_hump_lo, interior = _hump(err, grid, e)
-        near = short & interior & (e_peak >= -NEAR_ROOT * modulus)
-        missed = near & (e_peak >= 0.0)
-        lo, e_lo = np.where(missed, hump_lo, lo), np.where(missed, e_hump_lo, e_lo)
-        hi, e_hi = np.where(missed, peak, hi), np.where(missed, e_peak, e_hi)
-        bracketed = bracketed | missed
-        near = near & ~missed
-    if not np.any(bracketed | near):
-        return a0, bracketed
     lo, hi = np.where(bracketed, lo, a0), np.where(bracketed, hi, a0)
     span = np.where(bracketed, e_hi - e_lo, 1.0)
     a = np.where(bracketed, lo - e_lo * (hi - lo) / span, a0)  # the chord's root
     done = ~bracketed
     for _ in range(60):
-        if np.all(done):
-            break
         ea, slope = err(a)
         done = done | (np.abs(ea) <= 1e-13 * modulus)
         if np.all(done):
@@ -307,30 +272,7 @@ def _first_root_newton(err, a0, a_cap, modulus):
             step = a - ea / slope
         inside = np.isfinite(step) & (step > lo) & (step < hi)
         a = np.where(done, a, np.where(inside, step, 0.5 * (lo + hi)))
-    if np.any(near):
-        a = np.where(near, peak, a)
-    return a, bracketed | near
-
-
-def _hump(err, grid, e):
-    """(a at the maximum, err there, the scan point below it, err there, whether the
-    maximum is interior) of err over the scan ``grid`` (values ``e``), per run: the
-    scan's largest value among its interior points, refined by 60 bisections on the sign
-    of err's derivative between its two neighbours (a fixed count, so that a run's
-    maximum does not depend on the runs solved with it); interior where that value is
-    no less than both neighbours'."""
-    k = (np.argmax(e[1:-1], axis=0) + 1)[None]
-    e_k = np.take_along_axis(e, k, axis=0)[0]
-    e_below = np.take_along_axis(e, k - 1, axis=0)[0]
-    interior = (e_k >= e_below) & (e_k >= np.take_along_axis(e, k + 1, axis=0)[0])
-    below = np.take_along_axis(grid, k - 1, axis=0)[0]
-    lo, hi = below, np.take_along_axis(grid, k + 1, axis=0)[0]
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        rises = err(mid)[1] > 0.0
-        lo, hi = np.where(rises, mid, lo), np.where(rises, hi, mid)
-    peak = 0.5 * (lo + hi)
-    return peak, err(peak)[0], below, e_below, interior
+    return a, bracketed
 
 
 def uncapped_limit(loss, frequency, field_amplitude, loss_flux_factor=1.0):
