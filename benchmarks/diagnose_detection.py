@@ -307,18 +307,14 @@ def _load_results(paths):
 
 
 def _commit_times() -> dict:
-    """{abbreviated hash: commit time [s since the epoch]} of every commit in this
-    repository's history ({} outside git)."""
+    """{full hash: commit time [s since the epoch]} of every commit in this repository's
+    history ({} outside git)."""
     try:
-        out = subprocess.run(["git", "log", "--all", "--format=%h %H %ct"], cwd=TESTS.parent,
+        out = subprocess.run(["git", "log", "--all", "--format=%H %ct"], cwd=TESTS.parent,
                              capture_output=True, text=True, check=True).stdout
     except (OSError, subprocess.CalledProcessError):
         return {}
-    times = {}
-    for line in out.splitlines():
-        short, full, t = line.split()
-        times[short] = times[full] = int(t)
-    return times
+    return {full: int(t) for full, t in (line.split() for line in out.splitlines())}
 
 
 def latest(results) -> list:

@@ -158,13 +158,6 @@ def projected_weights(weights, grid, finer_grid):
     return fine
 
 
-def _cells(nodes):
-    """Each of the evenly spaced ``nodes``' extent: the spacing, half at the ends."""
-    cells = np.full(nodes.size, (nodes[-1] - nodes[0]) / (nodes.size - 1))
-    cells[[0, -1]] *= 0.5
-    return cells
-
-
 def _hat_weights(nodes, points, log=False):
     """Linear interpolation weights of ``points`` on ``nodes``: (points, nodes)."""
     x = np.log(nodes) if log else np.asarray(nodes, float)
