@@ -144,18 +144,24 @@ def projected_weights(weights, grid, finer_grid):
     """
     from scipy.optimize import nnls  # the diagnosis' only: the FMU's path imports numpy alone
 
-    amplitudes = np.arange(1, PROJECTION_AMPLITUDES + 1) / PROJECTION_AMPLITUDES
-
-    def harmonics(g):
-        # uncached: these amplitudes are not the data's, and the fits' cache is kept for
-        # those (:func:`_node_harmonics_cached`)
-        nodes = tuple(tuple(float(v) for v in axis) for axis in node_grid(1.0, *g))
-        return np.vstack([_node_harmonics_cached.__wrapped__(
-            *nodes, float(a), PERIODIC_HARMONICS).view(float).T for a in amplitudes])
-
-    target = harmonics(grid) @ np.asarray(weights, float)
-    fine, _ = nnls(harmonics(finer_grid), target, maxiter=100 * target.size)
+    target = _projection_harmonics(grid) @ np.asarray(weights, float)
+    fine, _ = nnls(_projection_harmonics(finer_grid), target, maxiter=100 * target.size)
     return fine
+
+
+@functools.lru_cache(maxsize=4)
+def _projection_harmonics(grid):
+    """The nodes' harmonics of ``grid`` at :func:`projected_weights`' amplitudes, real and
+    imaginary parts as rows: (amplitudes x 2 (K + 1), nodes), read-only (cached: every
+    finer fit of a diagnosis asks the same two grids). Made past
+    :func:`_node_harmonics_cached`: these amplitudes are not the data's, and that cache is
+    kept for the fits'."""
+    amplitudes = np.arange(1, PROJECTION_AMPLITUDES + 1) / PROJECTION_AMPLITUDES
+    nodes = tuple(tuple(float(v) for v in axis) for axis in node_grid(1.0, *grid))
+    out = np.vstack([_node_harmonics_cached.__wrapped__(
+        *nodes, float(a), PERIODIC_HARMONICS).view(float).T for a in amplitudes])
+    out.flags.writeable = False
+    return out
 
 
 def _hat_weights(nodes, points, log=False):
