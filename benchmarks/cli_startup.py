@@ -4,7 +4,7 @@
 
 Each command runs as a user runs it, a fresh ``smeha`` process (the console script
 beside this interpreter), first once to warm the file cache and then ``--repeats``
-times; the median, min and max wall times are printed. The target (issue 14) is
+times; the median, min and max wall times are printed. The target is
 ``smeha --help`` under 0.5 s, median of 5 warm runs. Also prints which heavy
 modules ``import smeha.cli`` loads (none is the design: each command imports what
 it needs). Figures only: nothing is asserted.

@@ -6,7 +6,7 @@
 Each run is a new process that loads the FMU, steps the paper's 50 Hz drive and
 exits normally (through the FMU library's destructors and, in fmpy, Python's own
 finalisation), which is where pythonfmu's exit-time double release used to
-corrupt the heap (issue 13, docs/FMU.md "Exit"):
+corrupt the heap (docs/FMU.md "Exit"):
 
 * ``c_host``: tests/fmu_c_host.c, compiled with the system compiler, loads the
   binary with dlopen(RTLD_NOW | RTLD_LOCAL) in a clean environment (no

@@ -1,4 +1,4 @@
-"""Cost of one FMU step with the time-domain magnetics against the paper's (issue 21).
+"""Cost of one FMU step with the time-domain magnetics against the paper's.
 
     python benchmarks/timedomain_step_cost.py [--fmu dist/SmehaGmt.fmu] [--runs 5]
                                               [--steps 20000] [--json]

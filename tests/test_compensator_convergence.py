@@ -1,4 +1,4 @@
-"""The compensated drive converges in the compensator's sample period T_c (issue 19).
+"""The compensated drive converges in the compensator's sample period T_c.
 
 References: eq 41 (the compensated stroke between the valve switching instants, u's
 minimum to its maximum) and the demand the compensator is asked for, y_d = 10 um/V u
@@ -18,7 +18,7 @@ from gmt.parameters import BRANCH_RULE, COMPENSATOR_PERIOD
 
 @pytest.mark.parametrize("frequency", [50.0, 100.0])
 def test_default_compensator_is_converged_in_its_sample_period(frequency):
-    # the default T_c (100 us) within 1 % of T_c = 5 us, twenty times finer (the issue's
+    # the default T_c (100 us) within 1 % of T_c = 5 us, twenty times finer (the required
     # bound); measured +0.02 % at 50 Hz and +0.18 % at 100 Hz
     default = flow.free_dy(frequency, "compensated")
     fine = flow.free_dy(frequency, "compensated", compensator_period=5e-6)

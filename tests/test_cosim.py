@@ -111,8 +111,8 @@ def test_flow_ideal_json_is_f_ad_dy_free_in_every_row(capsys):
     oil, instant valves), so it shifts the rod by A_d p / K but changes no stroke, and every
     volume swept between the valve switches reaches the big cavity. Reference: dy_free from
     the closed-form periodic response (uncompensated) and the compensated transducer
-    stepped alone (gmt, no plant) over the cycles the flow check averages. 1 %: the issue's
-    requirement; measured 0.997-1.001 (the valve controller's 10 us samples at the extremes
+    stepped alone (gmt, no plant) over the cycles the flow check averages. 1 %: the bound the
+    flow check is held to; measured 0.997-1.001 (the valve controller's 10 us samples at the extremes
     of u; 70 Hz compensated, where the 10 kHz compensator samples at another phase every
     cycle, the largest above 1).
     """
@@ -191,7 +191,7 @@ def test_differential_circuit_shows_the_rebound():
 # 2. the two couplings agree
 # --------------------------------------------------------------------------------------
 def test_force_and_displacement_ports_agree_on_the_flow_table(realistic_runs):
-    """Issue 12: the force port (default) and the displacement port agree within 0.3 % at
+    """The force port (default) and the displacement port agree within 0.3 % at
     every frequency and mode of the flow table (realistic circuit). They cut the system in
     different places (force against motion), integrate the rod differently (TR-BDF2 with
     the chamber against eq 27's exact ZOH with a held chamber force) and take different
@@ -208,7 +208,7 @@ def test_force_and_displacement_ports_agree_on_the_flow_table(realistic_runs):
 
 
 def test_compensated_flow_converges_at_a_fixed_compensator_period():
-    """Issue 12: with the compensator's 100 us sample period fixed, the compensated flow
+    """With the compensator's 100 us sample period fixed, the compensated flow
     changes by < 0.1 % from the default step to half of it, and stays within 0.5 % at a
     quarter (100 Hz, realistic, 8 cycles). The force is held between samples, so what the
     step changes is where the plant's substeps fall; measured 0.002 % and 0.03 %."""
@@ -435,7 +435,7 @@ def test_a_heavier_load_leaves_less_flow():
 
 
 def test_reversed_flow_is_flagged_with_its_reason():
-    """The uncompensated pump at 150 Hz (issue 12): the rod lags the valve timing by more
+    """The uncompensated pump at 150 Hz: the rod lags the valve timing by more
     than a quarter period, dy < 0 and the flow runs backwards; the row says so and why,
     the table marks it."""
     from smeha.studies.flowtables import format_table

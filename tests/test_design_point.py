@@ -1,6 +1,6 @@
-"""The design point of eq 30 (issue 13 item 5): gmt.design_point and gmt.Transducer.
+"""The design point of eq 30: gmt.design_point and gmt.Transducer.
 
-The cases are the issue's table: the 50 Hz model driven at 100 Hz (44.3 um peak to peak
+The cases, each a way the model is driven off its design point: the 50 Hz model driven at 100 Hz (44.3 um peak to peak
 instead of 36.0), u = 0 (DC: 13 um of rise with no current), a step of current
 (contraction on a positive step); and the paper's own drives (Table 1's 50 Hz and 100 Hz
 points, the compensated u = 2.2 + 2.2 cos(100 pi t) V of Figure 9), which must never be
@@ -68,11 +68,11 @@ def test_table_1_100_hz_point_with_random_steps_is_inside():
     assert not flagged and t > 0.15
 
 
-# -- the issue's table -------------------------------------------------------------------------
+# -- driven off the design point -------------------------------------------------------------------------
 def test_100_hz_drive_with_frequency_50_is_flagged(params):
-    # issue 13: 44.3 um peak to peak instead of the 36.0 um of the model at 100 Hz
+    # 44.3 um peak to peak instead of the 36.0 um of the model at 100 Hz
     tr, t, y, flag, _ = run(cosine(100.0), 0.06)
-    assert 44.0e-6 < np.ptp(y[t > 0.03]) < 44.6e-6  # the wrong number the issue reports
+    assert 44.0e-6 < np.ptp(y[t > 0.03]) < 44.6e-6  # the wrong number a user saw
     assert steady_ptp(params, 100.0, 1.0) == pytest.approx(36.0e-6, abs=0.05e-6)
     # judged at the end of the drive's first full period: upward zero crossings at
     # 7.5 ms and 17.5 ms; flagged from then on
@@ -94,12 +94,12 @@ def test_100_hz_drive_is_followed_with_follow_drive(params):
 
 
 def test_dc_drive_is_flagged(params):
-    # issue 13: u = 0 gives 13 um of rise with no current (eq 31's quadrature +-I_m)
+    # u = 0 gives 13 um of rise with no current (eq 31's quadrature +-I_m)
     tr, t, y, flag, current = run(lambda t: 0.0, 0.04)
     assert not current.any()
     rise = y[-1] - gmt.bias_displacement(params)
     assert 12e-6 < rise < 14e-6
-    # issue 20: flagged from the first sample (0 A is not the peak I_m at which the model's
+    # flagged from the first sample (0 A is not the peak I_m at which the model's
     # drive I_m cos(w t) starts), as standing still from the second, not after the first
     # half period of the operating point (10 ms at 50 Hz)
     assert flag.all()
@@ -112,7 +112,7 @@ def test_a_current_at_rest_is_flagged_at_the_first_sample_and_said_why():
     out = tr.step(0.0, H)
     assert out.outside_design_point and tr.monitor.provisional
     assert REASONS[tr.monitor.reason] == "start" and "first sample, 0 A" in tr.monitor.describe()
-    # the outputs the issue reports (B = 0.027 T, M = 21 kA/m, F = 1.7 kN at zero field) are
+    # the outputs once reported (B = 0.027 T, M = 21 kA/m, F = 1.7 kN at zero field) are
     # those of eq 31's quadrature term alone, +I_m: H_q = N I_m/(k_f L) = 14.77 kA/m (eq 1)
     assert out.magnetics.field == 0.0
     assert out.magnetics.quadrature_field == pytest.approx(1300 * 1.0 / (1.1 * 0.08))
@@ -169,7 +169,7 @@ def test_a_current_at_rest_is_judged_without_the_compensator_only():
 
 
 def test_a_step_of_current_is_flagged_at_the_step(params):
-    # issue 13: a step of current is read by eq 31 as a point on the 50 Hz sinusoid (its
+    # a step of current is read by eq 31 as a point on the 50 Hz sinusoid (its
     # quadrature from the direction of the step): flagged at the step, and while held
     tr, t, y, flag, _ = run(lambda t: 1.0 if t >= 5e-3 else 0.0, 0.04)
     k = int(round(5e-3 / H))

@@ -1,6 +1,6 @@
 """The detection study's verdict on one dataset (benchmarks/diagnose_detection.py).
 
-The issue's "done when": clean data are right when answered ``none``; an effect outside
+The scoring: clean data are right when answered ``none``; an effect outside
 the six causes alone when answered ``unexplained`` (or ``none``: within noise), never with
 a cause; a known cause beside an outside effect when that cause, and no other, is named.
 """

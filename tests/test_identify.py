@@ -168,7 +168,7 @@ def test_flux_density_from_displacement_when_no_sense_voltage():
 
 @pytest.mark.parametrize("per_cycle, jitter", [(16, 0.0), (50, 0.0), (200, 0.2), (4000, 0.0)])
 def test_the_answer_does_not_depend_on_the_sampling(per_cycle, jitter):
-    # issue 11: the transducer is continuous, so the same measurement sampled at any rate,
+    # the transducer is continuous, so the same measurement sampled at any rate,
     # uniformly or not, gives the same mu'' and B_m (to rounding without noise; 16 samples a
     # period still resolve the fundamental and the second harmonic that eq 30 has)
     params = gmt.TransducerParameters()
@@ -179,7 +179,7 @@ def test_the_answer_does_not_depend_on_the_sampling(per_cycle, jitter):
 
 
 def test_physical_flags_of_a_meaningless_fit():
-    # issue 11: a fit reported as K_ex = -640 +- 1382 with a residual variance of 562 (11
+    # a fit reported as K_ex = -640 +- 1382 with a residual variance of 562 (11
     # degrees of freedom) makes no physical sense and must say so
     flags = physical_flags((85805.0, 1.81, 2753.0, -640.0), (100.0, 0.01, 10.0, 1382.0),
                            562.0, 11)

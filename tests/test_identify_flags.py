@@ -1,4 +1,4 @@
-"""`smeha identify` flags every unphysical value it reports (issue 18, item 5).
+"""`smeha identify` flags every unphysical value it reports.
 
 The ranges are the paper's: the loss per cycle pi f mu_0 mu'' H_m^2 of eqs 13-14 is
 never negative; mu' of eq 20 is real and, for the magnetisation (mu' - 1) H of eq 25
@@ -52,7 +52,7 @@ def test_clean_runs_raise_no_flag(clean):
 
 
 def test_eddy_shielding_gives_mu_real_below_one_and_is_flagged(shielded):
-    # the issue's case: mu' = 0.70 at 200 Hz. mu' from eq 20 of the reported B_m, H_m, mu''
+    # a shielded rod's case: mu' = 0.70 at 200 Hz. mu' from eq 20 of the reported B_m, H_m, mu''
     by = {r.run: r for r in shielded.runs}
     for name in ("f200_I0.5", "f200_I1.0"):
         r = by[name]
@@ -91,7 +91,7 @@ def test_each_unphysical_run_value_raises_its_flag(clean):
     # mu' not real: mu'' above |mu| = B_m / (mu_0 H_m) (eqs 19, 20)
     (flag,) = _provoke(r, mu_imag=10.0, mu_real=math.nan, lag=math.pi / 2)
     assert flag.startswith("mu' is not real: mu'' = 10 exceeds |mu|")
-    # mu' < 1: the issue's case
+    # mu' < 1: a shielded rod's case
     (flag,) = _provoke(r, mu_real=0.7, lag=math.atan2(r.mu_imag, 0.7))
     assert flag.startswith("mu' = 0.7 < 1 (eq 20)")
     # a lag past a quarter period

@@ -215,7 +215,7 @@ def test_operating_point_defined_over_paper_range(params):
             assert op.mu_real > 1.0 and op.mu_imag > 0.0, (f, i_m)
 
 
-# -- numpy-only run time (issue 13 item 4): PCHIP and the B_max root against SciPy --------------
+# -- numpy-only run time: PCHIP and the B_max root against SciPy --------------
 PCHIP_CASES = {
     "two points": ([0.0, 1.0], [1.0, 3.0]),
     "three rising": ([0.0, 1.0, 3.0], [0.0, 1.0, 1.5]),

@@ -51,7 +51,7 @@ def test_readme_main_job_is_the_flow_study_through_the_console_script():
     assert main_cmd.endswith(".venv/bin/smeha flow")
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
     assert meta["project"]["scripts"]["smeha"] == "smeha.cli:main"
-    # issue 20: any current CPython from 3.11 (CI runs 3.11, 3.12 and 3.13, .ci/run)
+    # any current CPython from 3.11 (CI runs 3.11, 3.12 and 3.13, .ci/run)
     assert meta["project"]["requires-python"] == ">=3.11"
     versions = {c.rsplit(" :: ", 1)[1] for c in meta["project"]["classifiers"]
                 if c.startswith("Programming Language :: Python :: 3.")}
@@ -157,7 +157,7 @@ def test_the_repository_stands_alone():
 
 
 def test_license_and_changelog():
-    # issue 20 item 6: pyproject says MIT; the LICENSE file says so too, and the changelog has
+    # pyproject says MIT; the LICENSE file says so too, and the changelog has
     # an entry for the version pyproject gives
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
     assert meta["project"]["license"] == {"text": "MIT"}
@@ -171,13 +171,13 @@ def test_license_and_changelog():
 @pytest.mark.parametrize("doc", ["README.md", *sorted(
     str(p.relative_to(ROOT)) for p in (ROOT / "docs").glob("*.md"))])
 def test_docs_hold_no_notes_to_the_lead(doc):
-    # issue 20 item 6: docs/MEASURED.md opened with "(README section, for the lead to merge.)"
+    # docs/MEASURED.md opened with "(README section, for the lead to merge.)"
     text = (ROOT / doc).read_text()
     assert not re.search(r"for the lead|to merge\.\)", text), doc
 
 
 def test_the_fmu_tooling_does_not_import_the_command_line():
-    # issue 20 item 8: the FMU tooling has its own package, smeha.fmu, and the old
+    # the FMU tooling has its own package, smeha.fmu, and the old
     # fmu_build <-> cli import circle is gone: the tooling imports without the commands
     code = ("import sys, smeha.fmu.build, smeha.fmu.ssp, smeha.fmu.systemrun, "
             "smeha.fmu.crosscheck, smeha.fmu.loader, smeha.fmu.native; "

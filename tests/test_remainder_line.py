@@ -1,6 +1,6 @@
-"""The report's one line of what each cause explains and what remains (issue 18, item 2).
+"""The report's one line of what each cause explains and what remains.
 
-Reference: the issue's example line, "transport_delay explains 78 % of the held-out excess;
+Reference: the line's specified form, "transport_delay explains 78 % of the held-out excess;
 22 % remains unexplained (...)"; shares below 1 % keep two significant digits, so that a
 remainder outside noise is never printed as "0 %".
 """

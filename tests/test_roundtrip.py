@@ -1,6 +1,6 @@
 """The round trip simulate -> diagnose: a co-simulated transducer, written as a measurement
 (``smeha simulate --measurement``, smeha.studies.simmeasure), is diagnosed as the model it
-ran: the paper's model gives ``none``, a variant is named (issue 19, item 4).
+ran: the paper's model gives ``none``, a variant is named.
 
 Before, the file held the pump's rod, pushed by the chamber's 1.5 MPa, without noise: the
 diagnosis answered ``unexplained`` even for the paper's own model (chi^2/n 5e18 over a

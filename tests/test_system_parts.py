@@ -1,4 +1,4 @@
-"""The EHA system's parts that need no FMU built (issue 13 item 7): fast tests.
+"""The EHA system's parts that need no FMU built: fast tests.
 
 * The plant FMU's valve controller (``system_models.controller.FedValveController``)
   sees u only at each step; the design (docs/FMU.md, "The EHA as an FMI system") rests
@@ -171,7 +171,7 @@ def test_docs_list_every_system_fmu_variable(module, start, end):
 
 
 def test_the_rod_starts_at_rest_under_the_chambers_pressure():
-    # issue 19: the rod started at its free rest sprang back by A_d p_P / K (96 um at the
+    # the rod started at its free rest sprang back by A_d p_P / K (96 um at the
     # realistic circuit's 1.5 MPa, 1256 mm^2, Table 2's K) at the first step. Started at
     # the statics of eq 27 with the chamber's force (system_models.rod), the plant with a
     # constant magnetostrictive force K y_free stays where it is (to the integrator's

@@ -1,4 +1,4 @@
-"""A model variant in the system study says when it is not physical (issue 18, item 4).
+"""A model variant in the system study says when it is not physical.
 
 References: the two-degree-of-freedom chain's natural frequencies in closed form
 (Thomson & Dahleh, *Theory of Vibration with Applications*, 5th ed. 1998, ch. 5;

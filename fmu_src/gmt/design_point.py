@@ -4,7 +4,7 @@ The paper characterises the rod by its complex permeability mu' - j mu'' at a si
 excitation i = I_m cos(w t) of known frequency and amplitude (eqs 1-2, 12-20; Table 1's
 B_m falls from 0.0637 T at 50 Hz to 0.0531 T at 100 Hz), and eq 31 rebuilds the
 quadrature term i tan(w t) = +-sqrt(I_m^2 - i^2) from the current assuming that very
-sinusoid. Driven otherwise, the model answers with plausible but wrong numbers (issue 13):
+sinusoid. Driven otherwise, the model answers with plausible but wrong numbers:
 
 * another frequency: mu', mu'' and the quadrature belong to f, not to the drive (100 Hz
   through the 50 Hz model: 44.3 um peak to peak instead of the 36.0 um the model gives
@@ -45,7 +45,7 @@ from the operating point (f, I_m):
   stepper takes the + branch (a falling current), so u = 0 at the start gives the B, M
   and F of the quadrature term alone (0.027 T, 21 kA/m, 1.7 kN with Table 2), right only
   for a sinusoid falling through zero. A first sample below I_m (1 - AMPLITUDE_TOLERANCE)
-  in magnitude is therefore flagged (issue 20), provisionally: the flag stays while the
+  in magnitude is therefore flagged, provisionally: the flag stays while the
   current does not move (its branch is still the guess), becomes standing still or a
   step where those rules say so, and clears as soon as the current moves otherwise (a
   sinusoid of another phase, whose branch the second sample gives; the period checks
