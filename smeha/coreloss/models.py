@@ -84,12 +84,12 @@ def _relative_nnls(columns, frequency, loss, weight):
 
 @dataclass(frozen=True)
 class SeparationLaw:
-    """The paper's loss separation: K_h [J/(m^3 T^n)], n, K_e [J s/(m^3 T^2)], K_ex [J s^0.5/(m^3 T^1.5)]."""
+    """The paper's loss separation: per cycle K_h B^n + K_e B^2 f + K_ex B^1.5 f^0.5 (sine)."""
 
-    hysteresis_coefficient: float
-    steinmetz_exponent: float
-    eddy_coefficient: float
-    excess_coefficient: float
+    hysteresis_coefficient: float  #: K_h, [J/(m^3 T^n)]
+    steinmetz_exponent: float  #: n, [-]
+    eddy_coefficient: float  #: K_e, [J s/(m^3 T^2)]
+    excess_coefficient: float  #: K_ex, [J s^0.5/(m^3 T^1.5)]
 
     def coefficients(self):
         return np.array([self.hysteresis_coefficient, self.eddy_coefficient,
@@ -162,7 +162,8 @@ class SteinmetzLaw:
         """Loss per volume of every row, [W/m^3]: Steinmetz on sinusoids, iGSE elsewhere."""
         out = np.empty(len(data))
         sine = data.family("sine")
-        out[sine] = self.k * data.frequency[sine] ** self.alpha * data.flux_density[sine] ** self.beta
+        f, bm = data.frequency[sine], data.flux_density[sine]
+        out[sine] = self.k * f ** self.alpha * bm ** self.beta
         other = ~sine
         dur, sw = data.durations[other], data.swings[other]
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -182,7 +182,7 @@ def format_results(results, holdouts=None) -> str:
                      f"{e.rate_exponent:.3f}, beta {e.swing_exponent:.3f}, k_r "
                      f"{e.relaxation_coefficient:.4g}, tau {e.relaxation_time:.3g} s")
     if holdouts:
-        lines += ["", f"held out (extension refitted without the scored rows): iGSE -> extended",
+        lines += ["", "held out (extension refitted without the scored rows): iGSE -> extended",
                   f"{'material':9s} {'by':9s} {'family':10s} {'rows':>6s}  {'iGSE':>13s}  "
                   f"{'extended':>13s}"]
         for r, h in zip(results, holdouts):
