@@ -64,6 +64,9 @@ def _run_losses(args) -> int:
         data = [measurements.read_core_losses(args.source)]
     else:
         data = [measurements.read_magnet(args.source)]
+    if args.plot and not any((d.family("triangle") | d.family("trapezoid")).any() for d in data):
+        raise UsageError("--plot maps the errors on triangles and trapezoids (duty cycles); "
+                         f"{data[0].name} has none")
     results = [study.run(d) for d in data]
     if args.plot:
         from .plots import plot_error_maps
