@@ -207,7 +207,7 @@ VARIABLES: tuple[Variable, ...] = (
     _par(_TD, "steinmetz_lower", "T", "Time-domain magnetics: half-swing below which the "
          "hysteresis loss turns Rayleigh-like (dH/dB finite at reversals)", 2e-3),
     _par(_TD, "rate_coefficient", "A/m.T^(q-beta).(s/T)^(q-1)", "Time-domain magnetics: "
-         "k_w of the rate field k_w dB_pp^(beta-q) |dB/dt|^(q-1) (gmt.timedomain.dynamic; "
+         "k_w of the rate field k_w dB_pp^(beta-q) abs(dB/dt)^(q-1) (gmt.timedomain.dynamic; "
          "0: off)", 0.0),
     _par(_TD, "rate_exponent", "1", "Time-domain magnetics: q of the rate field", 2.0),
     _par(_TD, "swing_exponent", "1", "Time-domain magnetics: beta, the rate field's and the "
