@@ -115,3 +115,15 @@ def test_plot_refused_without_duty_waveforms(tmp_path, capsys):
                     "1e5,0.1,-1,-1,-1,-1,100\n2e5,0.1,-1,-1,-1,-1,250\n")
     assert main(["losses", str(path), "--plot", str(tmp_path / "m.png")]) == 2
     assert "--plot" in capsys.readouterr().err
+
+
+def test_calibration_rule_thins_to_its_share(n87):
+    # a table where the named duty settings are most of the non-sinusoidal rows: the rule
+    # keeps every k-th of them, at most CALIBRATION_SHARE of those rows
+    keep = n87.family("sine") | (n87.family("triangle") & (n87.duty[:, 0] >= 0.4)
+                                 & (n87.duty[:, 0] <= 0.6))
+    data = n87.subset(keep)
+    cal = study.calibration_mask(data)
+    other = ~data.family("sine")
+    assert 0 < (cal & other).sum() <= study.CALIBRATION_SHARE * other.sum()
+    assert set(np.unique(data.duty[cal & other, 0])) == {0.5}
