@@ -6,7 +6,7 @@ on a 2-core machine. Run: ``nice -n 10 python benchmarks/losses_speed.py``.
 import time
 
 from smeha.coreloss import measurements, study
-from smeha.coreloss.magnetdb import MATERIALS
+from smeha.coreloss import MATERIALS
 
 
 def main():

@@ -11,10 +11,9 @@ import sys
 from pathlib import Path
 
 from ..cliargs import output_file
+from . import MATERIALS as _MATERIALS
 
 __all__ = ["add_losses", "material_or_file"]
-
-_MATERIALS = ("N87", "3C90", "3C94", "3E6", "3F4", "77", "78", "N27", "N30", "N49")
 
 
 def material_or_file(text: str):

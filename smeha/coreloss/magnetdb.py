@@ -19,12 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
+from . import MATERIALS
+from .measurements import OUTLIER_LIMIT
+
 __all__ = ["MATERIALS", "OUTLIER_LIMIT", "WHEEL", "extract_from_wheel"]
 
-#: The ten ferrites of MagNet v1, in the order of its documentation.
-MATERIALS = ("N87", "3C90", "3C94", "3E6", "3F4", "77", "78", "N27", "N30", "N49")
-#: Rows kept: |outlier factor| below this, [%] (MagNet's own screening quantity).
-OUTLIER_LIMIT = 5.0
 #: The wheel the copy comes from, and its SHA-256.
 WHEEL = ("mag_net-0.1.0-py3-none-any.whl",
          "da5b7710fd057987484b1085c075b9d641402763dea49054b1265284cbdb22ea")

@@ -218,7 +218,7 @@ def read_core_losses(path, name: str | None = None) -> CoreLossData:
 def magnet_file(material: str) -> Path:
     """The shipped copy of one MagNet material (``data/magnet/<material>.csv.gz``)."""
     from ..paperdata import data_dir
-    from .magnetdb import MATERIALS
+    from . import MATERIALS
 
     if material not in MATERIALS:
         raise DataError(f"material = {material!r} is not one of MagNet's "

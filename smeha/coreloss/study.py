@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .measurements import WAVEFORMS, CoreLossData
+from .measurements import WAVEFORMS, CoreLossData, DataError
 from .models import (ExtendedLaw, SeparationLaw, SteinmetzLaw, fit_extended, fit_separation,
                      fit_steinmetz)
 
@@ -98,7 +98,6 @@ def run(data: CoreLossData) -> MaterialResult:
     """Calibrate the three laws on ``data`` and predict every row (module docstring)."""
     sine = data.family("sine")
     if not sine.any():
-        from .measurements import DataError
         raise DataError(f"{data.name}: no sinusoidal rows to calibrate on (duty_1 = -1)")
     cal = calibration_mask(data)
     sep = fit_separation(data.subset(sine))
