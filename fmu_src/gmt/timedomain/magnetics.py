@@ -13,7 +13,17 @@ dB/dt = (B - B_0)/h). Every term is non-decreasing in B and k_e/h + 1/(mu_0
 mu_rev) > 0, so the step equation has exactly one root for any h: the step is
 stable at any co-simulation step and cannot oscillate. The root is found by
 Newton's method in u = sqrt(|B - B_0|) (the excess term is linear in u, so
-smooth there), safeguarded by bisection inside a bracket known in advance.
+smooth there), safeguarded by bisection inside a bracket known in advance;
+one solver (:func:`_safeguarded_newton`) serves this and the inverse's
+:meth:`TimeDomainMagnetics.flux_density_for`, and raises
+:class:`gmt.ConvergenceError` when it does not converge.
+
+The extended dynamic law of :mod:`gmt.timedomain.dynamic` (off by default)
+adds the rate field k_w dB_pp^(beta - q) |dB/dt|^(q - 1) sign(dB/dt) and the
+relaxation field k_r dB_pp^(beta - 2) x to H. Both are non-decreasing in the
+step's B (the relaxation's lag advances exactly, x(h) = x_0 e^(-h/tau) +
+dB/dt tau (1 - e^(-h/tau))), dB_pp is read from the hysteresis memory at the
+step's start, so the step equation keeps its single root and its bracket.
 
 Magnetisation
 -------------
