@@ -206,6 +206,15 @@ VARIABLES: tuple[Variable, ...] = (
          "for which the hysteresis loss per cycle is K_h B_m^n (eq 7)", 0.2),
     _par(_TD, "steinmetz_lower", "T", "Time-domain magnetics: half-swing below which the "
          "hysteresis loss turns Rayleigh-like (dH/dB finite at reversals)", 2e-3),
+    _par(_TD, "rate_coefficient", "A/m.T^(q-beta).(s/T)^(q-1)", "Time-domain magnetics: "
+         "k_w of the rate field k_w dB_pp^(beta-q) abs(dB/dt)^(q-1) (gmt.timedomain.dynamic; "
+         "0: off)", 0.0),
+    _par(_TD, "rate_exponent", "1", "Time-domain magnetics: q of the rate field", 2.0),
+    _par(_TD, "swing_exponent", "1", "Time-domain magnetics: beta, the rate field's and the "
+         "relaxation's scaling with the loop's peak-to-peak swing", 2.0),
+    _par(_TD, "relaxation_coefficient", "A/m.T^(1-beta)", "Time-domain magnetics: k_r of "
+         "the relaxation field k_r dB_pp^(beta-2) x, dx/dt = dB/dt - x/tau (0: off)", 0.0),
+    _par(_TD, "relaxation_time", "s", "Time-domain magnetics: tau of the relaxation", 1e-6),
     # -- calculated parameters: the mechanics the force drives, for a host that
     #    integrates the rod with its load (e.g. a pump chamber fed the output `force`)
     _calc("equivalent_mass", "kg", "Mass m of eq 27 in effect: Table 2's mass, the "

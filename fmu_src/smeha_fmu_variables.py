@@ -36,6 +36,8 @@ UNITS: dict[str, dict[str, int] | None] = {
     "W.s/(m3.(A/m)3)": {"kg": 1, "m": 2, "s": -2, "A": -3},  # K'_h of eq 6
     "W.s2/(m3.T2)": {"kg": -1, "m": -1, "s": 3, "A": 2},  # K_e of eq 9
     "W.s1.5/(m3.T1.5)": None,  # K_ex of eq 11: half-integer exponents
+    "A/m.T^(q-beta).(s/T)^(q-1)": None,  # k_w of the rate field; q, beta are parameters
+    "A/m.T^(1-beta)": None,  # k_r of the relaxation; beta is a parameter
     "kg": {"kg": 1},
     "kg/m3": {"kg": 1, "m": -3},
     "m": {"m": 1},

@@ -23,6 +23,9 @@ Subcommands
 ``smeha diagnose DATA.csv [--holdout RUN,...] [--json] [--report DIR]``
     What the paper's model gets wrong on measured runs, the cause, the
     extended model and its held-out gain (:mod:`smeha.diagnose`).
+``smeha losses [MATERIAL|FILE] [--json] [--plot FILE] [--holdout]``
+    The loss laws against measured core losses, MagNet's ferrites or a CSV file
+    (:mod:`smeha.coreloss`; docs/LOSSES.md).
 ``smeha build [--fmi 2|3|both] [--out DIR] [--no-validate] [--cross-check DIR] [--system ...]``
     Build the FMU(s) (:mod:`smeha.fmu.build`) into the source tree's ``dist/``,
     where ``simulate``, ``flow`` and ``sweep`` look for the FMU; ``--system`` also
@@ -60,6 +63,7 @@ from . import __version__
 from .errors import InputError, RunError
 from .cliargs import (Parser, UsageError, add_branch_rule, count, input_file,
                       join_negative_values, output_dir)
+from .coreloss.commands import add_losses
 from .studies.flowcommands import CIRCUITS, FREQUENCY, add_flow, add_simulate, add_sweep
 from .studies.positioncommands import add_position
 from .studies.timedomaincommands import add_timedomain
@@ -244,7 +248,7 @@ def _run_diagnose(args) -> int:
 
 #: Registration functions of the subcommands, in the order ``--help`` lists them.
 SUBCOMMANDS = (_add_paper, add_simulate, add_flow, add_sweep, add_position, add_timedomain,
-               _add_identify, _add_diagnose, _add_build)
+               _add_identify, _add_diagnose, add_losses, _add_build)
 
 
 def build_parser() -> Parser:

@@ -41,7 +41,7 @@ _EXPORTS = {
     "DEFAULT_CALIBRATION": "calibration", "TABLE_1": "calibration",
     "FluxDensityCalibration": "calibration",
     "GmtError": "errors", "ParameterError": "errors", "InputError": "errors",
-    "RunError": "errors",
+    "RunError": "errors", "ConvergenceError": "errors",
     "ForwardStepper": "forward", "OperatingPoint": "forward", "bias_displacement": "forward",
     "loop_metrics": "forward", "operating_point": "forward", "periodic_response": "forward",
     "simulate": "forward",

@@ -23,6 +23,13 @@ class ParameterError(GmtError, InputError):
     """
 
 
+class ConvergenceError(GmtError, RunError):
+    """An iterative solver of the physics stopped without meeting its tolerance.
+
+    The message names the quantity solved for, the target and the bracket left.
+    """
+
+
 def check_range(name, value, low=None, high=None, *, unit="", low_open=True,
                 high_open=True):
     """Raise :class:`ParameterError` unless ``low < value < high``.

@@ -43,6 +43,10 @@ The paper's procedure ("Simulation and experiments"), with a few additions:
    (J^T J)^-1 scaled by the residual variance; with fewer than five runs
    (no residual degrees of freedom left) the uncertainty is not determined.
 
+4. **The extended loss law** (:mod:`gmt.timedomain.dynamic`, docs/LOSSES.md) from the
+   runs' loss densities, when they are enough for it
+   (:func:`~smeha.identify.losses.fit_extended_losses`).
+
 Modules: :mod:`~smeha.identify.flux` (step 1), :mod:`~smeha.identify.loop` (step 2),
 :mod:`~smeha.identify.losses` (step 3), :mod:`~smeha.identify.results` (what they give),
 :mod:`~smeha.identify.report` (the text); :func:`identify` runs the three steps.
@@ -56,7 +60,8 @@ import gmt
 from .flux import (HARMONICS, SOURCES, flux_density_from_displacement,
                    flux_density_from_sense_voltage)
 from .loop import SCAN_POINTS, SCAN_RANGE, identify_run
-from .losses import MIN_RUNS_FOR_UNCERTAINTY, RESIDUAL_VARIANCE_TAIL, fit_losses, physical_flags
+from .losses import (MIN_RUNS_FOR_UNCERTAINTY, RESIDUAL_VARIANCE_TAIL, fit_extended_losses,
+                     fit_losses, physical_flags)
 from .report import format_identification
 from .results import LOSS_COEFFICIENTS, Identification, LossFit, RunIdentification
 
@@ -64,7 +69,8 @@ __all__ = [
     "HARMONICS", "SOURCES", "SCAN_POINTS", "SCAN_RANGE", "LOSS_COEFFICIENTS",
     "MIN_RUNS_FOR_UNCERTAINTY", "RESIDUAL_VARIANCE_TAIL", "RunIdentification", "LossFit",
     "Identification", "flux_density_from_sense_voltage", "flux_density_from_displacement",
-    "identify_run", "fit_losses", "physical_flags", "identify", "format_identification",
+    "identify_run", "fit_losses", "fit_extended_losses", "physical_flags", "identify",
+    "format_identification",
 ]
 
 
@@ -103,4 +109,6 @@ def identify(runs, params: gmt.TransducerParameters | None = None, **kwargs) -> 
     if bounded:
         note = (note + "; " if note else "") + (
             "mu'' on a bound of the scan for run(s) " + ", ".join(map(repr, bounded)))
-    return Identification(runs=results, loss_fit=fit, note=note)
+    law, why = fit_extended_losses(results)
+    return Identification(runs=results, loss_fit=fit, note=note,
+                          extended_law=None if law is None else law.as_dict(), extended_note=why)

@@ -16,10 +16,16 @@ from gmt.parameters import STEINMETZ_RANGE
 from .flags import loss_law_flags
 from .results import LOSS_COEFFICIENTS, LossFit
 
-__all__ = ["MIN_RUNS_FOR_UNCERTAINTY", "RESIDUAL_VARIANCE_TAIL", "fit_losses", "physical_flags"]
+__all__ = ["MIN_RUNS_FOR_UNCERTAINTY", "RESIDUAL_VARIANCE_TAIL", "MIN_RUNS_FOR_EXTENSION",
+           "MIN_FREQUENCY_SPAN", "fit_losses", "physical_flags", "fit_extended_losses"]
 
 #: Fewest runs for the loss-coefficient uncertainties (4 parameters + 1 dof).
 MIN_RUNS_FOR_UNCERTAINTY = 5
+#: Fewest runs for the extended loss law (its 9 parameters + 1 dof).
+MIN_RUNS_FOR_EXTENSION = 10
+#: Smallest ratio of the highest to the lowest frequency for the extended law: its rate
+#: exponent shows only in how the loss per cycle grows with frequency.
+MIN_FREQUENCY_SPAN = 10.0
 #: Probability of a residual variance above the flag's limit when the per-run errors are
 #: right (the chi^2 distribution's upper tail, :func:`physical_flags`).
 RESIDUAL_VARIANCE_TAIL = 1e-3
@@ -214,3 +220,38 @@ def physical_flags(values, stderrs, residual_variance, dof) -> tuple:
             flags.append(f"residual variance {residual_variance:.3g} where the per-run errors "
                          f"allow at most {limit:.2g}")
     return tuple(flags)
+
+
+def fit_extended_losses(runs):
+    """The extended loss law (:mod:`gmt.timedomain.dynamic`) from sinusoidal runs, if possible.
+
+    Each run's loss density P/V = pi f mu_0 mu'' H_m^2 (eq 13) at its f and B_m is a
+    sinusoidal row of :func:`smeha.coreloss.models.fit_extended`. Sinusoids alone
+    determine the law's rate exponent only through the growth of the loss per cycle
+    with frequency (docs/LOSSES.md), so the fit needs :data:`MIN_RUNS_FOR_EXTENSION`
+    runs over a frequency span of :data:`MIN_FREQUENCY_SPAN` at least and two
+    amplitudes.
+
+    Returns
+    -------
+    (ExtendedLaw or None, str)
+        The law, or None with the reason.
+    """
+    from ..coreloss.measurements import WAVEFORMS, CoreLossData
+    from ..coreloss.models import fit_extended, fit_separation
+
+    runs = [r for r in runs if r.mu_imag > 0.0 and r.flux_density_amplitude > 0.0]
+    f = np.array([r.frequency for r in runs])
+    bm = np.array([r.flux_density_amplitude for r in runs])
+    if len(runs) < MIN_RUNS_FOR_EXTENSION:
+        return None, (f"extended loss law not fitted: {len(runs)} run(s) with a positive mu'', "
+                      f"it needs {MIN_RUNS_FOR_EXTENSION}")
+    if f.max() < MIN_FREQUENCY_SPAN * f.min() or len(np.unique(np.round(bm, 6))) < 2:
+        return None, (f"extended loss law not fitted: the runs span {f.min():g}-{f.max():g} Hz "
+                      f"and {len(np.unique(np.round(bm, 6)))} amplitude(s); it needs a "
+                      f"frequency ratio of {MIN_FREQUENCY_SPAN:g} and two amplitudes")
+    n = len(runs)
+    data = CoreLossData("runs", f, bm, np.full(n, WAVEFORMS.index("sine")), -np.ones((n, 4)),
+                        np.zeros((n, 4)), np.zeros((n, 4)),
+                        np.array([r.loss_density for r in runs]))
+    return fit_extended(data, fit_separation(data)), ""

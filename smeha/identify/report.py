@@ -40,7 +40,7 @@ def format_identification(ident: Identification, path: str = "") -> str:
     fit = ident.loss_fit
     if fit is None:
         lines.append(ident.note)
-        return "\n".join(lines)
+        return "\n".join(lines + _extended_lines(ident))
     rv = "" if fit.residual_variance is None else \
         f", residual variance {fit.residual_variance:.3g}"
     lines.append(f"loss coefficients (set of eqs 16, weighted least squares over "
@@ -61,4 +61,13 @@ def format_identification(ident: Identification, path: str = "") -> str:
                      f"{where}` to see what it misses")
     elif fit.note or ident.note:
         lines.append("note: " + "; ".join(x for x in (fit.note, ident.note) if x))
-    return "\n".join(lines)
+    return "\n".join(lines + _extended_lines(ident))
+
+
+def _extended_lines(ident) -> list:
+    """The extended loss law's parameters, or why it was not fitted (docs/LOSSES.md)."""
+    law = ident.extended_law
+    if law is None:
+        return [ident.extended_note] if ident.extended_note else []
+    return ["extended loss law (gmt.timedomain.dynamic; docs/LOSSES.md):",
+            "  " + ", ".join(f"{k} = {v:.4g}" for k, v in law.items())]

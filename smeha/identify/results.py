@@ -186,11 +186,18 @@ class Identification:
     loss_fit : LossFit or None
         None when there are fewer than four runs (``note`` says so).
     note : str
+    extended_law : dict or None
+        The extended loss law's parameters (:func:`smeha.identify.losses.fit_extended_losses`,
+        field names of gmt.TransducerParameters and gmt.TimeDomainParameters), or None.
+    extended_note : str
+        Why the extended law was not fitted.
     """
 
     runs: tuple
     loss_fit: LossFit | None
     note: str = ""
+    extended_law: dict | None = None
+    extended_note: str = ""
 
     @property
     def flags(self) -> tuple:
@@ -219,4 +226,5 @@ class Identification:
              "physical": lf.physical, "flags": list(lf.flags),
              "method": "weighted least squares on the set of eqs 16 (weights 1/stderr(mu''))"},
             "note": self.note,
+            "extended_loss_law": {"parameters": self.extended_law, "note": self.extended_note},
         }

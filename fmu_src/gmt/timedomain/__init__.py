@@ -16,6 +16,10 @@ module                 contents
 ``hysteresis``         the rate-independent part: a stop-operator
                        (Prandtl-Ishlinskii) model with memory, loss
                        K_h B_m^n per cycle (eq 7)
+``dynamic``            the extended dynamic loss law: a rate field
+                       steeper than eddy currents and a relaxation
+                       (Maxwell element), with closed-form losses
+                       per cycle for segment waveforms and sinusoids
 ``parameters``         what the time domain adds to Table 2
                        (reversible curve, the Steinmetz law's range)
 ``magnetics``          B from the current per step (implicit, stable),

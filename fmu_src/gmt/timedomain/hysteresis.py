@@ -243,6 +243,11 @@ class SteinmetzHysteresis:
             return rb[-1], rh[-1], (rb[-2] if len(rb) >= 2 else -rb[0])
         return math.nan, 0.0, direction * math.inf
 
+    @property
+    def reversals(self) -> tuple:
+        """B of the reversal points not yet wiped out, oldest first, [T]."""
+        return tuple(self._rb)
+
     def _present_slope(self) -> float:
         if not self._rb:
             return self.branch.slope(2.0 * abs(self.b))

@@ -13,7 +13,17 @@ dB/dt = (B - B_0)/h). Every term is non-decreasing in B and k_e/h + 1/(mu_0
 mu_rev) > 0, so the step equation has exactly one root for any h: the step is
 stable at any co-simulation step and cannot oscillate. The root is found by
 Newton's method in u = sqrt(|B - B_0|) (the excess term is linear in u, so
-smooth there), safeguarded by bisection inside a bracket known in advance.
+smooth there), safeguarded by bisection inside a bracket known in advance;
+one solver (:func:`_safeguarded_newton`) serves this and the inverse's
+:meth:`TimeDomainMagnetics.flux_density_for`, and raises
+:class:`gmt.ConvergenceError` when it does not converge.
+
+The extended dynamic law of :mod:`gmt.timedomain.dynamic` (off by default)
+adds the rate field k_w dB_pp^(beta - q) |dB/dt|^(q - 1) sign(dB/dt) and the
+relaxation field k_r dB_pp^(beta - 2) x to H. Both are non-decreasing in the
+step's B (the relaxation's lag advances exactly, x(h) = x_0 e^(-h/tau) +
+dB/dt tau (1 - e^(-h/tau))), dB_pp is read from the hysteresis memory at the
+step's start, so the step equation keeps its single root and its bracket.
 
 Magnetisation
 -------------
@@ -42,10 +52,11 @@ import math
 
 from .. import mechanics
 from ..constants import MU_0
-from ..errors import ParameterError
+from ..errors import ConvergenceError, ParameterError
 from ..forward import Magnetics, StepResult, bias_displacement
 from ..magnetostriction import magnetostriction
 from ..parameters import TransducerParameters
+from .dynamic import rate_field, relaxation_lag
 from .hysteresis import BranchFunction, SteinmetzHysteresis
 from .parameters import TimeDomainParameters
 from .separation import eddy_field_coefficient, excess_field_coefficient
@@ -54,6 +65,7 @@ __all__ = ["TimeDomainMagnetics", "TimeDomainStepper"]
 
 #: Newton's iterations stop when the change in B is below this, [T].
 B_TOLERANCE = 1e-12
+#: Evaluations the safeguarded Newton may take (the bracket at least halves in each).
 _MAX_ITERATIONS = 60
 
 
@@ -103,6 +115,8 @@ class TimeDomainMagnetics:
         self.hysteresis.reset()
         self._slope = self.branch.reversal_slope
         self._last = (math.nan, math.nan)  # the last B solved for and its H_irr
+        self._lag = 0.0  # x of the relaxation (gmt.timedomain.dynamic), [T]
+        self._step = math.nan  # the step of the last solve or field, [s]
 
     @property
     def flux_density(self) -> float:
@@ -118,13 +132,15 @@ class TimeDomainMagnetics:
         return self.hysteresis.b / MU_0 - self.static_field()
 
     def get_state(self) -> tuple:
-        """The solver's last slope (its next first guess), then the hysteresis memory."""
-        return (self._slope,) + self.hysteresis.get_state()
+        """The solver's last slope (its next first guess), the relaxation lag, then the
+        hysteresis memory."""
+        return (self._slope, self._lag) + self.hysteresis.get_state()
 
     def set_state(self, state) -> None:
         """Restore a state from :meth:`get_state`."""
         self._slope = float(state[0])
-        self.hysteresis.set_state(state[1:])
+        self._lag = float(state[1])
+        self.hysteresis.set_state(state[2:])
         self._last = (math.nan, math.nan)
 
     # -- the field separation -----------------------------------------------
@@ -135,13 +151,21 @@ class TimeDomainMagnetics:
         inverse of :meth:`solve`. The memory is not changed.
         """
         b0 = self.hysteresis.b
+        self._step = step
         h_irr = (self._last[1] if flux_density == self._last[0]
                  else self.hysteresis.evaluate(flux_density)[0])
         rate = (flux_density - b0) / step
         root = math.sqrt(abs(rate))
         eddy = self.eddy_stiffness(1.0 if rate >= 0.0 else -1.0, step)
-        return (self.nu * flux_density + h_irr + eddy * (flux_density - b0)
-                + (self.k_ex * root if rate >= 0.0 else -self.k_ex * root))
+        h = (self.nu * flux_density + h_irr + eddy * (flux_density - b0)
+             + (self.k_ex * root if rate >= 0.0 else -self.k_ex * root))
+        td = self.td
+        if td.has_extension:
+            stiffness, held = self._relaxation_terms(step)
+            h += held + stiffness * (flux_density - b0) + rate_field(
+                rate, self.loop_swing(), td.rate_coefficient, td.rate_exponent,
+                td.swing_exponent)
+        return h
 
     def eddy_stiffness(self, direction: float, step: float, start: float | None = None) -> float:
         """The eddy term's dH per dB over a step, k_e/h fitted to the exponential, [A/(m T)].
@@ -174,6 +198,13 @@ class TimeDomainMagnetics:
         """B at the end of a step of ``step`` [s] with the applied ``field`` [A/m] held, [T].
 
         The root of the step equation (module docstring); the memory is not changed.
+
+        Raises
+        ------
+        ParameterError
+            A step outside (0, inf) s or a field that is not finite.
+        ConvergenceError
+            When the safeguarded Newton iteration does not converge.
         """
         if not (step > 0.0 and math.isfinite(step)):
             raise ParameterError(f"step = {step!r} s is outside the allowed range (0, inf) s")
@@ -181,50 +212,83 @@ class TimeDomainMagnetics:
             raise ParameterError(f"field = {field!r} A/m is not finite")
         op = self.hysteresis
         b0 = op.b
-        r0 = self.nu * b0 + op.h - field
+        self._step = step
+        relax_stiffness, relax_held = self._relaxation_terms(step)
+        r0 = self.nu * b0 + op.h + relax_held - field
         if r0 == 0.0:
             self._last = (b0, op.h)
             return b0
         s = -1.0 if r0 > 0.0 else 1.0
         excess = self.k_ex / math.sqrt(step)
         start, h_start, limit = op.branch_towards(s)
-        eddy = self.eddy_stiffness(s, step, start)
+        eddy = self.eddy_stiffness(s, step, start) + relax_stiffness
         linear = eddy + self.nu
+        rate_gain, rate_power = self._rate_terms(step)
         # f(u) = s R(b0 + s u^2) rises from -|r0|; f(u) >= -|r0| + linear u^2 + excess u
         need = abs(r0)
         hi = (-excess + math.sqrt(excess * excess + 4.0 * linear * need)) / (2.0 * linear)
-        lo = 0.0
         # first guess: the same quadratic with the operator's slope at the last solution
         steep = linear + self._slope
         u = (-excess + math.sqrt(excess * excess + 4.0 * steep * need)) / (2.0 * steep)
-        g_branch = self.branch.value_and_slope
-        for _ in range(_MAX_ITERATIONS):
+
+        def residual(u):
             b = b0 + s * u * u
-            if s * (b - limit) > 0.0 or start != start:  # wipes a reversal out, or virgin
-                h_irr, slope = op.evaluate(b)
-            else:  # on the branch the move starts on (the usual case)
-                g, slope = g_branch(s * (b - start))
-                h_irr = h_start + s * g
-            self._slope = slope
+            h_irr, slope = self._irreversible(b, s, start, h_start, limit)
             f = s * (self.nu * b + h_irr - field) + eddy * u * u + excess * u
-            if f > 0.0:
-                hi = u
-            else:
-                lo = u
             df = 2.0 * u * (linear + slope) + excess
-            new = u - f / df if df > 0.0 else 0.5 * (lo + hi)
-            if lo <= new <= hi and abs(new * new - u * u) <= B_TOLERANCE:
-                self._last = (b, h_irr)  # converged: this B (within the tolerance of new)
-                return b
-            if not lo < new < hi:
-                new = 0.5 * (lo + hi)
-            if hi - lo <= 1e-15:
-                break
-            u = new
-        else:  # pragma: no cover - the bracket halves at worst, 60 halvings suffice
-            raise ParameterError(f"no flux density found for field = {field:g} A/m")
+            if rate_gain:
+                f += rate_gain * u ** rate_power
+                df += rate_power * rate_gain * u ** (rate_power - 1.0) if u > 0.0 else 0.0
+            return f, df, (b, h_irr)
+
+        b, h_irr = _safeguarded_newton(residual, 0.0, hi, u, lambda u: u * u,
+                                       f"flux density for field = {field:g} A/m")
         self._last = (b, h_irr)
         return b
+
+    def _irreversible(self, b, s, start, h_start, limit):
+        """(H_irr, dH_irr/dB) at ``b`` reached in direction ``s`` from now; keeps the slope."""
+        if s * (b - limit) > 0.0 or start != start:  # wipes a reversal out, or virgin
+            h_irr, slope = self.hysteresis.evaluate(b)
+        else:  # on the branch the move starts on (the usual case)
+            g, slope = self.branch.value_and_slope(s * (b - start))
+            h_irr = h_start + s * g
+        self._slope = slope
+        return h_irr, slope
+
+    def loop_swing(self) -> float:
+        """dB_pp of the loop now, from the hysteresis memory, [T] (at least 2 r_0).
+
+        The larger of the last two reversals' distance and the distance from the
+        last reversal to B; 2 |B| before any reversal.
+        """
+        op = self.hysteresis
+        rb = op.reversals
+        swing = 2.0 * abs(op.b)
+        if rb:
+            swing = max(abs(op.b - rb[-1]), 2.0 * abs(rb[-1]) if len(rb) == 1
+                        else abs(rb[-1] - rb[-2]))
+        return max(swing, 2.0 * self.td.steinmetz_lower)
+
+    def _rate_terms(self, step):
+        """(g, p): the rate field's s H_w over a step is g u^p, u = sqrt(|dB|)."""
+        td = self.td
+        if not td.rate_coefficient > 0.0:
+            return 0.0, 0.0
+        q = td.rate_exponent
+        gain = (td.rate_coefficient * self.loop_swing() ** (td.swing_exponent - q)
+                * step ** (1.0 - q))
+        return gain, 2.0 * q - 2.0
+
+    def _relaxation_terms(self, step):
+        """(dH_r/dB over the step, H_r with B held), the relaxation field at the step's end."""
+        td = self.td
+        if not td.relaxation_coefficient > 0.0:
+            return 0.0, 0.0
+        k = td.relaxation_coefficient * self.loop_swing() ** (td.swing_exponent - 2.0)
+        tau = td.relaxation_time
+        return (-k * tau * math.expm1(-step / tau) / step,
+                k * relaxation_lag(self._lag, 0.0, step, tau))
 
     def step(self, field: float, step: float) -> float:
         """Advance B over a step with ``field`` held; commit the memory; return B [T]."""
@@ -233,8 +297,15 @@ class TimeDomainMagnetics:
         return b
 
     def move(self, flux_density: float) -> None:
-        """Commit the memory to B = ``flux_density`` [T] (reached monotonically from now)."""
+        """Commit the memory to B = ``flux_density`` [T] (reached monotonically from now).
+
+        The relaxation lag advances over the step of the last :meth:`solve` or
+        :meth:`field`.
+        """
         last_b, last_h = self._last
+        if self.td.relaxation_coefficient > 0.0:
+            rate = (flux_density - self.hysteresis.b) / self._step
+            self._lag = relaxation_lag(self._lag, rate, self._step, self.td.relaxation_time)
         self.hysteresis.move(flux_density, last_h if flux_density == last_b else None)
 
     def flux_density_for(self, magnetization: float) -> float:
@@ -243,7 +314,16 @@ class TimeDomainMagnetics:
         dM/dB lies between ``smallest_magnetization_slope`` and
         1/mu_0 - 1/(mu_0 mu_rev) on every branch, which brackets the root; the
         memory is not changed.
+
+        Raises
+        ------
+        ParameterError
+            A magnetization that is not finite.
+        ConvergenceError
+            When the safeguarded Newton iteration does not converge.
         """
+        if not math.isfinite(magnetization):
+            raise ParameterError(f"magnetization = {magnetization!r} A/m is not finite")
         op = self.hysteresis
         b0 = op.b
         miss = magnetization - (b0 / MU_0 - self.nu * b0 - op.h)
@@ -254,32 +334,59 @@ class TimeDomainMagnetics:
         near, far = b0 + miss / steep, b0 + miss / flat
         lo, hi = (near, far) if miss > 0.0 else (far, near)
         # first guess: the slope of M(B) at the last solution
-        b = b0 + miss / max(steep - self._slope, flat)
+        guess = b0 + miss / max(steep - self._slope, flat)
         start, h_start, limit = op.branch_towards(s)
-        g_branch = self.branch.value_and_slope
-        for _ in range(_MAX_ITERATIONS):
-            if not lo <= b <= hi:
-                b = 0.5 * (lo + hi)
-            if s * (b - limit) > 0.0 or start != start:  # wipes a reversal out, or virgin
-                h_irr, slope = op.evaluate(b)
-            else:
-                g, slope = g_branch(s * (b - start))
-                h_irr = h_start + s * g
-            self._slope = slope
-            g = b / MU_0 - self.nu * b - h_irr - magnetization
-            if g > 0.0:
-                hi = b
-            else:
-                lo = b
-            new = b - g / (steep - slope)
-            if lo <= new <= hi and abs(new - b) <= B_TOLERANCE:
-                self._last = (b, h_irr)
-                return b
-            if not lo < new < hi:
-                new = 0.5 * (lo + hi)
-            b = new
-        self._last = (math.nan, math.nan)
+
+        def residual(b):
+            h_irr, slope = self._irreversible(b, s, start, h_start, limit)
+            return b / MU_0 - self.nu * b - h_irr - magnetization, steep - slope, (b, h_irr)
+
+        b, h_irr = _safeguarded_newton(residual, lo, hi, guess, lambda b: b,
+                                       f"flux density for magnetization = {magnetization:g} A/m")
+        self._last = (b, h_irr)
         return b
+
+
+def _safeguarded_newton(residual, lo, hi, x, flux_of, what):
+    """Root of a rising ``residual`` in [lo, hi]: Newton's steps, bisection when they leave it.
+
+    Parameters
+    ----------
+    residual : callable x -> (f, df/dx, payload)
+        Rising in x on [lo, hi], f(lo) <= 0 <= f(hi).
+    lo, hi, x : the bracket and the first guess.
+    flux_of : callable x -> B [T]
+        Convergence is judged in B: a Newton step that stays in the bracket and
+        moves B by at most :data:`B_TOLERANCE`, or a bracket narrower than that in B.
+    what : str
+        The quantity, for the error message.
+
+    Returns
+    -------
+    payload of the last evaluation
+
+    Raises
+    ------
+    ConvergenceError
+        After :data:`_MAX_ITERATIONS` evaluations without convergence.
+    """
+    for _ in range(_MAX_ITERATIONS):
+        if not lo <= x <= hi:
+            x = 0.5 * (lo + hi)
+        f, df, payload = residual(x)
+        if f > 0.0:
+            hi = x
+        else:
+            lo = x
+        new = x - f / df if df > 0.0 else 0.5 * (lo + hi)
+        if lo <= new <= hi and abs(flux_of(new) - flux_of(x)) <= B_TOLERANCE:
+            return payload
+        if abs(flux_of(hi) - flux_of(lo)) <= B_TOLERANCE:
+            return payload
+        x = new if lo < new < hi else 0.5 * (lo + hi)
+    raise ConvergenceError(
+        f"{what}: no convergence in {_MAX_ITERATIONS} iterations (bracket [{flux_of(lo):.12g}, "
+        f"{flux_of(hi):.12g}] T)")
 
 
 class TimeDomainStepper:

@@ -2,7 +2,9 @@
 
 The loss coefficients K_h, n, K_e, K_ex stay Table 2's
 (:class:`gmt.TransducerParameters`); the time-domain form needs three more
-numbers, a frozen dataclass validated on construction.
+numbers, and the extended dynamic loss law (:mod:`gmt.timedomain.dynamic`)
+five, whose defaults switch it off: a frozen dataclass validated on
+construction.
 """
 from __future__ import annotations
 
@@ -38,11 +40,29 @@ class TimeDomainParameters:
         r_0, [T], in (0, steinmetz_upper): below this half-swing the loss law
         turns from K_h B_m^n into that of one stop (a Rayleigh-like region), so
         that dH/dB stays finite at reversals. Default 2 mT.
+    rate_coefficient : float
+        k_w of the rate field H_w = k_w dB_pp^(beta - q) |dB/dt|^(q - 1) sign(dB/dt),
+        [A/m T^(q - beta) (s/T)^(q - 1)], >= 0. Default 0: no rate field.
+    rate_exponent : float
+        q, [-], in [1, 4]: the loss of a flux transition grows as |dB/dt|^q.
+    swing_exponent : float
+        beta, [-], in [1, 4]: the rate field and the relaxation scale with the
+        loop's peak-to-peak swing dB_pp as dB_pp^(beta - q) and dB_pp^(beta - 2).
+    relaxation_coefficient : float
+        k_r of the relaxation field H_r = k_r dB_pp^(beta - 2) x, [A/(m T) T^(2 - beta)],
+        >= 0. Default 0: no relaxation.
+    relaxation_time : float
+        tau of dx/dt = dB/dt - x/tau, [s], in (0, 1].
     """
 
     reversible_permeability: float = REVERSIBLE_PERMEABILITY
     steinmetz_upper: float = 0.2
     steinmetz_lower: float = 2e-3
+    rate_coefficient: float = 0.0
+    rate_exponent: float = 2.0
+    swing_exponent: float = 2.0
+    relaxation_coefficient: float = 0.0
+    relaxation_time: float = 1e-6
 
     def __post_init__(self):
         check_range("reversible_permeability", self.reversible_permeability, 1.0, 1e4,
@@ -51,6 +71,20 @@ class TimeDomainParameters:
                     high_open=False)
         check_range("steinmetz_lower", self.steinmetz_lower, 0.0, self.steinmetz_upper,
                     unit="T")
+        check_range("rate_coefficient", self.rate_coefficient, 0.0, None, low_open=False)
+        check_range("rate_exponent", self.rate_exponent, 1.0, 4.0, unit="-",
+                    low_open=False, high_open=False)
+        check_range("swing_exponent", self.swing_exponent, 1.0, 4.0, unit="-",
+                    low_open=False, high_open=False)
+        check_range("relaxation_coefficient", self.relaxation_coefficient, 0.0, None,
+                    low_open=False)
+        check_range("relaxation_time", self.relaxation_time, 0.0, 1.0, unit="s",
+                    high_open=False)
+
+    @property
+    def has_extension(self) -> bool:
+        """True when the rate field or the relaxation is on."""
+        return self.rate_coefficient > 0.0 or self.relaxation_coefficient > 0.0
 
     def replace(self, **changes) -> "TimeDomainParameters":
         """Copy with some fields changed (validated again)."""
