@@ -16,6 +16,8 @@ import numpy as np  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
+from ..outputs import save_figure  # noqa: E402
+
 __all__ = ["MODE_COLOURS", "MARKERS", "run_figure", "plot_run", "flow_figure", "plot_flow"]
 
 #: Colour of each drive mode, the same in every panel.
@@ -271,5 +273,4 @@ def plot_flow(rows, path):
 
 
 def _save(fig, path):
-    fig.savefig(path, dpi=110, bbox_inches="tight")  # the legends below the panels included
-    plt.close(fig)
+    save_figure(fig, path, dpi=110, bbox_inches="tight")  # the legends below the panels

@@ -44,6 +44,7 @@ from pathlib import Path
 import gmt
 from gmt.errors import InputError, RunError
 
+from ..outputs import replacing, save_figure
 from . import flow
 
 __all__ = ["GRID_KEYS", "SETTINGS_DEFAULTS", "OPTIONAL_SETTINGS", "RESULT_FIELDS", "FLAG_FIELDS",
@@ -246,13 +247,11 @@ def _format(value) -> str:
 def write_table(rows, path) -> Path:
     """Write sweep rows as CSV (:data:`COLUMNS`; empty cells for None), atomically."""
     path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w", newline="") as fh:
+    with replacing(path) as tmp, open(tmp, "w", newline="") as fh:
         writer = csv.writer(fh)
         writer.writerow(COLUMNS)
         for r in rows:
             writer.writerow([_format(r.get(c)) for c in COLUMNS])
-    os.replace(tmp, path)
     return path
 
 
@@ -527,6 +526,5 @@ def plot_sweep(rows, path) -> Path:
     if groups:
         ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)
     return Path(path)
