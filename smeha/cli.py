@@ -52,12 +52,14 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import sys
 
 import gmt  # cheap: its names load on first use (gmt/__init__.py)
 
 from . import __version__
 from .errors import InputError, RunError
+from .interrupt import fmu_safe_interrupts
 from .cliargs import (Parser, UsageError, add_branch_rule, count, input_file,
                       join_negative_values, output_dir)
 from .studies.flowcommands import CIRCUITS, FREQUENCY, add_flow, add_simulate, add_sweep
@@ -272,7 +274,21 @@ def main(argv=None) -> int:
     argv : list of str, optional
         Arguments without the program name; ``sys.argv[1:]`` if None.
     """
+    program = argv is None
     argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        with fmu_safe_interrupts():
+            status = _main(argv)
+    except KeyboardInterrupt:  # Ctrl-C: one line, the shell's 128 + SIGINT
+        command = " ".join(["smeha", *[a for a in argv if not a.startswith("-")][:1]])
+        print(f"\n{command}: interrupted", file=sys.stderr)
+        status = 130
+    if program:  # the work is done or stopped: a Ctrl-C while Python shuts down changes nothing
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    return status
+
+
+def _main(argv) -> int:
     parser = build_parser()
     try:
         args, extra = parser.parse_known_args(join_negative_values(argv))
@@ -291,9 +307,6 @@ def main(argv=None) -> int:
     except FileNotFoundError as exc:  # a file of the installation (the paper's data)
         print(f"smeha {args.command}: error: {exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:  # Ctrl-C: one line, the shell's 128 + SIGINT
-        print(f"\nsmeha {args.command}: interrupted", file=sys.stderr)
-        return 130
     except BrokenPipeError:  # stdout closed early, e.g. `smeha paper --json | head`
         sys.stdout = open(os.devnull, "w")
         return 1
