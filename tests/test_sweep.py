@@ -247,3 +247,24 @@ def test_flags_and_the_lowest_pressure_round_trip_through_the_table(tmp_path):
     (back,) = sweep.read_table(sweep.write_table([row], tmp_path / "t.csv"))
     assert back["cavitation"] is True and back["flow_reversed"] is False
     assert back["p_min_Pa"] == -2.2e6 and back["p_min_volume"] == "big cavity"
+
+
+def test_scheduler_without_dask_names_the_install(tmp_path, monkeypatch, capsys):
+    # Dask is an extra (smeha[dask]): without it, --scheduler is refused before any work,
+    # in one line that names the install command (it was a SweepError, exit 1, after the
+    # spec was read and the FMU found)
+    import importlib.util
+
+    from smeha import cli
+    from smeha.studies import flow, sweep
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "distributed" else real(name, *a))
+    monkeypatch.setattr(flow, "ensure_fmu", lambda **k: pytest.fail("work started"))
+    spec = tmp_path / "s.toml"
+    spec.write_text('[grid]\nfrequency = [100]\nmode = ["compensated"]\n')
+    assert cli.main(["sweep", str(spec), "--scheduler", "tcp://127.0.0.1:8786"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "'distributed' is not installed" in err
+    assert sweep.DASK_INSTALL in err and "smeha[dask]" in err

@@ -562,6 +562,9 @@ def _run_sweep(args) -> int:
     if args.scheduler and args.workers is not None:
         raise UsageError("--workers sets local processes; with --scheduler the Dask "
                          "cluster's workers run the points: drop one of them")
+    if args.scheduler and (missing := sweep.dask_missing()):
+        raise UsageError(f"--scheduler needs Dask, and {missing!r} is not installed: "
+                         f"{sweep.DASK_INSTALL}")
     points = sweep.read_spec(args.spec)  # SpecError (a ValueError): exit 2
     out = args.out
     if out is None:

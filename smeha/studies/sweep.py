@@ -51,6 +51,7 @@ __all__ = ["GRID_KEYS", "SETTINGS_DEFAULTS", "OPTIONAL_SETTINGS", "RESULT_FIELDS
            "KEY_COLUMNS", "COLUMNS", "TEXT_COLUMNS", "SpecError", "SweepError", "Point",
            "SweepResult", "parse_spec", "read_spec", "write_table", "read_table", "row_key",
            "FINISHED", "run_point", "run_point_shipped", "run_sweep", "format_summary",
+           "DASK_INSTALL", "dask_missing",
            "plot_sweep"]
 
 #: Grid keys: Case fields that take a list of values.
@@ -403,11 +404,22 @@ def _run_local(points, fmu_path, workers: int, quiet: bool, on_result=None) -> l
                          on_result=finished, on_error=broken)
 
 
+#: How to install what --scheduler needs (the optional dependencies ``smeha[dask]``).
+DASK_INSTALL = "pip install 'smeha[dask]'"
+
+
+def dask_missing() -> str | None:
+    """The first Dask package ``--scheduler`` needs that is not installed, or None."""
+    import importlib.util
+    return next((name for name in ("dask", "distributed")
+                 if importlib.util.find_spec(name) is None), None)
+
+
 def _run_dask(points, fmu_path, scheduler: str, quiet: bool, on_result=None) -> list[dict]:
     try:
         from dask.distributed import Client, as_completed
     except ImportError:
-        raise SweepError("--scheduler needs dask.distributed: pip install dask distributed") \
+        raise SweepError(f"--scheduler needs Dask: {DASK_INSTALL}") \
             from None
     try:
         client = Client(scheduler, timeout="20s")
