@@ -141,3 +141,37 @@ def test_plots_write_png(tmp_path):
     flowplots.plot_run(_record(), ROW, tmp_path / "run.png")
     for name in ("flow.png", "run.png"):
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def _legend_texts(ax):
+    return [t.get_text() for t in ax.get_legend().get_texts()]
+
+
+def test_no_legend_entry_without_points():
+    # flow --magnetics time_domain --waveform square --plot: the legend listed Table 3's
+    # points (measured with the sinusoidal drive only, so not drawn) and "the paper's model"
+    rows = [dict(r, magnetics="time_domain", waveform="square", flow_paper_m3_s=None)
+            for r in _rows()]
+    fig = flowplots.flow_figure(rows)
+    ax = fig.axes[0]
+    labels = " ".join(_legend_texts(ax))
+    assert "Table 3" not in labels and "the paper's" not in labels
+    assert "time-domain magnetics" in labels
+    assert not any(ln.get_marker() == "^" for ln in ax.get_lines())  # nothing to list
+    title = ax.get_title()
+    assert all(w in title for w in ("realistic circuit", "load 150 N", "time-domain magnetics",
+                                    "square drive"))
+    # at the paper's sine drive its Table 3 points are drawn and listed
+    ax = flowplots.flow_figure(_rows()).axes[0]
+    assert any(ln.get_marker() == "^" for ln in ax.get_lines())
+    assert "Table 3" in " ".join(_legend_texts(ax))
+    assert "the paper's magnetics, sine drive" in ax.get_title()
+
+
+def test_run_title_states_magnetics_waveform_circuit_and_load():
+    # simulate --plot's title omitted the magnetics and the waveform
+    row = dict(ROW, magnetics="time_domain", waveform="trapezoid")
+    title = flowplots.run_figure(_record(), row, skip_cycles=2)._suptitle.get_text()
+    for words in ("compensated", "100 Hz", "realistic circuit", "load 150 N",
+                  "time-domain magnetics", "trapezoid drive"):
+        assert words in title
