@@ -226,6 +226,8 @@ def read_spec(path) -> list[Point]:
             spec = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{path}: not valid TOML ({exc})") from None
+    except UnicodeDecodeError:
+        raise SpecError(f"{path}: not valid TOML (not UTF-8 text)") from None
     try:
         return parse_spec(spec)
     except SpecError as exc:
@@ -275,7 +277,15 @@ def read_table(path) -> list[dict]:
     path = Path(path)
     if not path.is_file():
         return []
-    with open(path, newline="") as fh:
+    try:
+        return _read_table(path)
+    except UnicodeDecodeError:
+        raise SpecError(f"{path}: not a sweep table (not UTF-8 text); give another --out"
+                        ) from None
+
+
+def _read_table(path) -> list[dict]:
+    with open(path, newline="", encoding="utf-8") as fh:
         reader = csv.DictReader(fh)
         names = reader.fieldnames or []
         legacy = "circuit" not in names and "ideal" in names  # tables before named circuits

@@ -1,0 +1,206 @@
+"""No traceback from any command line: a property-based test over every command.
+
+Hypothesis builds command lines from the parser itself (:func:`smeha.cli.build_parser`):
+each option gets a valid value, an edge value, NaN, infinities, an empty list item, a value
+in a likely wrong unit, or -- for paths -- a missing file, a folder, a file of the wrong
+kind, a file under a missing folder or under a file. The invariant, for every command line:
+
+* exit status 0, or 2 with one line on stderr that starts ``smeha`` and names an option or
+  argument given, never a traceback;
+* nothing written outside the paths named: the long work of each command is replaced by a
+  tripwire (:class:`WorkStarted`), so a command line that reaches it has passed every
+  check that comes before the work, and the sandbox it ran in must be as it was.
+
+Bounded for CI: in-process, the work mocked, a fixed number of examples a command
+(:data:`EXAMPLES`), derandomized so a failure repeats.
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import os
+import tempfile
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from smeha import cli, cliargs
+
+#: Command lines tried per command.
+EXAMPLES = 50
+
+
+class WorkStarted(BaseException):
+    """Raised in place of a command's long work (not an Exception: main() must not catch it)."""
+
+
+def _trip(*args, **kwargs):
+    raise WorkStarted
+
+
+#: The long work of every command: (module, function) replaced by the tripwire.
+WORK = [("smeha.studies.flow", "run_case"), ("smeha.studies.flow", "run_cases"),
+        ("smeha.studies.flow", "ensure_fmu"), ("smeha.studies.sweep", "run_sweep"),
+        ("smeha.studies.paper", "compensated_runs"), ("smeha.identify", "identify"),
+        ("smeha.diagnose", "diagnose"), ("smeha.fmu.build", "build_all"),
+        ("smeha.fmu.ssp", "build_system"), ("smeha.studies.timedomain", "compare_rows"),
+        ("smeha.studies.timedomain", "waveform_rows"),
+        ("smeha.studies.timedomain", "gain_rows"), ("smeha.studies.position", "run_study"),
+        ("smeha.studies.position", "flow_table_velocity"),
+        ("system_models.kernel", "ensure_compiled")]
+
+
+@pytest.fixture(scope="module")
+def no_work():
+    import importlib
+    parser = cli.build_parser()  # built once: parsing does not change it
+    saved = [(cli, "build_parser", cli.build_parser)]
+    cli.build_parser = lambda: parser
+    for module_name, name in WORK:
+        module = importlib.import_module(module_name)
+        if hasattr(module, name):
+            saved.append((module, name, getattr(module, name)))
+            setattr(module, name, _trip)
+    yield
+    for module, name, function in saved:
+        setattr(module, name, function)
+
+
+def _subparsers():
+    parser = cli.build_parser()
+    (action,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    return action.choices
+
+
+COMMANDS = sorted(_subparsers())
+
+_INPUTS = {getattr(cliargs, n, None) for n in ("input_file", "fmu_file")} - {None}
+_OUTPUTS = {getattr(cliargs, n, None) for n in ("output_file", "plot_file", "output_dir")} \
+    - {None}
+
+#: Numbers: valid, edges, not finite, wrong units, malformed, lists with empty items.
+NUMBERS = ["50", "100", "1", "0", "-0", "-1e2", "1000", "1000.5", "1e4", "2.5", "4", "8",
+           "0.001", "1e-9", "nan", "NaN", "inf", "-inf", "1e309", "", " ", "abc", "5mm",
+           "50,100", "50,,100", "50,", ",", "-100,0,100", "0x10", "1_000"]
+#: Other free text (addresses, run names, "auto").
+TEXTS = ["tcp://127.0.0.1:8786", "bogus", "", "auto", "run1", "run1,,run2", "50,100"]
+#: Paths, relative to the sandbox: what they are is made before the run (_make_paths).
+PATHS = ["data.csv", "spec.toml", "model.fmu", "variant.json", "notes.txt", "folder",
+         "missing.csv", "nowhere/out.png", "out.png", "out.txt", "out.csv", "newdir",
+         "notes.txt/out.png", "", "folder/out.png"]
+
+
+def _make_paths(root: Path) -> None:
+    (root / "data.csv").write_text("run,frequency_Hz,time_s,current_A,displacement_um\n"
+                                   "a,50,0.0,1.0,0.0\na,50,0.001,0.9,1.0\n")
+    (root / "spec.toml").write_text('[grid]\nfrequency = [100]\nmode = ["compensated"]\n'
+                                    '[settings]\nbackend = "direct"\ncycles = 4\n')
+    import zipfile
+    with zipfile.ZipFile(root / "model.fmu", "w") as z:
+        z.writestr("modelDescription.xml", "<fmiModelDescription/>")
+    (root / "variant.json").write_text('{"cause": "none"}')
+    (root / "notes.txt").write_text("not data\n")
+    (root / "folder").mkdir()
+
+
+def _values(action):
+    """A strategy for one option's value, by its kind."""
+    if action.type in _INPUTS or action.type in _OUTPUTS:
+        return st.sampled_from(PATHS)
+    if action.choices:
+        return st.sampled_from([*map(str, action.choices), "bogus", ""])
+    if getattr(action.type, "numeric", False):
+        return st.sampled_from(NUMBERS)
+    return st.sampled_from(TEXTS + NUMBERS[:3])
+
+
+@st.composite
+def command_lines(draw, command):
+    sub = _subparsers()[command]
+    argv = [command]
+    for action in sub._actions:
+        if isinstance(action, argparse._HelpAction):
+            continue
+        if not action.option_strings:  # a positional: usually given
+            if draw(st.integers(0, 9)) > 0:
+                argv.append(draw(_values(action)))
+            continue
+        if not action.required and not draw(st.booleans()):
+            continue
+        flag = action.option_strings[-1]
+        if action.nargs == 0:
+            argv.append(flag)
+        elif action.nargs == "?" and draw(st.booleans()):
+            argv.append(flag)
+        else:
+            argv += [flag, draw(_values(action))]
+    return argv
+
+
+def _snapshot(root: Path):
+    return sorted((str(p.relative_to(root)), p.is_dir()) for p in root.rglob("*"))
+
+
+@contextlib.contextmanager
+def sandbox():
+    """A folder holding the files :data:`PATHS` names; yields (folder, its listing)."""
+    with tempfile.TemporaryDirectory() as folder:
+        root = Path(folder)
+        _make_paths(root)
+        yield root, _snapshot(root)
+
+
+def check_command_line(argv, root, before):
+    """Run ``argv`` in the sandbox ``root`` (listed ``before``); assert the invariant of the
+    module docstring. The sandbox stays as it was, so the next command line can reuse it."""
+    cwd = os.getcwd()
+    out, err = io.StringIO(), io.StringIO()
+    os.chdir(root)
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                status = cli.main(argv)
+            except WorkStarted:
+                status = 0  # every check before the work passed
+    finally:
+        os.chdir(cwd)
+    err = err.getvalue()
+    assert "Traceback" not in err, (argv, err)
+    assert status in (0, 2), (argv, status, err)
+    if status == 2:
+        assert err.count("\n") == 1 and err.startswith("smeha"), (argv, err)
+        named = [a.split("=")[0] for a in argv if a.startswith("--")] + argv[1:]
+        assert any(n and n in err for n in named) or "argument" in err, (argv, err)
+    assert _snapshot(root) == before, (argv, "wrote outside the paths named")
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_no_traceback_from_any_command_line(command, no_work):
+    @settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None,
+              suppress_health_check=[HealthCheck.too_slow])
+    @given(command_lines(command))
+    def run(argv):
+        check_command_line(argv, root, before)
+    with sandbox() as (root, before):
+        run()
+
+
+@pytest.mark.parametrize("argv", [
+    ["flow", "--plot", "out.txt"],
+    ["flow", "--fmu", "notes.txt"],
+    ["flow", "--plot", "nowhere/x.png"],
+    ["position", "--csv", "nowhere/x.csv"],
+    ["flow", "--load", "nan"],
+    ["flow", "--cycles", "2.5"],
+    ["simulate", "--frequency", "0.001", "--mode", "compensated"],
+    ["sweep", "spec.toml", "--plot", "out.txt"],
+    ["paper", "--plots", "nowhere/deeper"],
+])
+def test_the_reported_command_lines(argv, no_work):
+    # the command lines a new user tried: each was a traceback, a folder made where none was
+    # named, or a silent 40-minute run
+    with sandbox() as (root, before):
+        check_command_line(argv, root, before)
