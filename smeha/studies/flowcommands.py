@@ -163,7 +163,8 @@ def add_simulate(subparsers):
     p.add_argument("--amplitude", type=setting_type(fs.AMPLITUDE), metavar="A",
                    help="the control signal's amplitude: uncompensated the coil current's "
                         "I_m [A] (default 1, the paper's; the model's operating point "
-                        "follows it), compensated the demand's a [V] (default Figure 10's)")
+                        "follows it), compensated the demand's a [V] (default Figure 10's); "
+                        f"{fs.AMPLITUDE.interval()}")
     p.add_argument("--measurement", metavar="FILE", type=output_file,
                    help="add the run to FILE in the measurement format (docs/MEASURED.md: "
                         "run, frequency_Hz, time_s, current_A, displacement_um, "
@@ -175,8 +176,8 @@ def add_simulate(subparsers):
                         "sampled every --step, with sensor noise (--noise-um)")
     p.add_argument("--noise-um", type=setting_type(fs.NOISE_UM), metavar="UM",
                    help="with --measurement: the displacement sensor's noise, standard "
-                        "deviation [um] (default 0.05; the sense voltage's 0.5 mV scales "
-                        "with it); seeded by the run's name and --seed")
+                        f"deviation {fs.NOISE_UM.describe()}, default 0.05; the sense "
+                        "voltage's 0.5 mV scales with it; seeded by the run's name and --seed")
     p.add_argument("--seed", type=count(0), metavar="N",
                    help="with --measurement: the sensor noise's seed (default 0)")
     p.add_argument("--plot", metavar="FILE", type=plot_file,
