@@ -410,7 +410,7 @@ def add_flow(subparsers):
     _add_load(p)
     p.add_argument("--loads", metavar="N,N,...", type=setting_list(fs.LOAD),
                    help="also trace the load line: flow against load at each frequency "
-                        "(negative loads assist)")
+                        f"(negative loads assist), each {fs.LOAD.describe()}")
     p.add_argument("--workers", type=count(1), metavar="N", help=WORKERS_HELP)
     _add_cosim_options(p)
     p.add_argument("--variant", metavar="FILE", type=input_file,
