@@ -95,11 +95,10 @@ class Setting:
         return not self.whole or value == int(value)
 
     def describe(self) -> str:
-        """The range and default for ``--help``: ``[Hz], in (0, 1000] (default 100)``."""
-        unit = f"[{self.unit}], " if self.unit else ""
+        """The range and default for ``--help``: ``in (0, 1000] Hz (default 100)``."""
         kind = "a whole number " if self.whole else ""
         default = "" if self.default is None else f" (default {self.default:g})"
-        return f"{unit}{kind}{self.interval()}{default}"
+        return f"{kind}{self.interval()}{default}"
 
     def refusal(self, text: str) -> str | None:
         """Why ``text`` is not a value of this setting (None: it is one), in one line

@@ -12,8 +12,9 @@ from pathlib import Path
 
 import pytest
 
+import gmt
 from smeha import cli
-from smeha.studies import sweep
+from smeha.studies import flow, sweep
 
 TINY = """
 [grid]
@@ -169,17 +170,28 @@ def test_local_sweep_writes_table_and_rerun_skips(tmp_path, capsys):
 
 
 @pytest.mark.integration
-def test_failed_point_is_recorded_and_rerun(tmp_path, capsys):
-    # 2000 Hz passes the spec checks but gmt.Excitation rejects it (f in (0, 1000] Hz) at run time
+def test_failed_point_is_recorded_and_rerun(tmp_path, capsys, monkeypatch):
+    # the spec is checked against the study's own ranges: 2000 Hz is refused before any run
     spec = _spec(tmp_path, frequency="[100, 2000]", mode='["uncompensated"]')
+    assert cli.main(["sweep", str(spec), "--json"]) == 2
+    assert "frequency" in capsys.readouterr().err
+    # a point that fails at run time (the workers are forked with this run_case)
+    real = flow.run_case
+
+    def run_case(case, *args, **kwargs):
+        if case.frequency == 90.0:
+            raise gmt.ParameterError("frequency = 90 Hz: a point made to fail")
+        return real(case, *args, **kwargs)
+    monkeypatch.setattr(flow, "run_case", run_case)
+    spec = _spec(tmp_path, frequency="[100, 90]", mode='["uncompensated"]')
     out = tmp_path / "table.csv"
     status, report = _sweep(capsys, spec, "--out", out, "--workers", 2)
     assert status == 1  # a failed point is a failure of the run, after the table is written
     assert report["failed"] == 1
     by_f = {r["frequency"]: r for r in report["rows"]}
     assert by_f[100.0]["status"] == "ok" and by_f[100.0]["flow_sim_m3_s"] > 0
-    assert by_f[2000.0]["status"] == "failed"
-    assert "ParameterError" in by_f[2000.0]["error"] and "frequency" in by_f[2000.0]["error"]
+    assert by_f[90.0]["status"] == "failed"
+    assert "ParameterError" in by_f[90.0]["error"] and "frequency" in by_f[90.0]["error"]
     with open(out, newline="") as fh:
         assert [r["status"] for r in csv.DictReader(fh)] == ["ok", "failed"]
     # rerun: the ok point is skipped, the failed one tried again (and fails again)
