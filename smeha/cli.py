@@ -77,7 +77,8 @@ def _add_paper(subparsers):
     p.add_argument("--json", action="store_true",
                    help="print only a JSON object {rows, compensated, diagnosis} on stdout")
     p.add_argument("--plots", metavar="DIR", type=output_dir,
-                   help="write the figures (PNG) into DIR (created if missing)")
+                   help="write the figures (PNG) into DIR (created if missing, in a folder "
+                        "that exists)")
     add_branch_rule(p)
     p.set_defaults(run=_run_paper)
 
@@ -117,7 +118,7 @@ def _add_build(subparsers):
                    help="FMI version: 2 (pythonfmu, default), 3 (pythonfmu3) or both")
     p.add_argument("--out", metavar="DIR", type=output_dir,
                    help="output folder (default: dist/ of the source tree; created if "
-                        "missing)")
+                        "missing, in a folder that exists)")
     p.add_argument("--no-validate", action="store_true",
                    help="skip fmpy's validation of the built FMU")
     p.add_argument("--cross-check", metavar="DIR", type=output_dir,
@@ -142,6 +143,8 @@ def _run_build(args) -> int:
     from .fmu import build as fmu_build
 
     out = args.out or fmu_build.DIST
+    if args.out:  # the folder named, in one that exists (smeha.cliargs.output_dir)
+        args.out.mkdir(exist_ok=True)
     status = fmu_build.build_all(args.fmi, out, validate=not args.no_validate)
     if args.cross_check and status == 0:
         from .fmu import crosscheck
