@@ -18,9 +18,7 @@ make small dense problems many times slower: the QR factorisation of a
 2-core machine with one other job running, 0.10 s with one thread
 (benchmarks/blas_threads.py); the fit of a Preisach density to labsim's Preisach
 hysteresis (seed 101, 800 samples a period, one other job running) took 42.6 s against
-4.2 s, and ``smeha diagnose`` of the outside lab file C (hysteresis and a delayed sensor)
-228 s against 22 s (2026-11-27; with the joint step of smeha.diagnose.linearfit mended the
-same day, which does the factorisations).
+4.2 s.
 """
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Bad input on the command line: every command, every option of a kind, one rule.
 
-The project's standard (and issue 14): bad input gives exit status 2 and a one-line message
+The project's standard: bad input gives exit status 2 and a one-line message
 on stderr naming the argument, with no traceback, before any long work starts. The cases of
 the first tests are derived from the parser itself (:func:`smeha.cli.build_parser`): each
 option built from a :mod:`smeha.cliargs` type -- input file, output file or folder, number --
@@ -66,7 +66,7 @@ INPUTS, OUTPUTS, NUMBERS = (list(_options(k)) for k in ("input", "output", "numb
 
 def test_the_options_the_issue_names_are_driven():
     # the derivation above finds the options it should (a renamed type would empty a list):
-    # those issue 14 names, at least; a command without a file or a number has no such case
+    # those a user met first, at least; a command without a file or a number has no such case
     inputs = {(c, o) for c, o, _ in INPUTS}
     assert {("identify", "DATA.csv"), ("diagnose", "DATA.csv"), ("sweep", "SPEC"),
             ("flow", "--variant"), ("simulate", "--fmu"), ("flow", "--fmu"),
@@ -446,7 +446,7 @@ def test_build_options_reach_the_builder(tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("value", ["50,,100", "50,", ",100"])
 def test_a_list_with_an_empty_item_is_refused(value, capsys):
-    # issue 19: "--frequencies 50,,100" ran 50 and 100 Hz as if the middle one were not
+    # "--frequencies 50,,100" ran 50 and 100 Hz as if the middle one were not
     # asked for; a number left out is a mistake to name, not a shorter list
     assert cli.main(["flow", "--frequencies", value]) == 2
     err = capsys.readouterr().err

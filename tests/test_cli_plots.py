@@ -2,7 +2,7 @@
 
 Built from small hand-made rows and records (no co-simulation), and checked through the
 matplotlib artists: what a reader must be able to tell apart is drawn, each colour keeps
-one meaning across panels (issue 14), and the rod displacement has a stated reference.
+one meaning across panels, and the rod displacement has a stated reference.
 The PNGs themselves were looked at; these tests keep what was fixed from coming back.
 """
 from __future__ import annotations
@@ -49,7 +49,7 @@ def _data_lines(ax):
 
 
 def test_one_colour_per_mode_in_both_panels():
-    # issue 14: blue and red meant modes in one panel and frequency/mode pairs in the other
+    # blue and red meant modes in one panel and frequency/mode pairs in the other
     fig = flowplots.flow_figure(_rows(loads=(150.0, 0.0, 300.0)))
     left, right = fig.axes
     for ax in (left, right):
@@ -66,7 +66,7 @@ def test_one_colour_per_mode_in_both_panels():
 
 
 def test_variant_is_drawn_next_to_the_paper_model():
-    # issue 14: flow --variant FILE --plot drew only the paper's model
+    # flow --variant FILE --plot drew only the paper's model
     rows = _rows(models=("paper", "mechanical_resonance"))
     fig = flowplots.flow_figure(rows)
     (ax,) = fig.axes
@@ -122,7 +122,7 @@ def test_run_figure_names_the_control_trace_and_states_the_rod_reference():
 
 
 def test_pump_chamber_pressure_is_drawn_on_top():
-    # issue 14: the pump chamber hid under the cavity traces it equals while a valve is open
+    # the pump chamber hid under the cavity traces it equals while a valve is open
     fig = flowplots.run_figure(_record(), ROW, skip_cycles=2)
     pressure = fig.axes[1] if "pressure" in fig.axes[1].get_ylabel() else None
     assert pressure is not None

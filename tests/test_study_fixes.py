@@ -1,4 +1,4 @@
-"""What a new user met in the studies (issue 19, item 4), each fixed and pinned here.
+"""What a new user met in the studies, each fixed and pinned here.
 
 References: the flow check of eqs 39-41 (system_models.flowcheck) for the averaged
 cycles; Figure 2's valve timing and a quarter period for a rod lagging past the valves'
@@ -22,7 +22,7 @@ def _row(**over):
 
 
 def test_a_reversed_flow_within_a_quarter_period_blames_the_load():
-    # 50 Hz, 300 N (issue 19): the rod lags 73 deg and the valves act 4 deg late, 77 deg
+    # 50 Hz, 300 N: the rod lags 73 deg and the valves act 4 deg late, 77 deg
     # in all: not past a quarter period (90 deg). The load is past the stall point.
     note = flow.flag_row(_row(), rod_lag_deg=73.0, dead_time=2e-4)["note"]
     assert "stall point" in note and "past a quarter period" not in note

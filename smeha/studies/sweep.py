@@ -63,7 +63,7 @@ SETTINGS_DEFAULTS = {f.name: f.default for f in dataclass_fields(flow.Case)
 #: rows keep their own keys and never match a point of this version).
 OPTIONAL_SETTINGS = ("controller_period", "hydraulic_step", "coupling", "compensator_period")
 #: Settings whose every run before they existed had their present default (the paper's
-#: magnetics and sinusoid, issue 21): a table without their column is read with it, so its
+#: magnetics and sinusoid): a table without their column is read with it, so its
 #: finished points still match.
 DEFAULTED_SETTINGS = ("magnetics", "inverse", "waveform", "amplitude")
 

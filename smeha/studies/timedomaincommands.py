@@ -1,4 +1,4 @@
-"""``smeha timedomain``: the time-domain magnetics' studies (issue 21).
+"""``smeha timedomain``: the time-domain magnetics' studies.
 
 Registered by :mod:`smeha.cli`; the studies are :mod:`smeha.studies.timedomain`.
 Nothing heavy is imported before the command runs.
