@@ -38,7 +38,7 @@ from .settings import Setting
 
 __all__ = ["UsageError", "Parser", "join_negative_values", "input_file", "fmu_file", "output_file",
            "plot_file", "output_dir", "setting_type", "setting_list", "number", "number_list",
-           "count", "scheduler_address", "add_branch_rule", "warn"]
+           "count", "scheduler_address", "add_branch_rule", "say", "warn"]
 
 
 class UsageError(InputError):
@@ -250,6 +250,11 @@ def add_branch_rule(parser) -> None:
                              "u(n-1); its result depends on the sample period) or 'demand' "
                              "(the direction of the demanded magnetisation); default "
                              f"{default!r}")
+
+
+def say(message: str) -> None:
+    """A notice on stderr (a long preparation starting), printed at once."""
+    print(message, file=sys.stderr, flush=True)
 
 
 def warn(command: str, message: str) -> None:

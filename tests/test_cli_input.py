@@ -7,7 +7,8 @@ option built from a :mod:`smeha.cliargs` type -- input file, output file or fold
 is driven with a missing file, a directory, an unwritable path and a negative number. A new
 command or option built from those types is covered without editing this file.
 
-"Before any work" is checked by replacing the run function of every command with a recorder: the refusals below happen while parsing, so no command body runs at all. The rules
+"Before any work" is checked by replacing the run function of every command with a recorder:
+the refusals below happen while parsing, so no command body runs at all. The rules
 that need two options or a file's content run at the start of the command body; their tests
 replace the work itself (the co-simulation, the FMU build) with a tripwire.
 """

@@ -305,16 +305,19 @@ def default_fmu_path() -> Path:
     return fmu_build.DIST / "SmehaGmt.fmu"
 
 
-def ensure_fmu(path: Path | None = None, quiet: bool = False) -> Path:
-    """Build the FMI 2.0 FMU unless it exists and is newer than its sources."""
+def ensure_fmu(path: Path | None = None, quiet: bool = False, say=None) -> Path:
+    """Build the FMI 2.0 FMU unless it exists and is newer than its sources.
+
+    ``say``, if given, is told before a build starts (it takes a minute or more); the
+    library prints nothing itself. ``quiet`` silences ``say``."""
     from ..fmu import build as fmu_build
     path = Path(path) if path else default_fmu_path()
     sources = list((fmu_build.FMU_SRC).rglob("*.py")) + [Path(fmu_build.__file__)]
     newest = max(p.stat().st_mtime for p in sources)
     if path.is_file() and path.stat().st_mtime >= newest:
         return path
-    if not quiet:
-        print(f"building the transducer FMU into {path.parent} ...", flush=True)
+    if say is not None and not quiet:
+        say(f"building the transducer FMU into {path.parent} ...")
     return fmu_build.build("2", out=path.parent)
 
 
@@ -548,15 +551,15 @@ def _run_one(case, fmu_path):
     return run_case(case, fmu_path)[2]
 
 
-def run_cases(cases, fmu_path=None, workers: int = 1, quiet: bool = False) -> list[dict]:
+def run_cases(cases, fmu_path=None, workers: int = 1, quiet: bool = False,
+              say=None) -> list[dict]:
     """Run many cases (in worker processes when ``workers`` > 1, :mod:`smeha.pool`), with a
-    progress bar on stderr unless ``quiet``; rows in the order of ``cases``."""
-    import sys
-
+    progress bar on stderr unless ``quiet``; rows in the order of ``cases``. ``say``, if
+    given, is told of a long preparation (the kernel's first compilation)."""
     from .. import pool
     pool.prepare(workers, (fmu_path or default_fmu_path())
                  if any(c.backend == "fmu" for c in cases) else None,
-                 None if quiet else (lambda m: print(m, file=sys.stderr, flush=True)))
+                 None if quiet else say)
     return pool.run_jobs(_run_one, [(c, fmu_path) for c in cases], workers,
                          desc="co-simulations", unit="run", quiet=quiet)
 

@@ -20,8 +20,8 @@ from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_ST
                                     MINIMUM_CYCLES, REALISTIC_LOAD, SKIP_CYCLES)
 
 from ..pool import default_workers
-from ..cliargs import (UsageError, add_branch_rule, count, fmu_file, input_file, output_file, plot_file,
-                      scheduler_address, setting_list, setting_type, warn)
+from ..cliargs import (UsageError, add_branch_rule, count, fmu_file, input_file, output_file,
+                      plot_file, say, scheduler_address, setting_list, setting_type, warn)
 from . import flowsettings as fs
 
 __all__ = ["FREQUENCY", "CONVERGED_STEPS_PER_CYCLE", "CIRCUITS", "MODE_HELP", "add_simulate",
@@ -219,7 +219,7 @@ def _fmu_for(args, cases):
         return None
     if args.fmu:
         return args.fmu
-    return flow.ensure_fmu(quiet=getattr(args, "json", False))
+    return flow.ensure_fmu(quiet=getattr(args, "json", False), say=say)
 
 
 def _progress_bar(total_steps, label, quiet):
@@ -345,8 +345,7 @@ def _run_simulate(args) -> int:
     _announce_long("simulate", [case])
     fmu = _fmu_for(args, [case])
     from system_models import kernel
-    kernel.ensure_compiled(None if args.json else (lambda m: print(m, file=sys.stderr,
-                                                                  flush=True)))
+    kernel.ensure_compiled(None if args.json else say)
     n = int(round(case.cycles / case.frequency / case.step))
     bar, update = _progress_bar(n, f"{case.mode} {case.frequency:g} Hz", args.json)
     try:
@@ -369,7 +368,8 @@ def _run_simulate(args) -> int:
           f"{row['load_N']:g} N, step {row['step_s']:g} s, backend {row['backend']}, "
           f"{row['magnetics']} magnetics, {row['waveform']} drive")
     eq = "eq 41" if case.mode == "compensated" else "eq 40"
-    print(f"  mean cylinder flow   {row['flow_sim_m3_s']:.3e} m^3/s ({row['flow_sim_L_min']:.4f} L/min)")
+    print(f"  mean cylinder flow   {row['flow_sim_m3_s']:.3e} m^3/s "
+          f"({row['flow_sim_L_min']:.4f} L/min)")
     print(f"  {eq} flow f A_d dy   {row['flow_eq_m3_s']:.3e} m^3/s (ratio {row['flow_ratio']:.3f})")
     print(f"  dy                   {row['dy_um']:.3f} um between the valve switching instants")
     if row["flow_paper_m3_s"] is not None:
@@ -488,7 +488,7 @@ def _run_flow(args) -> int:
     _announce_long("flow", cases, _workers(args))
     fmu = _fmu_for(args, cases)
     try:
-        rows = flow.run_cases(cases, fmu, workers=_workers(args), quiet=args.json)
+        rows = flow.run_cases(cases, fmu, workers=_workers(args), quiet=args.json, say=say)
     except _run_failures() as exc:
         return _failed("flow", exc)
     if check is not None:
@@ -582,7 +582,7 @@ def _run_sweep(args) -> int:
     fmu = _fmu_for(args, points)
     try:
         result = sweep.run_sweep(points, out, fmu, workers=_workers(args),
-                                 scheduler=args.scheduler, quiet=args.json)
+                                 scheduler=args.scheduler, quiet=args.json, say=say)
     except sweep.SweepError as exc:
         print(f"smeha sweep: error: {exc}", file=sys.stderr)
         return 1

@@ -397,11 +397,12 @@ def _collect(future, point, on_result=None) -> dict:
     return row
 
 
-def _run_local(points, fmu_path, workers: int, quiet: bool, on_result=None) -> list[dict]:
+def _run_local(points, fmu_path, workers: int, quiet: bool, on_result=None,
+               say=None) -> list[dict]:
     from .. import pool
     fmu = fmu_path or flow.default_fmu_path()
     pool.prepare(workers, fmu if any(p.backend == "fmu" for p in points) else None,
-                 None if quiet else (lambda m: print(m, file=sys.stderr, flush=True)))
+                 None if quiet else say)
 
     def finished(i, row):
         if on_result is not None:
@@ -455,7 +456,7 @@ def _run_dask(points, fmu_path, scheduler: str, quiet: bool, on_result=None) -> 
 
 
 def run_sweep(points, out, fmu_path=None, workers: int = 2, scheduler: str | None = None,
-              quiet: bool = False) -> SweepResult:
+              quiet: bool = False, say=None) -> SweepResult:
     """Run the points not finished in the table ``out``, writing it as points finish.
 
     Rows of ``out`` whose point is in ``points`` with status "ok" are kept and
@@ -478,7 +479,7 @@ def run_sweep(points, out, fmu_path=None, workers: int = 2, scheduler: str | Non
     if scheduler and todo:
         _run_dask(todo, fmu_path, scheduler, quiet, on_result=record)
     elif todo:
-        _run_local(todo, fmu_path, workers, quiet, on_result=record)
+        _run_local(todo, fmu_path, workers, quiet, on_result=record, say=say)
     rows = [done[p.key] if p.key in done else fresh[p.key] for p in points]
     write_table(rows + kept, out)
     return SweepResult(rows=rows, skipped=len(points) - len(todo),
