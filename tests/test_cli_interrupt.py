@@ -109,3 +109,42 @@ def _umask():
     mask = os.umask(0o022)
     os.umask(mask)
     return mask
+
+
+@pytest.mark.integration  # a real command, interrupted (~6 s)
+def test_ctrl_c_stops_flow_and_its_workers(tmp_path):
+    # a terminal's Ctrl-C reaches every process of the command: the workers leave it to
+    # the parent, which stops them and exits 130 with one line; no output is left half-done
+    import subprocess
+    import sys
+    proc = subprocess.Popen(
+        [sys.executable, "-c", "import sys; from smeha.cli import main; sys.exit(main())",
+         "flow", "--backend", "direct", "--workers", "2", "--cycles", "400",
+         "--plot", str(tmp_path / "flow.png")],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    time.sleep(6.0)
+    children = _children(proc.pid)
+    os.killpg(proc.pid, signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    lines = [ln for ln in err.replace("\r", "\n").splitlines() if ln.strip() and "|" not in ln]
+    assert proc.returncode == 130, err
+    assert lines[-1] == "smeha flow: interrupted" and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+    time.sleep(0.5)
+    assert not [c for c in children if _alive(c)]  # the workers were stopped
+
+
+def _children(pid):
+    try:
+        with open(f"/proc/{pid}/task/{pid}/children") as fh:
+            return [int(c) for c in fh.read().split()]
+    except OSError:
+        return []
+
+
+def _alive(pid):
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().split()[2] != "Z"
+    except OSError:
+        return False
