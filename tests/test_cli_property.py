@@ -30,8 +30,8 @@ from hypothesis import strategies as st
 
 from smeha import cli, cliargs
 
-#: Command lines tried per command.
-EXAMPLES = 50
+#: Command lines tried per command (SMEHA_CLI_EXAMPLES raises it for a deeper local search).
+EXAMPLES = int(os.environ.get("SMEHA_CLI_EXAMPLES", "50"))
 
 
 class WorkStarted(BaseException):
@@ -236,6 +236,8 @@ def fake_work(monkeypatch):
     monkeypatch.setattr(flow, "run_cases", run_cases)
     monkeypatch.setattr(flow, "run_case", run_case)
     monkeypatch.setattr(flow, "ensure_fmu", lambda **k: None)
+    from system_models import kernel
+    monkeypatch.setattr(kernel, "ensure_compiled", lambda *a, **k: None)
 
 
 @pytest.mark.parametrize("argv", [
