@@ -175,3 +175,26 @@ def test_run_title_states_magnetics_waveform_circuit_and_load():
     for words in ("compensated", "100 Hz", "realistic circuit", "load 150 N",
                   "time-domain magnetics", "trapezoid drive"):
         assert words in title
+
+
+def test_sweep_plot_states_the_drive(tmp_path, monkeypatch):
+    # one drive: in the title; several: in each line's label
+    import matplotlib.pyplot as plt
+
+    from smeha.studies import sweep
+    figures = []
+    monkeypatch.setattr(sweep, "save_figure", lambda fig, path, **k: figures.append(fig))
+
+    def row(f, mode, waveform):
+        return {"status": "ok", "frequency": f, "mode": mode, "load_N": 150.0,
+                "circuit": "realistic", "flow_sim_m3_s": 1e-6 * f / 50,
+                "magnetics": "time_domain", "waveform": waveform}
+    sweep.plot_sweep([row(f, m, "square") for f in (50.0, 100.0) for m in MODES],
+                     tmp_path / "a.png")
+    assert "time-domain magnetics, square drive" in figures[-1].axes[0].get_title()
+    sweep.plot_sweep([row(f, "compensated", w) for f in (50.0, 100.0)
+                      for w in ("sine", "square")], tmp_path / "b.png")
+    labels = [t.get_text() for t in figures[-1].axes[0].get_legend().get_texts()]
+    assert labels == ["compensated, 150 N, realistic, time-domain magnetics, sine drive",
+                      "compensated, 150 N, realistic, time-domain magnetics, square drive"]
+    plt.close("all")

@@ -515,27 +515,32 @@ def format_summary(result: SweepResult, out) -> str:
 
 
 def plot_sweep(rows, path) -> Path:
-    """Mean cylinder flow against frequency, one line per (mode, load, circuit); PNG."""
+    """Mean cylinder flow against frequency, one line per (mode, load, circuit, magnetics,
+    drive); the title states what all lines share. An image by the path's suffix."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .flowplots import MARKERS, MODE_COLOURS
+    from .flowplots import MARKERS, MODE_COLOURS, drive_label
 
     ok = [r for r in rows if r["status"] in FINISHED]
     fig, ax = plt.subplots(figsize=(6.5, 4.8))
-    groups = sorted({(r["mode"], r["load_N"], r["circuit"]) for r in ok})
+
+    def key(r):
+        return (r["mode"], r["load_N"], r["circuit"], drive_label(r))
+    groups = sorted({key(r) for r in ok})
+    drives = sorted({g[3] for g in groups})
     # colour = mode, as in every flow figure (smeha.studies.flowplots); marker and line =
-    # load, circuit
-    cases = sorted({(load, circuit) for _, load, circuit in groups})
-    for mode, load, circuit in groups:
-        rs = sorted((r for r in ok if (r["mode"], r["load_N"], r["circuit"]) == (mode, load,
-                                                                                 circuit)),
-                    key=lambda r: r["frequency"])
-        k = cases.index((load, circuit))
+    # load, circuit, drive
+    cases = sorted({g[1:] for g in groups})
+    for group in groups:
+        mode, load, circuit, drive = group
+        rs = sorted((r for r in ok if key(r) == group), key=lambda r: r["frequency"])
+        k = cases.index(group[1:])
+        label = f"{mode}, {load:g} N, {circuit}" + (f", {drive}" if len(drives) > 1 else "")
         ax.plot([r["frequency"] for r in rs], [r["flow_sim_m3_s"] * 1e6 for r in rs],
                 color=MODE_COLOURS[mode], marker=MARKERS[k % len(MARKERS)],
-                ls=("-", "--", "-.", ":")[k % 4], label=f"{mode}, {load:g} N, {circuit}")
+                ls=("-", "--", "-.", ":")[k % 4], label=label)
     flagged = [r for r in ok if r["status"] == "flagged"]
     if flagged:  # a reversed flow or cavitation, marked as in every flow figure
         ax.scatter([r["frequency"] for r in flagged], [r["flow_sim_m3_s"] * 1e6 for r in flagged],
@@ -544,7 +549,8 @@ def plot_sweep(rows, path) -> Path:
         ax.axhline(0.0, color="grey", lw=0.6)
     ax.set_xlabel("pumping frequency f [Hz]")
     ax.set_ylabel("mean cylinder flow [cm^3/s]")
-    ax.set_title("Sweep: flow against frequency")
+    ax.set_title("Sweep: flow against frequency" + (f"\n{drives[0]}" if len(drives) == 1
+                                                    else ""), fontsize=10)
     ax.grid(alpha=0.3)
     if groups:
         ax.legend(fontsize=7)
