@@ -50,7 +50,7 @@ def test_a_long_run_is_announced_before_it_starts(tripwire, capsys):
         cli.main(["simulate", "--frequency", "1", "--cycles", "3000", "--mode",
                   "compensated", "--backend", "direct"])
     err = capsys.readouterr().err
-    assert err.startswith("smeha simulate: warning: this run is estimated at about 15 min")
+    assert err.startswith("smeha simulate: warning: this run is estimated at up to about 15 min")
     assert "30,000,000 steps" in err
     with pytest.raises(WorkStarted):  # the default run: no word
         cli.main(["simulate", "--frequency", "50", "--mode", "compensated", "--backend",
@@ -115,3 +115,12 @@ def test_the_main_job_prints_no_warning(capsys):
     assert cli.main(["flow", "--backend", "direct", "--workers", "1"]) == 0
     out, err = capsys.readouterr()
     assert "not settled" not in out and "warning" not in err
+
+
+def test_a_long_sweep_is_announced(tmp_path, tripwire, capsys):
+    spec = tmp_path / "long.toml"
+    spec.write_text('[grid]\nfrequency = [1, 2]\nmode = ["compensated"]\n'
+                    '[settings]\nbackend = "direct"\ncycles = 3000\n')
+    with pytest.raises(WorkStarted):
+        cli.main(["sweep", str(spec), "--workers", "1"])
+    assert "smeha sweep: warning: this run is estimated at up to about" in capsys.readouterr().err

@@ -280,7 +280,7 @@ def _announce_long(command, cases, workers=1) -> None:
         return
     longest = cases[walls.index(max(walls))]
     steps = longest.cycles / longest.frequency / longest.step
-    warn(command, f"this run is estimated at about {total / 60:.0f} min: "
+    warn(command, f"this run is estimated at up to about {total / 60:.0f} min: "
                   f"{longest.cycles:g} cycles at {longest.frequency:g} Hz are "
                   f"{longest.cycles / longest.frequency:g} s of simulated time, {steps:,.0f} "
                   f"steps of {longest.step:g} s (Ctrl-C stops it)")
@@ -579,6 +579,8 @@ def _run_sweep(args) -> int:
         highest[key] = max(highest.get(key, 0.0), q.frequency)
     for (step, coupling), frequency in highest.items():
         _check_step("sweep", step, frequency, coupling)
+    if not args.scheduler:  # a cluster's speed is its own
+        _announce_long("sweep", [q.case for q in points], _workers(args))
     fmu = _fmu_for(args, points)
     try:
         result = sweep.run_sweep(points, out, fmu, workers=_workers(args),
