@@ -58,8 +58,11 @@ class Setting:
     default: float | None = None
     whole: bool = False
     option: str = ""
-    #: why the bounds are where they are, said when a value is refused
-    why: str = ""
+    #: why the lower bound is where it is (or the likely mistake below it), said when a
+    #: value below the range is refused
+    below: str = ""
+    #: the same for a value above the range
+    above: str = ""
 
     def __post_init__(self):
         if self.low is not None and self.high is not None and not self.low < self.high:
@@ -115,7 +118,9 @@ class Setting:
             return None
         if self.whole and self.contains(round(v)):
             return f"{text} is not a whole number"
-        why = f" ({self.why})" if self.why else ""
+        low_side = self.low is not None and v <= self.low
+        why = self.below if low_side else self.above
+        why = f" ({why})" if why else ""
         return f"{text} is outside the allowed range: {self.interval()}{why}"
 
     def check(self, value) -> float:

@@ -24,7 +24,7 @@ __all__ = ["FREQUENCY", "LOAD", "CYCLES", "STEP", "DURATION", "AMPLITUDE",
 #: lasts a second and the default eight cycles take 80,000 steps; the paper pumps at
 #: 50-200 Hz, so a smaller value is most likely a period in seconds or kHz typed for Hz.
 FREQUENCY = Setting("frequency", "Hz", 1.0, 1000.0, low_open=False,
-                    why="the paper pumps at 50-200 Hz; below 1 Hz, was it a period in "
+                    below="the paper pumps at 50-200 Hz; below 1 Hz, was it a period in "
                         "seconds (0.01 s is 100 Hz) or kHz (0.1 kHz is 100 Hz)?")
 #: The load on the cylinder: 10 MN either way bounds any load the pump could meet (its
 #: stall loads are near 1 kN).
@@ -33,7 +33,7 @@ LOAD = Setting("load", "N", -1e7, 1e7, high_open=True)
 #: strokes and averages the whole cycles between at least two more.
 CYCLES = Setting("cycles", "cycles", float(MINIMUM_CYCLES), None, low_open=False,
                  default=DEFAULT_CYCLES,
-                 why=f"the flow check discards the first {SKIP_CYCLES} compression strokes "
+                 below=f"the flow check discards the first {SKIP_CYCLES} compression strokes "
                      "and averages the whole cycles between the strokes that follow")
 #: The communication step, [s] (system_models.cosim.CosimSettings).
 STEP = Setting("step", "s", 0.0, 1.0, high_open=True, default=DEFAULT_STEP)
