@@ -7,11 +7,13 @@ physics it calls), the exception crosses the FMU's C boundary, where pythonfmu t
 into ``fmi2Fatal``: the host sees ``fmi2DoStep failed with status 4 (fatal)`` instead
 of an interrupt, and the FMU instance is lost. The FMI standard gives a host no way to
 cancel a running step (FMI 2.0's ``fmi2CancelStep`` applies to a step that returned
-``fmi2Pending`` only),
-so the interrupt is held until the step returns:
+``fmi2Pending`` only). The FMU also calls back into the host's Python through ctypes
+(fmpy's logger); an exception raised there is printed and dropped by ctypes ("Exception
+ignored on calling ctypes callback function"), so a Ctrl-C landing there would be lost
+and the run would go on. In both places the interrupt is held until the call returns:
 
 :func:`fmu_safe_interrupts` installs a SIGINT handler that raises ``KeyboardInterrupt``
-at once, as Python's own does, unless a frame of an FMU's code is on the stack; then it
+at once, as Python's own does, unless a frame of such code is on the stack; then it
 delivers SIGINT again :data:`REDELIVER_AFTER` later, until the stack holds none. A step
 takes tens of microseconds, so the command stops within a few hundredths of a second.
 """
@@ -32,11 +34,11 @@ REDELIVER_AFTER = 0.02
 
 @functools.lru_cache(maxsize=1024)
 def _fmu_code(filename: str) -> bool:
-    """Whether ``filename`` is code an FMU runs: a file under an extracted FMU's
-    ``resources`` folder (beside its ``modelDescription.xml``), or pythonfmu's slave
-    classes, which its C library calls."""
+    """Whether ``filename`` is code an FMU runs or calls back: a file under an extracted
+    FMU's ``resources`` folder (beside its ``modelDescription.xml``), pythonfmu's slave
+    classes, which its C library calls, or fmpy, whose callbacks the FMU calls."""
     path = Path(filename)
-    if "pythonfmu" in path.parts or "pythonfmu3" in path.parts:
+    if {"pythonfmu", "pythonfmu3", "fmpy"} & set(path.parts):
         return True
     for folder in list(path.parents)[:4]:
         if folder.name == "resources" and (folder.parent / "modelDescription.xml").is_file():

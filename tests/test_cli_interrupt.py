@@ -76,6 +76,58 @@ def test_without_the_handler_the_step_turns_fatal(fake_fmu):
         signal.signal(signal.SIGINT, previous)
 
 
+LOGGER = '''
+import os
+import signal
+import time
+
+def log(message):
+    """The host's logger, called back by an FMU through ctypes; a Ctrl-C arrives in it."""
+    os.kill(os.getpid(), signal.SIGINT)
+    end = time.perf_counter() + 0.2
+    while time.perf_counter() < end:
+        pass
+'''
+
+
+@pytest.fixture
+def fmu_callback(tmp_path):
+    """fmpy's logger as an FMU calls it: a Python function of the fmpy package entered from
+    C through a ctypes callback (an exception there is printed and dropped by ctypes)."""
+    import ctypes
+    import importlib.util
+    folder = tmp_path / "fmpy"
+    folder.mkdir()
+    (folder / "fake_logger.py").write_text(LOGGER)
+    spec = importlib.util.spec_from_file_location("fake_logger", folder / "fake_logger.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    kind = ctypes.CFUNCTYPE(None, ctypes.c_char_p)
+    callback = kind(module.log)
+    through_c = kind(ctypes.cast(callback, ctypes.c_void_p).value)  # called from C
+    return lambda: through_c(b"message"), callback
+
+
+def test_sigint_in_a_callback_from_the_fmu_is_not_lost(fmu_callback, monkeypatch):
+    import sys
+    call, _keep = fmu_callback
+    dropped = []
+    monkeypatch.setattr(sys, "unraisablehook", lambda u: dropped.append(u.exc_type))
+    with interrupt.fmu_safe_interrupts(), pytest.raises(KeyboardInterrupt):
+        call()
+        start = time.perf_counter()
+        while time.perf_counter() - start < 10.0:
+            pass
+    assert dropped == []
+    # with Python's own handler the interrupt is dropped by ctypes, and the host goes on
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        call()
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert dropped == [KeyboardInterrupt]
+
+
 def test_sigint_outside_an_fmu_interrupts_at_once():
     with interrupt.fmu_safe_interrupts(), pytest.raises(KeyboardInterrupt):
         _sigint_after(0.02)
