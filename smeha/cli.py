@@ -55,12 +55,14 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import sys
 
 import gmt  # cheap: its names load on first use (gmt/__init__.py)
 
 from . import __version__
 from .errors import InputError, RunError
+from .interrupt import fmu_safe_interrupts
 from .cliargs import (Parser, UsageError, add_branch_rule, count, input_file,
                       join_negative_values, output_dir)
 from .coreloss.commands import add_losses
@@ -79,7 +81,8 @@ def _add_paper(subparsers):
     p.add_argument("--json", action="store_true",
                    help="print only a JSON object {rows, compensated, diagnosis} on stdout")
     p.add_argument("--plots", metavar="DIR", type=output_dir,
-                   help="write the figures (PNG) into DIR (created if missing)")
+                   help="write the figures (PNG) into DIR (created if missing, in a folder "
+                        "that exists)")
     add_branch_rule(p)
     p.set_defaults(run=_run_paper)
 
@@ -119,7 +122,7 @@ def _add_build(subparsers):
                    help="FMI version: 2 (pythonfmu, default), 3 (pythonfmu3) or both")
     p.add_argument("--out", metavar="DIR", type=output_dir,
                    help="output folder (default: dist/ of the source tree; created if "
-                        "missing)")
+                        "missing, in a folder that exists)")
     p.add_argument("--no-validate", action="store_true",
                    help="skip fmpy's validation of the built FMU")
     p.add_argument("--cross-check", metavar="DIR", type=output_dir,
@@ -144,6 +147,8 @@ def _run_build(args) -> int:
     from .fmu import build as fmu_build
 
     out = args.out or fmu_build.DIST
+    if args.out:  # the folder named, in one that exists (smeha.cliargs.output_dir)
+        args.out.mkdir(exist_ok=True)
     status = fmu_build.build_all(args.fmi, out, validate=not args.no_validate)
     if args.cross_check and status == 0:
         from .fmu import crosscheck
@@ -276,7 +281,21 @@ def main(argv=None) -> int:
     argv : list of str, optional
         Arguments without the program name; ``sys.argv[1:]`` if None.
     """
+    program = argv is None
     argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        with fmu_safe_interrupts():
+            status = _main(argv)
+    except KeyboardInterrupt:  # Ctrl-C: one line, the shell's 128 + SIGINT
+        command = " ".join(["smeha", *[a for a in argv if not a.startswith("-")][:1]])
+        print(f"\n{command}: interrupted", file=sys.stderr)
+        status = 130
+    if program:  # the work is done or stopped: a Ctrl-C while Python shuts down changes nothing
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    return status
+
+
+def _main(argv) -> int:
     parser = build_parser()
     try:
         args, extra = parser.parse_known_args(join_negative_values(argv))
@@ -295,9 +314,6 @@ def main(argv=None) -> int:
     except FileNotFoundError as exc:  # a file of the installation (the paper's data)
         print(f"smeha {args.command}: error: {exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:  # Ctrl-C: one line, the shell's 128 + SIGINT
-        print(f"\nsmeha {args.command}: interrupted", file=sys.stderr)
-        return 130
     except BrokenPipeError:  # stdout closed early, e.g. `smeha paper --json | head`
         sys.stdout = open(os.devnull, "w")
         return 1

@@ -7,11 +7,13 @@ for every option of its kind and a new command gets the same checks:
   with exit status 2 and no traceback (argparse prints the whole usage first).
 * Input files (:func:`input_file`): a missing path or a directory is refused
   while the command line is parsed, before any work starts.
-* Output files and folders (:func:`output_file`, :func:`output_dir`): the
-  folder is created (with its parents) while parsing, so a path that cannot be
-  written fails at once instead of after a long run.
-* Numbers (:func:`number`, :func:`count`): a range per option, and the message
-  repeats the option, the value typed and the allowed range with its unit.
+* Output files and folders (:func:`output_file`, :func:`plot_file`, :func:`output_dir`):
+  the folder they go into must exist and take a file, checked while parsing, so a path
+  that cannot be written fails at once instead of after a long run; nothing is created
+  outside the path named (an output under a missing folder is refused, as ``cp`` does).
+* Numbers (:func:`setting_type`, :func:`number`, :func:`count`): a range per option, read
+  from its declaration (:class:`smeha.settings.Setting`) where the study has one, and the
+  message repeats the option, the value typed and the allowed range with its unit.
 * Negative numbers (:func:`join_negative_values`): ``--load -100`` works as
   ``--load=-100`` does. Python 3.11's argparse takes ``-100`` for a value but
   ``-1e2`` or ``-100,0`` for an unknown option; Python 3.14 widened the same
@@ -24,7 +26,6 @@ contradict each other, a file whose content is wrong) raise :class:`UsageError`;
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import re
 import sys
@@ -33,9 +34,11 @@ from pathlib import Path
 
 from gmt.errors import InputError  # cheap: the standard library only
 
-__all__ = ["UsageError", "Parser", "join_negative_values", "input_file", "output_file",
-           "output_dir", "number", "number_list", "count", "scheduler_address", "add_branch_rule",
-           "warn"]
+from .settings import Setting
+
+__all__ = ["UsageError", "Parser", "join_negative_values", "input_file", "fmu_file", "output_file",
+           "plot_file", "output_dir", "setting_type", "setting_list", "number", "number_list",
+           "count", "scheduler_address", "add_branch_rule", "say", "warn"]
 
 
 class UsageError(InputError):
@@ -97,14 +100,36 @@ def input_file(text: str) -> Path:
     return path
 
 
-def _make_folder(folder: Path, text: str) -> None:
-    """Create ``folder`` with its parents and prove it takes a file (a probe, not os.access:
-    permissions alone do not tell, e.g. for root or on a read-only mount)."""
-    existing = next((p for p in (folder, *folder.parents) if p.exists()), Path("."))
-    if not existing.is_dir():
-        raise argparse.ArgumentTypeError(f"{text}: {existing} is a file, not a folder")
+def fmu_file(text: str) -> Path:
+    """An existing FMU (argparse type): a zip archive holding ``modelDescription.xml`` (FMI
+    2.0 and 3.0 alike); a file of another kind is refused while parsing."""
+    import zipfile
+
+    path = input_file(text)
     try:
-        folder.mkdir(parents=True, exist_ok=True)
+        with zipfile.ZipFile(path) as archive:
+            names = set(archive.namelist())
+    except (zipfile.BadZipFile, OSError):
+        raise argparse.ArgumentTypeError(f"{text} is not an FMU (not a zip archive)") from None
+    if "modelDescription.xml" not in names:
+        raise argparse.ArgumentTypeError(f"{text} is not an FMU (a zip archive without "
+                                         "modelDescription.xml)")
+    return path
+
+
+def _writable_folder(folder: Path, text: str) -> None:
+    """Refuse unless ``folder`` exists and takes a file (a probe, not os.access: permissions
+    alone do not tell, e.g. for root or on a read-only mount). Nothing is created: an
+    output under a missing folder is refused, as ``cp`` refuses it."""
+    folder = folder if str(folder) else Path(".")
+    if not folder.exists():
+        existing = next((p for p in folder.parents if p.exists()), Path("."))
+        if not existing.is_dir():
+            raise argparse.ArgumentTypeError(f"{text}: {existing} is a file, not a folder")
+        raise argparse.ArgumentTypeError(f"{text}: no such folder {folder} (create it first)")
+    if not folder.is_dir():
+        raise argparse.ArgumentTypeError(f"{text}: {folder} is a file, not a folder")
+    try:
         with tempfile.TemporaryFile(dir=folder):
             pass
     except OSError as exc:
@@ -113,37 +138,57 @@ def _make_folder(folder: Path, text: str) -> None:
 
 
 def output_file(text: str) -> Path:
-    """A file to write; its folder is created now (argparse type)."""
+    """A file to write, in a folder that exists (argparse type). Nothing is written while
+    parsing; the command writes it whole or not at all (:mod:`smeha.outputs`)."""
     path = _path(text)
     if path.is_dir():
         raise argparse.ArgumentTypeError(f"{text} is a directory; give a file name")
-    _make_folder(path.parent, text)
-    if path.exists():
-        try:
-            with open(path, "ab"):
-                pass
-        except OSError as exc:
-            raise argparse.ArgumentTypeError(f"{text}: cannot write it "
-                                             f"({exc.strerror or exc})") from None
+    _writable_folder(path.parent, text)
+    if path.exists() and not os.access(path, os.W_OK):
+        raise argparse.ArgumentTypeError(f"{text}: cannot write it (permission denied)")
+    return path
+
+
+#: The formats a plot is written in, by the file name's suffix (matplotlib's Agg backend).
+PLOT_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+def plot_file(text: str) -> Path:
+    """An image to write (argparse type): :func:`output_file` whose suffix names a format of
+    :data:`PLOT_SUFFIXES`."""
+    path = output_file(text)
+    if path.suffix.lower() not in PLOT_SUFFIXES:
+        raise argparse.ArgumentTypeError(
+            f"{text}: a plot is written as {', '.join(s[1:].upper() for s in PLOT_SUFFIXES)} "
+            f"by its name's suffix, and {path.suffix or 'no suffix'!r} is none of them "
+            f"(e.g. {path.with_suffix('.png').name})")
     return path
 
 
 def output_dir(text: str) -> Path:
-    """A folder to write files into, created now with its parents (argparse type)."""
+    """A folder to write files into (argparse type): an existing one, or a new one in a
+    folder that exists (the command creates it when it writes; no parents are made)."""
     path = _path(text)
     if path.exists() and not path.is_dir():
         raise argparse.ArgumentTypeError(f"{text} is a file, not a folder")
-    _make_folder(path, text)
+    _writable_folder(path if path.exists() else path.parent, text)
     return path
 
 
 # -- numbers ------------------------------------------------------------------------------
-def _interval(low, high, low_open, high_open, unit) -> str:
-    lo = "-inf" if low is None else f"{low:g}"
-    hi = "inf" if high is None else f"{high:g}"
-    u = f" {unit}" if unit else ""
-    return (f"{'(' if low_open or low is None else '['}{lo}, {hi}"
-            f"{')' if high_open or high is None else ']'}{u}")
+def setting_type(setting: Setting):
+    """The argparse type of a declared setting (:class:`smeha.settings.Setting`): its range,
+    its message, its whole-number rule, read from the one declaration."""
+    def convert(text):
+        reason = setting.refusal(text)
+        if reason is not None:
+            raise argparse.ArgumentTypeError(reason)
+        value = float(text)
+        return int(value) if setting.whole else value
+
+    convert.numeric = True  # tests/test_cli_input.py drives every numeric option
+    convert.setting = setting
+    return convert
 
 
 def number(low=None, high=None, *, low_open=True, high_open=False, unit=""):
@@ -151,29 +196,12 @@ def number(low=None, high=None, *, low_open=True, high_open=False, unit=""):
 
     ``None`` leaves a side unbounded; ``low_open``/``high_open`` exclude the bound.
     """
-    def in_range(v):
-        if low is not None and not (v > low if low_open else v >= low):
-            return False
-        return high is None or (v < high if high_open else v <= high)
-
-    def convert(text):
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-        if not (math.isfinite(value) and in_range(value)):
-            raise argparse.ArgumentTypeError(
-                f"{text} is outside the allowed range "
-                f"{_interval(low, high, low_open, high_open, unit)}")
-        return value
-
-    convert.numeric = True  # tests/test_cli_input.py drives every numeric option
-    return convert
+    return setting_type(Setting("value", unit, low, high, low_open, high_open))
 
 
-def number_list(low=None, high=None, *, low_open=True, high_open=False, unit=""):
-    """An argparse type: comma-separated numbers, each checked as :func:`number`."""
-    one = number(low, high, low_open=low_open, high_open=high_open, unit=unit)
+def setting_list(setting: Setting):
+    """An argparse type: comma-separated values of ``setting``, each checked as one."""
+    one = setting_type(setting)
 
     def convert(text):
         items = [v.strip() for v in text.split(",")]
@@ -186,26 +214,18 @@ def number_list(low=None, high=None, *, low_open=True, high_open=False, unit="")
         return [one(v) for v in items]
 
     convert.numeric = True
+    convert.setting = setting
     return convert
+
+
+def number_list(low=None, high=None, *, low_open=True, high_open=False, unit=""):
+    """An argparse type: comma-separated numbers, each checked as :func:`number`."""
+    return setting_list(Setting("value", unit, low, high, low_open, high_open))
 
 
 def count(low=1, high=None):
     """An argparse type: a whole number in [``low``, ``high``] (``None``: unbounded)."""
-    def convert(text):
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-        if not math.isfinite(value) or value < low or (high is not None and value > high):
-            raise argparse.ArgumentTypeError(
-                f"{text} is outside the allowed range "
-                f"{_interval(low, high, False, False, '')}")
-        if value != int(value):
-            raise argparse.ArgumentTypeError(f"{text} is not a whole number")
-        return int(value)
-
-    convert.numeric = True
-    return convert
+    return setting_type(Setting("count", "", low, high, low_open=False, whole=True))
 
 
 #: A Dask scheduler address: [protocol://]host:port.
@@ -230,6 +250,11 @@ def add_branch_rule(parser) -> None:
                              "u(n-1); its result depends on the sample period) or 'demand' "
                              "(the direction of the demanded magnetisation); default "
                              f"{default!r}")
+
+
+def say(message: str) -> None:
+    """A notice on stderr (a long preparation starting), printed at once."""
+    print(message, file=sys.stderr, flush=True)
 
 
 def warn(command: str, message: str) -> None:

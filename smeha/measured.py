@@ -46,6 +46,8 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from .outputs import replacing
+
 from gmt.errors import InputError
 
 __all__ = ["COLUMNS", "REQUIRED", "DISPLACEMENT_COLUMNS", "OPTIONAL_COLUMNS",
@@ -444,7 +446,7 @@ def write_measurements(path, runs, displacement_unit="um") -> Path:
     header = ["run", "frequency_Hz", "time_s", "current_A", dcol]
     header += ["sense_voltage_V"] * has_sense + ["control_V"] * has_control
     path = Path(path)
-    with open(path, "w", newline="", encoding="utf-8") as fh:
+    with replacing(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as fh:
         out = csv.writer(fh, lineterminator="\n")
         out.writerow(header)
         for r in runs:

@@ -18,9 +18,7 @@ make small dense problems many times slower: the QR factorisation of a
 2-core machine with one other job running, 0.10 s with one thread
 (benchmarks/blas_threads.py); the fit of a Preisach density to labsim's Preisach
 hysteresis (seed 101, 800 samples a period, one other job running) took 42.6 s against
-4.2 s, and ``smeha diagnose`` of the outside lab file C (hysteresis and a delayed sensor)
-228 s against 22 s (2026-11-27; with the joint step of smeha.diagnose.linearfit mended the
-same day, which does the factorisations).
+4.2 s.
 """
 from __future__ import annotations
 
@@ -60,7 +58,11 @@ def one_blas_thread():
 
 def _worker_started():
     """A worker process's set-up: one BLAS thread for its life (module docstring; the
-    limit holds from :func:`one_blas_thread`'s call, never restored here)."""
+    limit holds from :func:`one_blas_thread`'s call, never restored here), and Ctrl-C left
+    to the parent, which stops the workers (:func:`run_jobs`): a terminal sends SIGINT to
+    every process of the command."""
+    import signal
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     one_blas_thread()
 
 
@@ -118,8 +120,9 @@ def run_jobs(function, jobs: list, workers: int, *, desc: str, unit: str, quiet:
         return results
     import concurrent.futures as cf
     ctx = multiprocessing.get_context(START_METHOD)
-    with cf.ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=ctx,
-                                initializer=_worker_started) as pool:
+    pool = cf.ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=ctx,
+                                  initializer=_worker_started)
+    try:
         # the workers start (fork) at the first submission, before the progress bar's thread
         futures = {pool.submit(function, *job): i for i, job in enumerate(jobs)}
         with tqdm(total=len(jobs), desc=desc, unit=unit, disable=quiet,
@@ -135,4 +138,18 @@ def run_jobs(function, jobs: list, workers: int, *, desc: str, unit: str, quiet:
                 if on_result is not None:
                     on_result(i, results[i])
                 bar.update(1)
+    except BaseException:  # Ctrl-C or a failed job: the jobs left are not run
+        _stop(pool)
+        raise
+    pool.shutdown()
     return results
+
+
+def _stop(pool) -> None:
+    """Stop a process pool now: queued jobs cancelled, running workers terminated."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.terminate()
+    for process in processes:
+        process.join(timeout=5)

@@ -1,13 +1,14 @@
 """Bad input on the command line: every command, every option of a kind, one rule.
 
-The project's standard (and issue 14): bad input gives exit status 2 and a one-line message
+The project's standard: bad input gives exit status 2 and a one-line message
 on stderr naming the argument, with no traceback, before any long work starts. The cases of
 the first tests are derived from the parser itself (:func:`smeha.cli.build_parser`): each
 option built from a :mod:`smeha.cliargs` type -- input file, output file or folder, number --
 is driven with a missing file, a directory, an unwritable path and a negative number. A new
 command or option built from those types is covered without editing this file.
 
-"Before any work" is checked by replacing the run function of every command with a recorder: the refusals below happen while parsing, so no command body runs at all. The rules
+"Before any work" is checked by replacing the run function of every command with a recorder:
+the refusals below happen while parsing, so no command body runs at all. The rules
 that need two options or a file's content run at the start of the command body; their tests
 replace the work itself (the co-simulation, the FMU build) with a tripwire.
 """
@@ -48,9 +49,9 @@ def _options(kind):
 
 
 def _kind(convert):
-    if convert is cliargs.input_file:
+    if convert in (cliargs.input_file, cliargs.fmu_file):
         return "input"
-    if convert in (cliargs.output_file, cliargs.output_dir):
+    if convert in (cliargs.output_file, cliargs.plot_file, cliargs.output_dir):
         return "output"
     if getattr(convert, "numeric", False):
         return "number"
@@ -66,7 +67,7 @@ INPUTS, OUTPUTS, NUMBERS = (list(_options(k)) for k in ("input", "output", "numb
 
 def test_the_options_the_issue_names_are_driven():
     # the derivation above finds the options it should (a renamed type would empty a list):
-    # those issue 14 names, at least; a command without a file or a number has no such case
+    # those a user met first, at least; a command without a file or a number has no such case
     inputs = {(c, o) for c, o, _ in INPUTS}
     assert {("identify", "DATA.csv"), ("diagnose", "DATA.csv"), ("sweep", "SPEC"),
             ("flow", "--variant"), ("simulate", "--fmu"), ("flow", "--fmu"),
@@ -166,13 +167,28 @@ def test_unwritable_output(command, option, action, tmp_path, calls, valid, caps
 
 
 @pytest.mark.parametrize("command, option, action", OUTPUTS, ids=_ids(OUTPUTS))
-def test_output_folders_are_created_before_the_work(command, option, action, tmp_path,
-                                                     calls, valid):
-    target = tmp_path / "new" / "deeper" / "out.png"
-    assert cli.main([*valid(command), option, str(target)]) == 0
-    folder = target if action.type is cliargs.output_dir else target.parent
-    assert folder.is_dir()
+def test_an_output_under_a_missing_folder_is_refused(command, option, action, tmp_path,
+                                                      calls, valid, capsys):
+    # as cp refuses it: nothing is created outside the path named (the parser used to make
+    # the folders, with their parents, anywhere)
+    root = tmp_path / "outputs"
+    root.mkdir()
+    target = root / "new" / "deeper" / "out.png"
+    err = _refused(capsys, [*valid(command), option, str(target)], option)
+    assert "no such folder" in err
+    assert calls == [] and list(root.iterdir()) == []
+
+
+@pytest.mark.parametrize("command, option, action", OUTPUTS, ids=_ids(OUTPUTS))
+def test_outputs_in_an_existing_folder_are_accepted_untouched(command, option, action,
+                                                              tmp_path, calls, valid):
+    # a new folder in an existing one is accepted (the command makes it when it writes);
+    # parsing writes nothing
+    root = tmp_path / "outputs"
+    root.mkdir()
+    assert cli.main([*valid(command), option, str(root / "new.png")]) == 0
     assert [c for c, _ in calls] == [command]
+    assert list(root.iterdir()) == []
 
 
 @pytest.mark.parametrize("command, option, action", INPUTS + OUTPUTS,
@@ -254,6 +270,32 @@ def test_unknown_option_is_one_line(calls, capsys):
     _refused(capsys, ["flow", "--frequency", "50", "--bogus"], "--bogus")
 
 
+def _fake_fmu(folder):
+    """A zip archive shaped like an FMU (what the parser checks; it is never run)."""
+    import zipfile
+    path = folder / "fake.fmu"
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("modelDescription.xml", "<fmiModelDescription/>")
+    return path
+
+
+@pytest.mark.parametrize("content, words", [
+    (b"a,b\n1,2\n", "not a zip archive"), (None, "without modelDescription.xml")])
+def test_an_fmu_option_refuses_other_files(content, words, tmp_path, calls, capsys):
+    # flow --fmu notcsv.csv was a zipfile.BadZipFile traceback
+    path = tmp_path / "notcsv.csv"
+    if content is None:
+        import zipfile
+        with zipfile.ZipFile(path, "w") as z:
+            z.writestr("other.txt", "")
+    else:
+        path.write_bytes(content)
+    for command in (["flow"], ["simulate", "--frequency", "50", "--mode", "compensated"]):
+        err = _refused(capsys, [*command, "--fmu", str(path)], "argument --fmu")
+        assert f"{path} is not an FMU (" in err and words in err
+    assert calls == []
+
+
 # -- rules between options, checked before the work --------------------------------------------
 @pytest.fixture
 def tripwire(monkeypatch):
@@ -278,11 +320,13 @@ def tripwire(monkeypatch):
                           "is faster"]),
     (["flow", "--fast", "--backend", "direct", "--json"], ["--fast is retired"]),
     (["simulate", "--frequency", "50", "--mode", "compensated", "--backend", "direct",
-      "--fmu", VARIANT], [f"--fmu {VARIANT} has no use"]),
-    (["flow", "--backend", "direct", "--fmu", VARIANT], ["has no use"]),
+      "--fmu", "FMU"], ["--fmu FMU has no use"]),
+    (["flow", "--backend", "direct", "--fmu", "FMU"], ["has no use"]),
 ])
-def test_rules_between_options(argv, words, tripwire, capsys):
-    err = _refused(capsys, argv, words[0])
+def test_rules_between_options(argv, words, tripwire, capsys, tmp_path):
+    fmu = str(_fake_fmu(tmp_path))
+    argv = [fmu if a == "FMU" else a for a in argv]
+    err = _refused(capsys, argv, words[0].replace("FMU", fmu))
     for word in words[1:]:
         assert word in err
 
@@ -403,7 +447,7 @@ def test_build_options_reach_the_builder(tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("value", ["50,,100", "50,", ",100"])
 def test_a_list_with_an_empty_item_is_refused(value, capsys):
-    # issue 19: "--frequencies 50,,100" ran 50 and 100 Hz as if the middle one were not
+    # "--frequencies 50,,100" ran 50 and 100 Hz as if the middle one were not
     # asked for; a number left out is a mistake to name, not a shorter list
     assert cli.main(["flow", "--frequencies", value]) == 2
     err = capsys.readouterr().err

@@ -2,7 +2,7 @@
 
 Built from small hand-made rows and records (no co-simulation), and checked through the
 matplotlib artists: what a reader must be able to tell apart is drawn, each colour keeps
-one meaning across panels (issue 14), and the rod displacement has a stated reference.
+one meaning across panels, and the rod displacement has a stated reference.
 The PNGs themselves were looked at; these tests keep what was fixed from coming back.
 """
 from __future__ import annotations
@@ -49,7 +49,7 @@ def _data_lines(ax):
 
 
 def test_one_colour_per_mode_in_both_panels():
-    # issue 14: blue and red meant modes in one panel and frequency/mode pairs in the other
+    # blue and red meant modes in one panel and frequency/mode pairs in the other
     fig = flowplots.flow_figure(_rows(loads=(150.0, 0.0, 300.0)))
     left, right = fig.axes
     for ax in (left, right):
@@ -66,7 +66,7 @@ def test_one_colour_per_mode_in_both_panels():
 
 
 def test_variant_is_drawn_next_to_the_paper_model():
-    # issue 14: flow --variant FILE --plot drew only the paper's model
+    # flow --variant FILE --plot drew only the paper's model
     rows = _rows(models=("paper", "mechanical_resonance"))
     fig = flowplots.flow_figure(rows)
     (ax,) = fig.axes
@@ -122,7 +122,7 @@ def test_run_figure_names_the_control_trace_and_states_the_rod_reference():
 
 
 def test_pump_chamber_pressure_is_drawn_on_top():
-    # issue 14: the pump chamber hid under the cavity traces it equals while a valve is open
+    # the pump chamber hid under the cavity traces it equals while a valve is open
     fig = flowplots.run_figure(_record(), ROW, skip_cycles=2)
     pressure = fig.axes[1] if "pressure" in fig.axes[1].get_ylabel() else None
     assert pressure is not None
@@ -141,3 +141,60 @@ def test_plots_write_png(tmp_path):
     flowplots.plot_run(_record(), ROW, tmp_path / "run.png")
     for name in ("flow.png", "run.png"):
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def _legend_texts(ax):
+    return [t.get_text() for t in ax.get_legend().get_texts()]
+
+
+def test_no_legend_entry_without_points():
+    # flow --magnetics time_domain --waveform square --plot: the legend listed Table 3's
+    # points (measured with the sinusoidal drive only, so not drawn) and "the paper's model"
+    rows = [dict(r, magnetics="time_domain", waveform="square", flow_paper_m3_s=None)
+            for r in _rows()]
+    fig = flowplots.flow_figure(rows)
+    ax = fig.axes[0]
+    labels = " ".join(_legend_texts(ax))
+    assert "Table 3" not in labels and "the paper's" not in labels
+    assert "time-domain magnetics" in labels
+    assert not any(ln.get_marker() == "^" for ln in ax.get_lines())  # nothing to list
+    title = ax.get_title()
+    assert all(w in title for w in ("realistic circuit", "load 150 N", "time-domain magnetics",
+                                    "square drive"))
+    # at the paper's sine drive its Table 3 points are drawn and listed
+    ax = flowplots.flow_figure(_rows()).axes[0]
+    assert any(ln.get_marker() == "^" for ln in ax.get_lines())
+    assert "Table 3" in " ".join(_legend_texts(ax))
+    assert "the paper's magnetics, sine drive" in ax.get_title()
+
+
+def test_run_title_states_magnetics_waveform_circuit_and_load():
+    # simulate --plot's title omitted the magnetics and the waveform
+    row = dict(ROW, magnetics="time_domain", waveform="trapezoid")
+    title = flowplots.run_figure(_record(), row, skip_cycles=2)._suptitle.get_text()
+    for words in ("compensated", "100 Hz", "realistic circuit", "load 150 N",
+                  "time-domain magnetics", "trapezoid drive"):
+        assert words in title
+
+
+def test_sweep_plot_states_the_drive(tmp_path, monkeypatch):
+    # one drive: in the title; several: in each line's label
+    import matplotlib.pyplot as plt
+
+    from smeha.studies import sweep
+    figures = []
+    monkeypatch.setattr(sweep, "save_figure", lambda fig, path, **k: figures.append(fig))
+
+    def row(f, mode, waveform):
+        return {"status": "ok", "frequency": f, "mode": mode, "load_N": 150.0,
+                "circuit": "realistic", "flow_sim_m3_s": 1e-6 * f / 50,
+                "magnetics": "time_domain", "waveform": waveform}
+    sweep.plot_sweep([row(f, m, "square") for f in (50.0, 100.0) for m in MODES],
+                     tmp_path / "a.png")
+    assert "time-domain magnetics, square drive" in figures[-1].axes[0].get_title()
+    sweep.plot_sweep([row(f, "compensated", w) for f in (50.0, 100.0)
+                      for w in ("sine", "square")], tmp_path / "b.png")
+    labels = [t.get_text() for t in figures[-1].axes[0].get_legend().get_texts()]
+    assert labels == ["compensated, 150 N, realistic, time-domain magnetics, sine drive",
+                      "compensated, 150 N, realistic, time-domain magnetics, square drive"]
+    plt.close("all")

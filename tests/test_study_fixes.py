@@ -1,4 +1,4 @@
-"""What a new user met in the studies (issue 19, item 4), each fixed and pinned here.
+"""What a new user met in the studies, each fixed and pinned here.
 
 References: the flow check of eqs 39-41 (system_models.flowcheck) for the averaged
 cycles; Figure 2's valve timing and a quarter period for a rod lagging past the valves'
@@ -22,7 +22,7 @@ def _row(**over):
 
 
 def test_a_reversed_flow_within_a_quarter_period_blames_the_load():
-    # 50 Hz, 300 N (issue 19): the rod lags 73 deg and the valves act 4 deg late, 77 deg
+    # 50 Hz, 300 N: the rod lags 73 deg and the valves act 4 deg late, 77 deg
     # in all: not past a quarter period (90 deg). The load is past the stall point.
     note = flow.flag_row(_row(), rod_lag_deg=73.0, dead_time=2e-4)["note"]
     assert "stall point" in note and "past a quarter period" not in note
@@ -62,15 +62,20 @@ def test_sweep_wall_column_shows_a_short_run():
 
 
 def test_the_flow_check_says_when_the_run_has_not_settled():
-    # the realistic circuit follows the piston: its flow still falls ~0.02 % a cycle at 100
-    # Hz compensated; the ideal circuit's does not change (eq 41 holds cycle by cycle)
+    # the realistic circuit follows the piston: its flow still falls ~0.02-0.03 % a cycle at
+    # 100 Hz compensated, which the table's three-decimal ratios do not show (settled at the
+    # printed precision, flow.SETTLED_DRIFT); the ideal circuit's does not change (eq 41
+    # holds cycle by cycle). A trend the printed figures would show is said.
+    from smeha.studies.flowtables import format_table
     realistic = flow.run_case(flow.Case(100.0, "compensated", backend="direct"))[2]
     ideal = flow.run_case(flow.Case(100.0, "compensated", circuit="ideal",
                                     backend="direct"))[2]
-    assert not realistic["settled"] and realistic["flow_drift_per_cycle"] < -1e-4
+    assert -flow.SETTLED_DRIFT < realistic["flow_drift_per_cycle"] < -1e-4
+    assert realistic["settled"]
     assert ideal["settled"] and abs(ideal["flow_drift_per_cycle"]) < 1e-6
-    from smeha.studies.flowtables import format_table
-    assert "not settled" in format_table([realistic, ideal])
+    assert "not settled" not in format_table([realistic, ideal])
+    drifting = dict(realistic.as_dict(), flow_drift_per_cycle=-3.75e-3, settled=False)
+    assert "not settled (100 Hz compensated)" in format_table([drifting, ideal])
 
 
 def test_drift_is_the_relative_slope_per_cycle():
@@ -117,7 +122,7 @@ def test_duration_limit_is_refused_at_parse_and_in_help(monkeypatch, capsys):
                      "--duration", "100000"]) == 2
     assert "--duration" in capsys.readouterr().err
     helptext = cli.build_parser()._subparsers._group_actions[0].choices["simulate"].format_help()
-    assert "at most 10000 s" in " ".join(helptext.split())
+    assert "in (0, 10000] s" in " ".join(helptext.split())  # flowsettings.DURATION
 
 
 def test_simulate_plot_keeps_the_legend_off_the_averaged_cycles(tmp_path):

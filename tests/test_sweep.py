@@ -12,8 +12,9 @@ from pathlib import Path
 
 import pytest
 
+import gmt
 from smeha import cli
-from smeha.studies import sweep
+from smeha.studies import flow, sweep
 
 TINY = """
 [grid]
@@ -169,17 +170,28 @@ def test_local_sweep_writes_table_and_rerun_skips(tmp_path, capsys):
 
 
 @pytest.mark.integration
-def test_failed_point_is_recorded_and_rerun(tmp_path, capsys):
-    # 2000 Hz passes the spec checks but gmt.Excitation rejects it (f in (0, 1000] Hz) at run time
+def test_failed_point_is_recorded_and_rerun(tmp_path, capsys, monkeypatch):
+    # the spec is checked against the study's own ranges: 2000 Hz is refused before any run
     spec = _spec(tmp_path, frequency="[100, 2000]", mode='["uncompensated"]')
+    assert cli.main(["sweep", str(spec), "--json"]) == 2
+    assert "frequency" in capsys.readouterr().err
+    # a point that fails at run time (the workers are forked with this run_case)
+    real = flow.run_case
+
+    def run_case(case, *args, **kwargs):
+        if case.frequency == 90.0:
+            raise gmt.ParameterError("frequency = 90 Hz: a point made to fail")
+        return real(case, *args, **kwargs)
+    monkeypatch.setattr(flow, "run_case", run_case)
+    spec = _spec(tmp_path, frequency="[100, 90]", mode='["uncompensated"]')
     out = tmp_path / "table.csv"
     status, report = _sweep(capsys, spec, "--out", out, "--workers", 2)
     assert status == 1  # a failed point is a failure of the run, after the table is written
     assert report["failed"] == 1
     by_f = {r["frequency"]: r for r in report["rows"]}
     assert by_f[100.0]["status"] == "ok" and by_f[100.0]["flow_sim_m3_s"] > 0
-    assert by_f[2000.0]["status"] == "failed"
-    assert "ParameterError" in by_f[2000.0]["error"] and "frequency" in by_f[2000.0]["error"]
+    assert by_f[90.0]["status"] == "failed"
+    assert "ParameterError" in by_f[90.0]["error"] and "frequency" in by_f[90.0]["error"]
     with open(out, newline="") as fh:
         assert [r["status"] for r in csv.DictReader(fh)] == ["ok", "failed"]
     # rerun: the ok point is skipped, the failed one tried again (and fails again)
@@ -247,3 +259,24 @@ def test_flags_and_the_lowest_pressure_round_trip_through_the_table(tmp_path):
     (back,) = sweep.read_table(sweep.write_table([row], tmp_path / "t.csv"))
     assert back["cavitation"] is True and back["flow_reversed"] is False
     assert back["p_min_Pa"] == -2.2e6 and back["p_min_volume"] == "big cavity"
+
+
+def test_scheduler_without_dask_names_the_install(tmp_path, monkeypatch, capsys):
+    # Dask is an extra (smeha[dask]): without it, --scheduler is refused before any work,
+    # in one line that names the install command (it was a SweepError, exit 1, after the
+    # spec was read and the FMU found)
+    import importlib.util
+
+    from smeha import cli
+    from smeha.studies import flow, sweep
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "distributed" else real(name, *a))
+    monkeypatch.setattr(flow, "ensure_fmu", lambda **k: pytest.fail("work started"))
+    spec = tmp_path / "s.toml"
+    spec.write_text('[grid]\nfrequency = [100]\nmode = ["compensated"]\n')
+    assert cli.main(["sweep", str(spec), "--scheduler", "tcp://127.0.0.1:8786"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "'distributed' is not installed" in err
+    assert sweep.DASK_INSTALL in err and "smeha[dask]" in err

@@ -17,18 +17,18 @@ from pathlib import Path
 import gmt  # cheap: its names load on first use
 from gmt.parameters import COMPENSATOR_PERIOD
 from system_models.defaults import (DEFAULT_COUPLING, DEFAULT_CYCLES, DEFAULT_STEP,
-                                    HYDRAULIC_STEP, MAXIMUM_DURATION, MINIMUM_CYCLES,
-                                    REALISTIC_LOAD, SKIP_CYCLES, VALVE_CONTROLLER_PERIOD)
+                                    MINIMUM_CYCLES, REALISTIC_LOAD, SKIP_CYCLES)
 
 from ..pool import default_workers
-from ..cliargs import (UsageError, add_branch_rule, count, input_file, number, number_list,
-                      output_file, scheduler_address, warn)
+from ..cliargs import (UsageError, add_branch_rule, count, fmu_file, input_file, output_file,
+                      plot_file, say, scheduler_address, setting_list, setting_type, warn)
+from . import flowsettings as fs
 
 __all__ = ["FREQUENCY", "CONVERGED_STEPS_PER_CYCLE", "CIRCUITS", "MODE_HELP", "add_simulate",
            "WORKERS_HELP", "add_flow", "FAST_RETIRED", "add_sweep", "default_sweep_table"]
 
-#: Frequencies the study accepts, (0, 1000] Hz (gmt.Excitation's range).
-FREQUENCY = number(0.0, 1000.0, unit="Hz")
+#: Frequencies the study accepts (smeha.studies.flowsettings.FREQUENCY).
+FREQUENCY = setting_type(fs.FREQUENCY)
 
 #: Steps a pumping cycle at and above which the flow was measured to converge, per
 #: coupling (benchmarks/README.md, convergence): the force port within 0.1 % at 100 steps a
@@ -67,12 +67,6 @@ def _averaged(cycles=DEFAULT_CYCLES) -> float:
     return max(math.ceil(cycles - 0.5) - SKIP_CYCLES - 1, 0)
 
 
-def _cycles(text):
-    """--cycles: at least system_models.flowcheck.MINIMUM_CYCLES (the flow check's need)."""
-    return number(MINIMUM_CYCLES, low_open=False, unit="cycles")(text)
-
-
-_cycles.numeric = True
 
 def _add_cosim_options(p):
     p.add_argument("--circuit", choices=CIRCUITS,
@@ -83,23 +77,23 @@ def _add_cosim_options(p):
                         "stiff oil, instant valves, no load); differential: ideal oil and "
                         "valves on the differential cylinder, whose rebound adds stroke")
     p.add_argument("--ideal", action="store_true", help="the same as --circuit ideal")
-    p.add_argument("--step", type=number(0.0, 1.0, high_open=True, unit="s"), metavar="S",
-                   help=f"communication step [s] (default {DEFAULT_STEP:g}; a warning below "
-                        f"{CONVERGED_STEPS_PER_CYCLE['force']} steps a cycle); steps are also "
+    p.add_argument("--step", type=setting_type(fs.STEP), metavar="S",
+                   help=f"communication step {fs.STEP.describe()}; a warning below "
+                        f"{CONVERGED_STEPS_PER_CYCLE['force']} steps a cycle; steps are also "
                         "cut at the compensator's samples and the valve actions")
     p.add_argument("--coupling", choices=("force", "displacement"),
                    help="force (default): the FMU hands over the magnetostrictive force and "
                         "the plant integrates the rod with the pump chamber; displacement: "
                         "the FMU integrates the rod, the chamber force iterated through its "
                         "state save/restore (the cross-check; needs smaller steps)")
-    p.add_argument("--cycles", type=_cycles, metavar="N",
-                   help=f"simulated pumping cycles, at least {MINIMUM_CYCLES}: the flow check "
+    p.add_argument("--cycles", type=setting_type(fs.CYCLES), metavar="N",
+                   help=f"simulated pumping cycles, {fs.CYCLES.interval()}: the flow check "
                         f"discards the first {SKIP_CYCLES} compression strokes and averages "
                         f"the whole cycles between the strokes that follow ({_averaged():g} "
                         f"at the default {DEFAULT_CYCLES:g})")
     p.add_argument("--backend", choices=("fmu", "direct"),
                    help="transducer through the FMU and fmpy (default) or gmt in-process")
-    p.add_argument("--fmu", metavar="FILE", type=input_file,
+    p.add_argument("--fmu", metavar="FILE", type=fmu_file,
                    help="transducer FMU (default dist/SmehaGmt.fmu of the source tree, built "
                         "if missing or out of date; see 'smeha build')")
     add_branch_rule(p)
@@ -113,25 +107,25 @@ def _add_cosim_options(p):
                         "trapezoid (ramps of 0.15 of the period); uncompensated the coil "
                         "current's, compensated the demanded stroke's; the valves switch where "
                         "u starts to rise and to fall")
-    p.add_argument("--compensator-period", type=number(0.0, 1.0, low_open=False, unit="s"),
+    p.add_argument("--compensator-period", type=setting_type(fs.COMPENSATOR_PERIOD_S),
                    metavar="S",
-                   help=f"sample period of the digital compensator [s] (default "
-                        f"{COMPENSATOR_PERIOD:g}: 10 kHz); its current is held between "
-                        f"samples; 0: a sample every step")
-    p.add_argument("--controller-period", type=number(0.0, 1.0, high_open=True, unit="s"),
+                   help=f"sample period of the digital compensator "
+                        f"{fs.COMPENSATOR_PERIOD_S.describe()}: 10 kHz; its current is held "
+                        f"between samples; 0: a sample every step")
+    p.add_argument("--controller-period", type=setting_type(fs.CONTROLLER_PERIOD),
                    metavar="S",
-                   help=f"sample period of the valve controller [s] (default "
-                        f"{VALVE_CONTROLLER_PERIOD:g}); the valves act after their exact dead "
-                        f"times, at communication points")
-    p.add_argument("--hydraulic-step", type=number(0.0, 1.0, high_open=True, unit="s"),
-                   metavar="S",
-                   help=f"longest hydraulic substep [s] (default {HYDRAULIC_STEP:g}; after "
-                        f"each valve action the substeps start at 1 us and grow fourfold)")
+                   help=f"sample period of the valve controller {fs.CONTROLLER_PERIOD.describe()}"
+                        "; the valves act after their exact dead times, at communication "
+                        "points")
+    p.add_argument("--hydraulic-step", type=setting_type(fs.HYDRAULIC_STEP_S), metavar="S",
+                   help=f"longest hydraulic substep {fs.HYDRAULIC_STEP_S.describe()}; after "
+                        f"each valve action the substeps start at 1 us and grow fourfold")
 
 
 def _add_load(p):
-    p.add_argument("--load", type=number(unit="N"), metavar="N",
-                   help="load on the cylinder [N]: positive opposes the pumped direction "
+    p.add_argument("--load", type=setting_type(fs.LOAD), metavar="N",
+                   help=f"load on the cylinder {fs.LOAD.describe()}: positive opposes the "
+                        "pumped direction "
                         "(oil into the big cavity), negative assists it (default "
                         f"{REALISTIC_LOAD:g} "
                         "realistic, 0 ideal and differential)")
@@ -150,12 +144,12 @@ def add_simulate(subparsers):
                     "cylinder and accumulator, and check the cylinder flow against eq 40 "
                     "(uncompensated) or eq 41 (compensated).")
     p.add_argument("--frequency", type=FREQUENCY, required=True, metavar="HZ",
-                   help="pumping frequency [Hz], in (0, 1000]")
+                   help=f"pumping frequency {fs.FREQUENCY.describe()}")
     p.add_argument("--mode", choices=("uncompensated", "compensated"), required=True,
                    help=MODE_HELP)
-    p.add_argument("--duration", type=number(0.0, MAXIMUM_DURATION, unit="s"), metavar="S",
-                   help=f"simulated time [s], at least {MINIMUM_CYCLES} cycles and at most "
-                        f"{MAXIMUM_DURATION:g} s (default: --cycles pumping cycles)")
+    p.add_argument("--duration", type=setting_type(fs.DURATION), metavar="S",
+                   help=f"simulated time {fs.DURATION.describe()} and at least "
+                        f"{MINIMUM_CYCLES} cycles (default: --cycles pumping cycles)")
     _add_load(p)
     _add_cosim_options(p)
     p.add_argument("--csv", metavar="FILE", type=output_file,
@@ -166,11 +160,11 @@ def add_simulate(subparsers):
                    help="the transducer with a model variant: FILE is 'smeha diagnose --json' "
                         "output or {\"cause\": ..., \"parameters\": {...}} (e.g. "
                         "data/paper_variant.json); with --measurement, a data set to diagnose")
-    p.add_argument("--amplitude", type=number(0.0, 1000.0, low_open=True, unit="V"),
-                   metavar="A",
+    p.add_argument("--amplitude", type=setting_type(fs.AMPLITUDE), metavar="A",
                    help="the control signal's amplitude: uncompensated the coil current's "
                         "I_m [A] (default 1, the paper's; the model's operating point "
-                        "follows it), compensated the demand's a [V] (default Figure 10's)")
+                        "follows it), compensated the demand's a [V] (default Figure 10's); "
+                        f"{fs.AMPLITUDE.interval()}")
     p.add_argument("--measurement", metavar="FILE", type=output_file,
                    help="add the run to FILE in the measurement format (docs/MEASURED.md: "
                         "run, frequency_Hz, time_s, current_A, displacement_um, "
@@ -180,14 +174,14 @@ def add_simulate(subparsers):
                         "set for 'smeha diagnose'. The transducer's own channels: its rod "
                         "free of the chamber's force, the sensing coil's voltage (eq 21), "
                         "sampled every --step, with sensor noise (--noise-um)")
-    p.add_argument("--noise-um", type=number(0.0, 1000.0, low_open=False, unit="um"),
-                   metavar="UM",
+    p.add_argument("--noise-um", type=setting_type(fs.NOISE_UM), metavar="UM",
                    help="with --measurement: the displacement sensor's noise, standard "
-                        "deviation [um] (default 0.05; the sense voltage's 0.5 mV scales "
-                        "with it); seeded by the run's name and --seed")
+                        f"deviation {fs.NOISE_UM.describe()}, default 0.05; the sense "
+                        "voltage's 0.5 mV scales with it; seeded by the run's name and --seed")
     p.add_argument("--seed", type=count(0), metavar="N",
                    help="with --measurement: the sensor noise's seed (default 0)")
-    p.add_argument("--plot", metavar="FILE", type=output_file, help="write a PNG of the run")
+    p.add_argument("--plot", metavar="FILE", type=plot_file,
+                   help="write a plot of the run (PNG, PDF or SVG by the suffix)")
     p.add_argument("--json", action="store_true", help="print only a JSON object")
     p.set_defaults(run=_run_simulate)
 
@@ -225,7 +219,7 @@ def _fmu_for(args, cases):
         return None
     if args.fmu:
         return args.fmu
-    return flow.ensure_fmu(quiet=getattr(args, "json", False))
+    return flow.ensure_fmu(quiet=getattr(args, "json", False), say=say)
 
 
 def _progress_bar(total_steps, label, quiet):
@@ -277,6 +271,21 @@ def _check_simulate(args) -> None:
                 args.coupling or DEFAULT_COUPLING, period)
 
 
+def _announce_long(command, cases, workers=1) -> None:
+    """Warn (stderr) before a run whose estimate exceeds a minute, with the estimate and
+    what sets it (smeha.studies.flowsettings.estimated_wall)."""
+    walls = [fs.estimated_wall(c.cycles / c.frequency, c.step) for c in cases]
+    total = sum(walls) / max(1, min(workers, len(cases)))
+    if total <= fs.LONG_RUN:
+        return
+    longest = cases[walls.index(max(walls))]
+    steps = longest.cycles / longest.frequency / longest.step
+    warn(command, f"this run is estimated at up to about {total / 60:.0f} min: "
+                  f"{longest.cycles:g} cycles at {longest.frequency:g} Hz are "
+                  f"{longest.cycles / longest.frequency:g} s of simulated time, {steps:,.0f} "
+                  f"steps of {longest.step:g} s (Ctrl-C stops it)")
+
+
 def _run_failures() -> tuple:
     """The errors of a run that stopped (the integration, the displacement port's
     interface): said in one line with exit status 1, not as a traceback."""
@@ -295,9 +304,12 @@ def _write_record_csv(record, path) -> None:
     import numpy as np
     from system_models.cosim import RESULT_UNITS
 
+    from ..outputs import replacing
+
     names = [f"{n}_{RESULT_UNITS[n]}" if RESULT_UNITS[n] else n for n in record.dtype.names]
-    np.savetxt(path, np.column_stack([record[n] for n in record.dtype.names]),
-               delimiter=",", header=",".join(names), comments="")
+    with replacing(path) as tmp:
+        np.savetxt(tmp, np.column_stack([record[n] for n in record.dtype.names]),
+                   delimiter=",", header=",".join(names), comments="")
 
 
 def _add_measurement(record, case, args) -> None:
@@ -330,10 +342,10 @@ def _run_simulate(args) -> int:
     variant = _read_variant(args.variant)[0] if args.variant else None
     case = _case_from(args, args.frequency, args.mode, args.load,
                       None if variant is None or variant.is_paper else variant)
+    _announce_long("simulate", [case])
     fmu = _fmu_for(args, [case])
     from system_models import kernel
-    kernel.ensure_compiled(None if args.json else (lambda m: print(m, file=sys.stderr,
-                                                                  flush=True)))
+    kernel.ensure_compiled(None if args.json else say)
     n = int(round(case.cycles / case.frequency / case.step))
     bar, update = _progress_bar(n, f"{case.mode} {case.frequency:g} Hz", args.json)
     try:
@@ -356,11 +368,12 @@ def _run_simulate(args) -> int:
           f"{row['load_N']:g} N, step {row['step_s']:g} s, backend {row['backend']}, "
           f"{row['magnetics']} magnetics, {row['waveform']} drive")
     eq = "eq 41" if case.mode == "compensated" else "eq 40"
-    print(f"  mean cylinder flow   {row['flow_sim_m3_s']:.4e} m^3/s ({row['flow_sim_L_min']:.4f} L/min)")
-    print(f"  {eq} flow f A_d dy   {row['flow_eq_m3_s']:.4e} m^3/s (ratio {row['flow_ratio']:.4f})")
+    print(f"  mean cylinder flow   {row['flow_sim_m3_s']:.3e} m^3/s "
+          f"({row['flow_sim_L_min']:.4f} L/min)")
+    print(f"  {eq} flow f A_d dy   {row['flow_eq_m3_s']:.3e} m^3/s (ratio {row['flow_ratio']:.3f})")
     print(f"  dy                   {row['dy_um']:.3f} um between the valve switching instants")
     if row["flow_paper_m3_s"] is not None:
-        print(f"  paper, Table 3       {row['flow_paper_m3_s']:.4e} m^3/s, f A_d dy computed "
+        print(f"  paper, Table 3       {row['flow_paper_m3_s']:.3e} m^3/s, f A_d dy computed "
               f"from its measured dy {row['dy_paper_um']:g} um (eqs 40/41)")
     print(f"  volume balance       {row['volume_imbalance_m3']:.2e} m^3 of "
           f"{row['volume_pumped_m3']:.2e} m^3 pumped; wall {row['wall_s']:.1f} s")
@@ -390,14 +403,14 @@ def add_flow(subparsers):
         "flow", help="cylinder flow against frequency, both modes (the flow study)",
         description="Co-simulate both modes at each frequency and compare the mean "
                     "cylinder flow with eqs 40/41 and the paper's Table 3.")
-    p.add_argument("--frequencies", type=number_list(0.0, 1000.0, unit="Hz"),
+    p.add_argument("--frequencies", type=setting_list(fs.FREQUENCY),
                    default=[50.0, 70.0, 80.0, 100.0], metavar="HZ,HZ,...",
-                   help="comma-separated frequencies [Hz], each in (0, 1000] "
+                   help=f"comma-separated frequencies {fs.FREQUENCY.describe()} each "
                         "(default 50,70,80,100)")
     _add_load(p)
-    p.add_argument("--loads", metavar="N,N,...", type=number_list(unit="N"),
+    p.add_argument("--loads", metavar="N,N,...", type=setting_list(fs.LOAD),
                    help="also trace the load line: flow against load at each frequency "
-                        "(negative loads assist)")
+                        f"(negative loads assist), each {fs.LOAD.describe()}")
     p.add_argument("--workers", type=count(1), metavar="N", help=WORKERS_HELP)
     _add_cosim_options(p)
     p.add_argument("--variant", metavar="FILE", type=input_file,
@@ -413,7 +426,7 @@ def add_flow(subparsers):
     p.add_argument("--json", action="store_true",
                    help="print only a JSON object {rows: [...]} (with --variant also "
                         "{variant, comparison})")
-    p.add_argument("--plot", metavar="FILE", type=output_file,
+    p.add_argument("--plot", metavar="FILE", type=plot_file,
                    help="write flow against frequency (PNG; with --variant both models, "
                         "with --loads the load lines)")
     p.set_defaults(run=_run_flow)
@@ -472,9 +485,10 @@ def _run_flow(args) -> int:
     if variant is not None:  # a weak finding or a circuit mode it moves: said in every output
         from .variantcheck import check_variant
         check = check_variant(variant, cases[0].circuit, declared, cases[0].frequency)
+    _announce_long("flow", cases, _workers(args))
     fmu = _fmu_for(args, cases)
     try:
-        rows = flow.run_cases(cases, fmu, workers=_workers(args), quiet=args.json)
+        rows = flow.run_cases(cases, fmu, workers=_workers(args), quiet=args.json, say=say)
     except _run_failures() as exc:
         return _failed("flow", exc)
     if check is not None:
@@ -527,12 +541,12 @@ def add_sweep(subparsers):
     p.add_argument("--out", metavar="FILE", type=output_file,
                    help="result table (CSV; default: the spec's name with .csv, beside it: "
                         "grid.toml -> grid.csv)")
-    p.add_argument("--fmu", metavar="FILE", type=input_file,
+    p.add_argument("--fmu", metavar="FILE", type=fmu_file,
                    help="transducer FMU (default dist/SmehaGmt.fmu of the source tree, built "
                         "if missing or out of date; see 'smeha build')")
     p.add_argument("--json", action="store_true",
                    help="print only a JSON object {rows, skipped, failed, ran}")
-    p.add_argument("--plot", metavar="FILE", type=output_file,
+    p.add_argument("--plot", metavar="FILE", type=plot_file,
                    help="write flow against frequency (PNG)")
     p.set_defaults(run=_run_sweep)
 
@@ -549,6 +563,9 @@ def _run_sweep(args) -> int:
     if args.scheduler and args.workers is not None:
         raise UsageError("--workers sets local processes; with --scheduler the Dask "
                          "cluster's workers run the points: drop one of them")
+    if args.scheduler and (missing := sweep.dask_missing()):
+        raise UsageError(f"--scheduler needs Dask, and {missing!r} is not installed: "
+                         f"{sweep.DASK_INSTALL}")
     points = sweep.read_spec(args.spec)  # SpecError (a ValueError): exit 2
     out = args.out
     if out is None:
@@ -562,10 +579,12 @@ def _run_sweep(args) -> int:
         highest[key] = max(highest.get(key, 0.0), q.frequency)
     for (step, coupling), frequency in highest.items():
         _check_step("sweep", step, frequency, coupling)
+    if not args.scheduler:  # a cluster's speed is its own
+        _announce_long("sweep", [q.case for q in points], _workers(args))
     fmu = _fmu_for(args, points)
     try:
         result = sweep.run_sweep(points, out, fmu, workers=_workers(args),
-                                 scheduler=args.scheduler, quiet=args.json)
+                                 scheduler=args.scheduler, quiet=args.json, say=say)
     except sweep.SweepError as exc:
         print(f"smeha sweep: error: {exc}", file=sys.stderr)
         return 1

@@ -16,7 +16,10 @@ import numpy as np  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
-__all__ = ["MODE_COLOURS", "MARKERS", "run_figure", "plot_run", "flow_figure", "plot_flow"]
+from ..outputs import save_figure  # noqa: E402
+
+__all__ = ["MODE_COLOURS", "MARKERS", "drive_label", "run_figure", "plot_run", "flow_figure",
+           "plot_flow"]
 
 #: Colour of each drive mode, the same in every panel.
 MODE_COLOURS = {"uncompensated": "tab:blue", "compensated": "tab:red"}
@@ -44,16 +47,47 @@ def run_figure(record, row, skip_cycles: int | None = None):
     t = record["time"] * 1e3
     period_ms = 1e3 / row["frequency_Hz"]
     steady = t >= skip_cycles * period_ms
-    y = record["rod_displacement"] * 1e6
-    bottom = float(np.min(y[steady])) if steady.any() else float(np.min(y))
     fig, axes = plt.subplots(4, 1, figsize=(9, 9.5), sharex=True,
                              gridspec_kw={"height_ratios": [3, 3, 1, 2]})
-    ax = axes[0]
-    twin = ax.twinx()
+    twin = axes[0].twinx()
     for a in (twin, *axes[1:]):
         a.axvspan(0.0, min(skip_cycles * period_ms, t[-1]), color="0.92", zorder=0)
     for a in axes:
         a.grid(alpha=0.3)
+    _rod_panel(axes[0], twin, t, record, steady)
+    _pressure_panel(axes[1], t, record, row, steady)
+    ax = axes[2]
+    ax.step(t, record["valves_compressing"], where="post", color="black", lw=1.0)
+    ax.set_yticks([0, 1], ["expanding", "compressing"], fontsize=7)
+    ax.set_ylim(-0.2, 1.2)
+    ax.set_ylabel("valves", fontsize=8)
+    ax = axes[3]
+    ax.plot(t, record["volume_into_big"] * 1e9, color="black", lw=1.2,
+            label="net volume into the big cavity (V1 - V2)")
+    ax.set_ylabel("volume [mm^3]")
+    ax.set_xlabel("time [ms]")
+    ax.legend(loc="best", fontsize=7)
+    _run_title(fig, row)
+    fig.tight_layout()
+    return fig
+
+
+def magnetics_label(row) -> str:
+    """The transducer's magnetics of a row: "the paper's magnetics", "time-domain magnetics"."""
+    magnetics = row.get("magnetics", "paper")
+    return ("the paper's magnetics" if magnetics == "paper"
+            else f"{magnetics.replace('_', '-')} magnetics")
+
+
+def drive_label(row) -> str:
+    """The transducer's magnetics and drive of a row: "time-domain magnetics, square drive"."""
+    return f"{magnetics_label(row)}, {row.get('waveform', 'sine')} drive"
+
+
+def _rod_panel(ax, twin, t, record, steady):
+    """The rod's displacement (0 at its lowest averaged point) and the control signal."""
+    y = record["rod_displacement"] * 1e6
+    bottom = float(np.min(y[steady])) if steady.any() else float(np.min(y))
     rod, = ax.plot(t, y - bottom, color="tab:blue", lw=1.4, label="rod displacement y")
     ax.set_ylabel("rod displacement y [um]")
     ax.set_title(f"rod y: 0 at its lowest point after the first cycles, as Table 3 measures; "
@@ -80,7 +114,9 @@ def run_figure(record, row, skip_cycles: int | None = None):
     ax.set_zorder(twin.get_zorder() + 1)  # the rod's line above the control trace
     ax.patch.set_visible(False)
 
-    ax = axes[1]
+
+def _pressure_panel(ax, t, record, row, steady):
+    """The pressures of the cavities, the accumulator and the pump chamber."""
     # cavities underneath, wide and pale; the pump chamber on top, thin and dark: an open
     # valve ties the chamber to a cavity (V1: big, V3: small), and both stay visible
     ax.plot(t, record["p_big"] / 1e6, color="tab:orange", lw=3.5, alpha=0.45,
@@ -104,18 +140,9 @@ def run_figure(record, row, skip_cycles: int | None = None):
     ax.set_ylabel("pressure [MPa]")
     ax.legend(loc="lower right", fontsize=7, ncol=4, framealpha=0.9)
 
-    ax = axes[2]
-    ax.step(t, record["valves_compressing"], where="post", color="black", lw=1.0)
-    ax.set_yticks([0, 1], ["expanding", "compressing"], fontsize=7)
-    ax.set_ylim(-0.2, 1.2)
-    ax.set_ylabel("valves", fontsize=8)
 
-    ax = axes[3]
-    ax.plot(t, record["volume_into_big"] * 1e9, color="black", lw=1.2,
-            label="net volume into the big cavity (V1 - V2)")
-    ax.set_ylabel("volume [mm^3]")
-    ax.set_xlabel("time [ms]")
-    ax.legend(loc="best", fontsize=7)
+def _run_title(fig, row):
+    """The run's case (mode, frequency, circuit, load, magnetics, drive) and its flows."""
     flagged = []
     if row.get("flow_reversed"):
         flagged.append("flow reversed: " + ("the load past its stall point"
@@ -125,17 +152,16 @@ def run_figure(record, row, skip_cycles: int | None = None):
         flagged.append("cavitation: the oil held below what it can")
     mark = f"\n(!) {'; '.join(flagged)} (smeha simulate prints why)" if flagged else ""
     fig.suptitle(f"{row['mode']}, {row['frequency_Hz']:g} Hz, {row['circuit']} circuit, "
-                 f"load {row['load_N']:g} N: q = {row['flow_sim_m3_s']:.3e} m^3/s, "
+                 f"load {row['load_N']:g} N, {drive_label(row)}\n"
+                 f"q = {row['flow_sim_m3_s']:.3e} m^3/s, "
                  f"f A_d dy ({_eq(row['mode'])}) = {row['flow_eq_m3_s']:.3e} m^3/s, "
                  f"dy = {row['dy_um']:.1f} um{mark}", fontsize=10,
                  color="tab:red" if flagged else "black")
-    fig.tight_layout()
-    return fig
 
 
 def plot_run(record, row, path):
-    """:func:`run_figure` as a PNG."""
-    _save(run_figure(record, row), path)
+    """:func:`run_figure` as an image (PNG, PDF or SVG by the suffix), written whole."""
+    save_figure(run_figure(record, row), path, dpi=110, bbox_inches="tight")
 
 
 def flow_figure(rows):
@@ -143,7 +169,8 @@ def flow_figure(rows):
 
     Rows of a model variant (``row["model"] != "paper"``) are drawn next to the
     paper's model. With several loads in ``rows``, a second panel draws the
-    load lines of each model.
+    load lines of each model. The title states the circuit, the load, the magnetics and
+    the drive; the legend names only what is drawn.
     """
     paper = [r for r in rows if r.get("model", "paper") == "paper"]
     variants = [r for r in rows if r.get("model", "paper") != "paper"]
@@ -153,7 +180,33 @@ def flow_figure(rows):
     fig, axes = plt.subplots(1, ncols, figsize=(6.8 * ncols, 6.0), squeeze=False)
     ax = axes[0, 0]
     simulated = "co-simulation"
-    variant_name = variants[0]["model"] if variants else None
+    drawn = _flow_curves(ax, paper, variants, base)
+    styles = [Line2D([], [], color="k", marker="o", ls="-",
+                     label=f"{simulated}, {magnetics_label(paper[0])}"),
+              Line2D([], [], color="k", marker="s", ls="--", mfc="none",
+                     label="f A_d dy of this run (eqs 40/41)")]
+    if drawn["paper"]:
+        styles.append(Line2D([], [], color="k", marker="^", ls=":", alpha=0.7,
+                             label="paper: f A_d dy from Table 3's measured dy\n(eqs 40/41; "
+                                   "computed, not a measured flow)"))
+    if drawn["variant"]:
+        styles.append(Line2D([], [], color="k", marker="D", ls="-.", mfc="white",
+                             label=f"{simulated}, extended model\n{variants[0]['model']}"))
+    _mark_flagged(ax, [r for r in rows if r["load_N"] == base], styles)
+    _mark_variant(ax, [r for r in variants if r["load_N"] == base], styles)
+    _finish_flow_axes(ax, styles, 2, "pumping frequency f [Hz]",
+                      f"Flow against frequency ({paper[0]['circuit']} circuit, load {base:g} N)"
+                      f"\n{drive_label(paper[0])}")
+    if ncols == 2:
+        _load_lines(axes[0, 1], paper, variants, simulated)
+    fig.tight_layout()
+    return fig
+
+
+def _flow_curves(ax, paper, variants, base) -> dict:
+    """Each mode's co-simulated flow, eqs 40/41 and, where the case is one of Table 3's,
+    the paper's; the variant's flow. Returns which optional curves were drawn."""
+    drawn = {"paper": False, "variant": False}
     for mode, colour in MODE_COLOURS.items():
         rs = sorted((r for r in paper if r["mode"] == mode and r["load_N"] == base),
                     key=lambda r: r["frequency_Hz"])
@@ -166,23 +219,20 @@ def flow_figure(rows):
               if r["flow_paper_m3_s"]]
         if pf:
             ax.plot(*zip(*pf), "^:", color=colour, alpha=0.7)
+            drawn["paper"] = True
         vs = sorted((r for r in variants if r["mode"] == mode and r["load_N"] == base),
                     key=lambda r: r["frequency_Hz"])
         if vs:
             ax.plot([r["frequency_Hz"] for r in vs], [r["flow_sim_m3_s"] * 1e6 for r in vs],
                     "D-.", color=colour, mfc="white", lw=1.6)
-    styles = [Line2D([], [], color="k", marker="o", ls="-",
-                     label=f"{simulated}, the paper's model"),
-              Line2D([], [], color="k", marker="s", ls="--", mfc="none",
-                     label="f A_d dy of this run (eqs 40/41)"),
-              Line2D([], [], color="k", marker="^", ls=":", alpha=0.7,
-                     label="paper: f A_d dy from Table 3's measured dy\n(eqs 40/41; "
-                           "computed, not a measured flow)")]
-    if variant_name:
-        styles.append(Line2D([], [], color="k", marker="D", ls="-.", mfc="white",
-                             label=f"{simulated}, extended model\n{variant_name}"))
-    flagged = [r for r in rows if r.get("flow_reversed") and r["load_N"] == base]
-    if flagged:  # a reversed flow (smeha.studies.flow.flag_row): marked, with its reason
+            drawn["variant"] = True
+    return drawn
+
+
+def _mark_flagged(ax, rows, styles):
+    """Mark a reversed flow and cavitation (smeha.studies.flow.flag_row) with the reason."""
+    flagged = [r for r in rows if r.get("flow_reversed")]
+    if flagged:
         ax.axhline(0.0, color="k", lw=0.6)
         for r in flagged:
             q = r["flow_sim_m3_s"] * 1e6
@@ -198,21 +248,14 @@ def flow_figure(rows):
                         arrowprops={"arrowstyle": "-", "color": "0.4", "lw": 0.6})
         styles.append(Line2D([], [], color="k", marker="X", ls="none", mfc="none", ms=9,
                              label="flow reversed (the table's note says why)"))
-    _mark_variant(ax, [r for r in variants if r["load_N"] == base], styles)
-    tension = [r for r in rows if r.get("cavitation") and r["load_N"] == base]
-    for r in tension:  # oil held below what it can (smeha.studies.flow.flag_row)
+    tension = [r for r in rows if r.get("cavitation")]
+    for r in tension:  # oil held below what it can
         ax.plot(r["frequency_Hz"], r["flow_sim_m3_s"] * 1e6, "o", color="k", ms=15,
                 mfc="none", mew=1.5)
     if tension:
         styles.append(Line2D([], [], color="k", marker="o", ls="none", mfc="none", ms=10,
                              label="cavitation: a pressure below 1 kPa absolute,\n"
                                    "which no oil holds (the table's note)"))
-    _finish_flow_axes(ax, styles, 2, "pumping frequency f [Hz]",
-                      f"Flow against frequency ({paper[0]['circuit']} circuit, load {base:g} N)")
-    if ncols == 2:
-        _load_lines(axes[0, 1], paper, variants, simulated)
-    fig.tight_layout()
-    return fig
 
 
 def _mark_variant(ax, rows, styles):
@@ -266,10 +309,6 @@ def _finish_flow_axes(ax, handles, ncol, xlabel, title):
 
 
 def plot_flow(rows, path):
-    """:func:`flow_figure` as a PNG."""
-    _save(flow_figure(rows), path)
-
-
-def _save(fig, path):
-    fig.savefig(path, dpi=110, bbox_inches="tight")  # the legends below the panels included
-    plt.close(fig)
+    """:func:`flow_figure` as an image, written whole (the legends below the panels
+    included)."""
+    save_figure(flow_figure(rows), path, dpi=110, bbox_inches="tight")

@@ -55,7 +55,7 @@ class FlowRow(Mapping):
     #: (smeha.studies.variantcheck.mark_rows), and those reasons in one sentence
     variant_marks: tuple = ()
     variant_note: str | None = None
-    #: the transducer's magnetics and the drive's shape (smeha.studies.flow.Case; issue 21)
+    #: the transducer's magnetics and the drive's shape (smeha.studies.flow.Case)
     magnetics: str = "paper"
     waveform: str = "sine"
 

@@ -36,7 +36,7 @@ def format_table(rows) -> str:
         paper = "-" if r["flow_paper_m3_s"] is None else f"{r['flow_paper_m3_s']:.3e}"
         dyp = "-" if r["dy_paper_um"] is None else f"{r['dy_paper_um']:.1f}"
         lines.append(f"{r['frequency_Hz']:>6g}  {r['mode']:<13}  {r['circuit']:<9}  "
-                     f"{r['load_N']:>8g}  {r['flow_sim_m3_s']:>12.4e}  {r['flow_eq_m3_s']:>10.4e}  "
+                     f"{r['load_N']:>8g}  {r['flow_sim_m3_s']:>12.3e}  {r['flow_eq_m3_s']:>10.3e}  "
                      f"{r['flow_ratio']:>6.3f}  {r['dy_um']:>7.2f}  {paper:>10}  {dyp:>8}  "
                      f"{r['dy_free_um']:>7.2f}  {r['delivered_fraction']:>8.3f}  "
                      f"{r['flow_sim_L_min']:>9.4f}{_mark(r)}")

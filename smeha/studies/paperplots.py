@@ -19,6 +19,7 @@ import numpy as np  # noqa: E402
 
 import gmt  # noqa: E402
 
+from ..outputs import save_figure  # noqa: E402
 from . import paper  # noqa: E402
 
 __all__ = ["LOOPS_FILE", "LOSSES_FILE", "LINEARITY_FILE", "LOSS_FREQUENCIES", "loops_figure",
@@ -77,8 +78,7 @@ def loops_figure(params: gmt.TransducerParameters, rows: list[dict], path) -> Pa
                  "(analogue of Figures 6-7)")
     fig.tight_layout(rect=(0, 0.05, 1, 1))
     path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)
     return path
 
 
@@ -124,8 +124,7 @@ def losses_figure(params: gmt.TransducerParameters, rows: list[dict], path,
                  fontsize=11)
     fig.tight_layout()
     path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)
     return path
 
 
@@ -170,8 +169,7 @@ def linearity_figure(params: gmt.TransducerParameters, runs, path) -> Path:
                  "(analogue of Figures 10-11; model, steady state)")
     fig.tight_layout(rect=(0, 0.06, 1, 1))
     path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)
     return path
 
 

@@ -44,12 +44,14 @@ from pathlib import Path
 import gmt
 from gmt.errors import InputError, RunError
 
+from ..outputs import replacing, save_figure
 from . import flow
 
 __all__ = ["GRID_KEYS", "SETTINGS_DEFAULTS", "OPTIONAL_SETTINGS", "RESULT_FIELDS", "FLAG_FIELDS",
            "KEY_COLUMNS", "COLUMNS", "TEXT_COLUMNS", "SpecError", "SweepError", "Point",
            "SweepResult", "parse_spec", "read_spec", "write_table", "read_table", "row_key",
            "FINISHED", "run_point", "run_point_shipped", "run_sweep", "format_summary",
+           "DASK_INSTALL", "dask_missing",
            "plot_sweep"]
 
 #: Grid keys: Case fields that take a list of values.
@@ -61,7 +63,7 @@ SETTINGS_DEFAULTS = {f.name: f.default for f in dataclass_fields(flow.Case)
 #: rows keep their own keys and never match a point of this version).
 OPTIONAL_SETTINGS = ("controller_period", "hydraulic_step", "coupling", "compensator_period")
 #: Settings whose every run before they existed had their present default (the paper's
-#: magnetics and sinusoid, issue 21): a table without their column is read with it, so its
+#: magnetics and sinusoid): a table without their column is read with it, so its
 #: finished points still match.
 DEFAULTED_SETTINGS = ("magnetics", "inverse", "waveform", "amplitude")
 
@@ -224,6 +226,8 @@ def read_spec(path) -> list[Point]:
             spec = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{path}: not valid TOML ({exc})") from None
+    except UnicodeDecodeError:
+        raise SpecError(f"{path}: not valid TOML (not UTF-8 text)") from None
     try:
         return parse_spec(spec)
     except SpecError as exc:
@@ -246,13 +250,11 @@ def _format(value) -> str:
 def write_table(rows, path) -> Path:
     """Write sweep rows as CSV (:data:`COLUMNS`; empty cells for None), atomically."""
     path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w", newline="") as fh:
+    with replacing(path) as tmp, open(tmp, "w", newline="") as fh:
         writer = csv.writer(fh)
         writer.writerow(COLUMNS)
         for r in rows:
             writer.writerow([_format(r.get(c)) for c in COLUMNS])
-    os.replace(tmp, path)
     return path
 
 
@@ -275,7 +277,15 @@ def read_table(path) -> list[dict]:
     path = Path(path)
     if not path.is_file():
         return []
-    with open(path, newline="") as fh:
+    try:
+        return _read_table(path)
+    except UnicodeDecodeError:
+        raise SpecError(f"{path}: not a sweep table (not UTF-8 text); give another --out"
+                        ) from None
+
+
+def _read_table(path) -> list[dict]:
+    with open(path, newline="", encoding="utf-8") as fh:
         reader = csv.DictReader(fh)
         names = reader.fieldnames or []
         legacy = "circuit" not in names and "ideal" in names  # tables before named circuits
@@ -387,11 +397,12 @@ def _collect(future, point, on_result=None) -> dict:
     return row
 
 
-def _run_local(points, fmu_path, workers: int, quiet: bool, on_result=None) -> list[dict]:
+def _run_local(points, fmu_path, workers: int, quiet: bool, on_result=None,
+               say=None) -> list[dict]:
     from .. import pool
     fmu = fmu_path or flow.default_fmu_path()
     pool.prepare(workers, fmu if any(p.backend == "fmu" for p in points) else None,
-                 None if quiet else (lambda m: print(m, file=sys.stderr, flush=True)))
+                 None if quiet else say)
 
     def finished(i, row):
         if on_result is not None:
@@ -404,11 +415,22 @@ def _run_local(points, fmu_path, workers: int, quiet: bool, on_result=None) -> l
                          on_result=finished, on_error=broken)
 
 
+#: How to install what --scheduler needs (the optional dependencies ``smeha[dask]``).
+DASK_INSTALL = "pip install 'smeha[dask]'"
+
+
+def dask_missing() -> str | None:
+    """The first Dask package ``--scheduler`` needs that is not installed, or None."""
+    import importlib.util
+    return next((name for name in ("dask", "distributed")
+                 if importlib.util.find_spec(name) is None), None)
+
+
 def _run_dask(points, fmu_path, scheduler: str, quiet: bool, on_result=None) -> list[dict]:
     try:
         from dask.distributed import Client, as_completed
     except ImportError:
-        raise SweepError("--scheduler needs dask.distributed: pip install dask distributed") \
+        raise SweepError(f"--scheduler needs Dask: {DASK_INSTALL}") \
             from None
     try:
         client = Client(scheduler, timeout="20s")
@@ -434,7 +456,7 @@ def _run_dask(points, fmu_path, scheduler: str, quiet: bool, on_result=None) -> 
 
 
 def run_sweep(points, out, fmu_path=None, workers: int = 2, scheduler: str | None = None,
-              quiet: bool = False) -> SweepResult:
+              quiet: bool = False, say=None) -> SweepResult:
     """Run the points not finished in the table ``out``, writing it as points finish.
 
     Rows of ``out`` whose point is in ``points`` with status "ok" are kept and
@@ -457,7 +479,7 @@ def run_sweep(points, out, fmu_path=None, workers: int = 2, scheduler: str | Non
     if scheduler and todo:
         _run_dask(todo, fmu_path, scheduler, quiet, on_result=record)
     elif todo:
-        _run_local(todo, fmu_path, workers, quiet, on_result=record)
+        _run_local(todo, fmu_path, workers, quiet, on_result=record, say=say)
     rows = [done[p.key] if p.key in done else fresh[p.key] for p in points]
     write_table(rows + kept, out)
     return SweepResult(rows=rows, skipped=len(points) - len(todo),
@@ -493,27 +515,32 @@ def format_summary(result: SweepResult, out) -> str:
 
 
 def plot_sweep(rows, path) -> Path:
-    """Mean cylinder flow against frequency, one line per (mode, load, circuit); PNG."""
+    """Mean cylinder flow against frequency, one line per (mode, load, circuit, magnetics,
+    drive); the title states what all lines share. An image by the path's suffix."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .flowplots import MARKERS, MODE_COLOURS
+    from .flowplots import MARKERS, MODE_COLOURS, drive_label
 
     ok = [r for r in rows if r["status"] in FINISHED]
     fig, ax = plt.subplots(figsize=(6.5, 4.8))
-    groups = sorted({(r["mode"], r["load_N"], r["circuit"]) for r in ok})
+
+    def key(r):
+        return (r["mode"], r["load_N"], r["circuit"], drive_label(r))
+    groups = sorted({key(r) for r in ok})
+    drives = sorted({g[3] for g in groups})
     # colour = mode, as in every flow figure (smeha.studies.flowplots); marker and line =
-    # load, circuit
-    cases = sorted({(load, circuit) for _, load, circuit in groups})
-    for mode, load, circuit in groups:
-        rs = sorted((r for r in ok if (r["mode"], r["load_N"], r["circuit"]) == (mode, load,
-                                                                                 circuit)),
-                    key=lambda r: r["frequency"])
-        k = cases.index((load, circuit))
+    # load, circuit, drive
+    cases = sorted({g[1:] for g in groups})
+    for group in groups:
+        mode, load, circuit, drive = group
+        rs = sorted((r for r in ok if key(r) == group), key=lambda r: r["frequency"])
+        k = cases.index(group[1:])
+        label = f"{mode}, {load:g} N, {circuit}" + (f", {drive}" if len(drives) > 1 else "")
         ax.plot([r["frequency"] for r in rs], [r["flow_sim_m3_s"] * 1e6 for r in rs],
                 color=MODE_COLOURS[mode], marker=MARKERS[k % len(MARKERS)],
-                ls=("-", "--", "-.", ":")[k % 4], label=f"{mode}, {load:g} N, {circuit}")
+                ls=("-", "--", "-.", ":")[k % 4], label=label)
     flagged = [r for r in ok if r["status"] == "flagged"]
     if flagged:  # a reversed flow or cavitation, marked as in every flow figure
         ax.scatter([r["frequency"] for r in flagged], [r["flow_sim_m3_s"] * 1e6 for r in flagged],
@@ -522,11 +549,11 @@ def plot_sweep(rows, path) -> Path:
         ax.axhline(0.0, color="grey", lw=0.6)
     ax.set_xlabel("pumping frequency f [Hz]")
     ax.set_ylabel("mean cylinder flow [cm^3/s]")
-    ax.set_title("Sweep: flow against frequency")
+    ax.set_title("Sweep: flow against frequency" + (f"\n{drives[0]}" if len(drives) == 1
+                                                    else ""), fontsize=10)
     ax.grid(alpha=0.3)
     if groups:
         ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)
     return Path(path)

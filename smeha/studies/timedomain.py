@@ -1,4 +1,4 @@
-"""The time-domain magnetics' studies (issue 21): where the two models part, the drive
+"""The time-domain magnetics' studies: where the two models part, the drive
 waveforms, and the compensation re-judged.
 
 * :func:`compare_rows` -- both models under a sinusoidal current at Table 1's points

@@ -1,4 +1,4 @@
-"""``smeha timedomain``: the time-domain magnetics' studies (issue 21).
+"""``smeha timedomain``: the time-domain magnetics' studies.
 
 Registered by :mod:`smeha.cli`; the studies are :mod:`smeha.studies.timedomain`.
 Nothing heavy is imported before the command runs.
@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import json
 
-from ..cliargs import count, number_list, output_file
+from ..cliargs import count, plot_file, setting_list
+from .flowsettings import FREQUENCY
 
 __all__ = ["STUDIES", "DEFAULT_FREQUENCIES", "add_timedomain"]
 
@@ -32,14 +33,14 @@ def add_timedomain(subparsers):
                     "gives the same numbers: tests/test_fmu.py).")
     p.add_argument("--study", choices=STUDIES, default="compare",
                    help="which study (default compare)")
-    p.add_argument("--frequencies", type=number_list(0.0, 1000.0, unit="Hz"),
+    p.add_argument("--frequencies", type=setting_list(FREQUENCY),
                    metavar="HZ,HZ,...",
-                   help="pumping frequencies [Hz] of waveforms (default 50,100,150,200) and "
-                        "gains (default 50,70,80,100)")
+                   help=f"pumping frequencies, each {FREQUENCY.interval()}, of waveforms "
+                        "(default 50,100,150,200) and gains (default 50,70,80,100)")
     p.add_argument("--workers", type=count(1), metavar="N",
                    help="local worker processes for the co-simulations (default 2)")
     p.add_argument("--json", action="store_true", help="print only a JSON object {rows: [...]}")
-    p.add_argument("--plot", metavar="FILE", type=output_file,
+    p.add_argument("--plot", metavar="FILE", type=plot_file,
                    help="waveforms: write flow against frequency per waveform (PNG)")
     p.set_defaults(run=_run_timedomain)
 

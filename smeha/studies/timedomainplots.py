@@ -12,6 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
+from ..outputs import save_figure  # noqa: E402
 from .flowplots import MODE_COLOURS  # noqa: E402
 
 __all__ = ["STYLES", "BASES", "plot_waveforms"]
@@ -46,5 +47,4 @@ def plot_waveforms(rows, path) -> None:
     fig.suptitle("Which drive waveform pumps most: time-domain magnetics, realistic circuit, "
                  "150 N load", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)
