@@ -139,8 +139,7 @@ def _check_before_work(args, settings, scenarios) -> None:
 def _run_position(args) -> int:
     modes = ("compensated", "uncompensated") if args.mode == "both" else (args.mode,)
     if args.envelope:
-        from .positionenvelope import run_envelope_command
-        return run_envelope_command(args, modes)
+        return _run_envelope(args, modes)
     frequencies = None if args.bandwidth in (None, "auto") else args.bandwidth
     settings = {m: _settings(args, m) for m in modes}
     scenarios = ["step"] + (["sine"] if args.bandwidth else []) + (
@@ -171,6 +170,33 @@ def _run_position(args) -> int:
     for path in (args.plot, args.csv):
         if path:
             print(f"wrote {path}")
+    return 0
+
+
+def _run_envelope(args, modes) -> int:
+    """--envelope: each mode and circuit (every circuit unless --circuit names one)."""
+    from . import flow
+    from .positionenvelope import format_envelope, run_envelope
+    circuits = (args.circuit,) if args.circuit else CIRCUITS
+    fmu = flow.ensure_fmu(quiet=args.json) if args.backend == "fmu" else None
+    curves = []
+    for circuit in circuits:
+        for mode in modes:
+            if not args.json:
+                print(f"{circuit}, {mode}: full drive each way at each load ...",
+                      file=sys.stderr, flush=True)
+            curves.append(run_envelope(mode, circuit, args.frequency, args.backend, fmu))
+    if args.plot:
+        from .positionplots import plot_envelope
+        plot_envelope(args.plot, curves)
+    if args.json:
+        json.dump(_clean({"envelope": [c.as_dict() for c in curves]}), sys.stdout, indent=2,
+                  allow_nan=False)
+        sys.stdout.write("\n")
+        return 0
+    print(format_envelope(curves))
+    if args.plot:
+        print(f"wrote {args.plot}")
     return 0
 
 

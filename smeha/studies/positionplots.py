@@ -138,3 +138,39 @@ def plot_study(path, out, settings) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def plot_envelope(path, curves) -> None:
+    """Write the speed-load envelope (:class:`smeha.studies.positionenvelope.Envelope`s): one
+    panel a circuit, the full-drive speed each way against load; solid: co-simulation,
+    dashed: the hand calculation, squares: the flow table (down), ticks: stall loads."""
+    circuits = list(dict.fromkeys(c.circuit for c in curves))
+    fig, axes = plt.subplots(1, len(circuits), figsize=(5.5 * len(circuits), 4.8),
+                             squeeze=False)
+    for ax, circuit in zip(axes[0], circuits):
+        for c in (c for c in curves if c.circuit == circuit):
+            colour = MODE_COLOURS[c.mode]
+            for direction, marker in (("down", "o"), ("up", "v")):
+                pts = [p for p in c.points if p.direction == direction]
+                loads = [p.load for p in pts]
+                ax.plot(loads, [p.velocity * 1e3 for p in pts], marker=marker, color=colour,
+                        lw=1.2, label=f"{c.mode}, {direction}: co-simulation")
+                ax.plot(loads, [p.hand_velocity * 1e3 for p in pts], color=colour, lw=0.8,
+                        ls="--", label=f"{c.mode}, {direction}: hand calculation")
+                if direction == "down":
+                    ax.plot(loads, [p.flow_table_velocity * 1e3 for p in pts], "s",
+                            mfc="none", color=colour, ms=7, label=f"{c.mode}: flow table")
+            for stall in (c.stall_load_down, c.stall_load_up):
+                if np.isfinite(stall):
+                    ax.axvline(stall, color=colour, lw=0.6, alpha=0.6)
+        ax.axhline(0.0, color="0.4", lw=0.6)
+        freq = curves[0].frequency
+        ax.set_title(f"{circuit} circuit, {freq:g} Hz, the paper's magnetics, sinusoidal drive"
+                     "\n(vertical lines: stall loads, co-simulation)", fontsize=9)
+        ax.set_xlabel("load, opposing down [N]")
+        ax.set_ylabel("piston velocity at full drive [mm/s] (+ down)")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=6)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
