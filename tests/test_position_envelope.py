@@ -92,9 +92,9 @@ def test_prediction_and_loop_agree_step_by_step_when_saturating():
     # rounding, through the saturated ramp, the overshoot's correction and the band
     # between the lines' offsets (-5.94 to -2.79 mm/s), where the old prediction clipped
     # the velocity wanted and the old controller took the least amplitude down
-    gains = design(MOVING, 2e-3)
-    t, predicted = predict_step(MOVING, gains.kp, gains.ki, gains.period, 2e-3, 120)
-    ctrl = Controller(MOVING, gains, 1.0, lambda t: 2e-3)
+    gains = design(MOVING, -2e-3)  # up: the approach crosses the band (old: 6.5 um apart)
+    t, predicted = predict_step(MOVING, gains.kp, gains.ki, gains.period, -2e-3, 120)
+    ctrl = Controller(MOVING, gains, 1.0, lambda t: -2e-3)
     x, loop, saturated = 0.0, [0.0], 0
     for k in range(120):
         d = ctrl(k, k * gains.period, x)

@@ -520,9 +520,12 @@ def estimate_wall_time(settings: PositionSettings, scenarios=("step",),
     simulated = (2 * (len(IDENTIFY_FRACTIONS) + 1) * (IDENTIFY_PERIODS + 1)
                  + DEFAULT_CYCLES + SETTLE_PERIODS) * period
     direction = "down" if settings.target > 0.0 else "up"
-    speed = abs(lim.velocity(settings.load_force, direction))
-    step = settings.duration or (max(4.0 * abs(settings.target) / speed, 0.3)
-                                 if speed > 0.0 else options.DURATION.high)
+    # near a stall the hand line's speed goes to 0; the loop is then refused or slow, and
+    # a tenth of the unloaded pump's speed stands for it
+    free = settings.frequency * lim.piston_area * lim.free_stroke / lim.big_area
+    speed = max(abs(lim.velocity(settings.load_force, direction)), 0.1 * free, 1e-9)
+    step = settings.duration or min(max(4.0 * abs(settings.target) / speed, 0.3),
+                                    options.DURATION.high)
     simulated += step
     if "sine" in scenarios:  # six frequencies around the bandwidth, ~0.07 f (design)
         simulated += sum(max(4.0 / (0.068 * settings.frequency * r), 0.3) + SETTLE_PERIODS
