@@ -5,8 +5,8 @@ T = 1/f (:mod:`smeha.studies.positionloop`) or every N-th one (``controller_rate
 its decision then holds N periods, and the design's T is N/f), sets the cylinder's
 direction (Figure 2's stages 1-2 or 3-4) and the drive amplitude (the current amplitude
 uncompensated, the demanded stroke compensated) from the position error, up to an
-amplitude limit (the paper's drive: I_m = 1 A uncompensated, the Figure 10 control amplitude compensated), so
-that a long step runs at the flow table's point.
+amplitude limit (the paper's drive: I_m = 1 A uncompensated, the Figure 10 control
+amplitude compensated), so that a long step runs at the flow table's point.
 
 Design (:func:`identify`, :func:`design`), in python-control:
 
@@ -25,8 +25,8 @@ Design (:func:`identify`, :func:`design`), in python-control:
   above ~120 Hz) are refused in one line naming the limit (:class:`OutsideEnvelope`).
 * **controller** (:mod:`smeha.studies.positiondesign`): the velocity wanted,
   v* = K_p e + K_i sum(e T) (PI, the integral clamped while the drive saturates:
-  anti-windup), is turned into a direction and an amplitude through the identified lines (their inverse), so that the loop the design
-  sees is the pumping's sample-and-hold of an integrator, P(z) = T / (z - 1) (the
+  anti-windup), is turned into a direction and an amplitude through the identified
+  lines (their inverse), so that the loop the design sees is the pumping's sample-and-hold of an integrator, P(z) = T / (z - 1) (the
   piston moves during each period's compression and stands during its expansion: the
   sampled position is exact at the period's start; the valves' 0.2 ms dead time is 2 %
   of the period, left out).
