@@ -27,9 +27,9 @@ Design (:func:`identify`, :func:`design`), in python-control:
   v* = K_p e + K_i sum(e T) (PI, the integral clamped while the drive saturates:
   anti-windup), is turned into a direction and an amplitude through the identified
   lines (their inverse), so that the loop the design sees is the pumping's
-  sample-and-hold of an integrator, P(z) = T / (z - 1) (the piston moves during each period's compression and stands during its expansion: the
-  sampled position is exact at the period's start; the valves' 0.2 ms dead time is 2 %
-  of the period, left out).
+  sample-and-hold of an integrator, P(z) = T / (z - 1) (the piston moves during each
+  period's compression and stands during its expansion: the sampled position is exact
+  at the period's start; the valves' 0.2 ms dead time is 2 % of the period, left out).
 * **prediction**: python-control's margins and closed-loop bandwidth of that loop, and its
   step response with the velocity limits (a nonlinear, sampled ``control.nlsys``): a
   long step runs at the largest velocity v_0 + g, so the rise time is mostly
