@@ -16,6 +16,7 @@ matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.ticker import ScalarFormatter  # noqa: E402
 
 from .flowplots import MODE_COLOURS  # noqa: E402
 
@@ -96,6 +97,9 @@ def _sine_panel(ax, out) -> None:
         ax.axvline(res.figures["predicted_bandwidth_Hz"], color=colour, ls=":", lw=1.0,
                    label=f"{mode}: python-control's -3 dB")
     ax.axhline(-3.0, color="0.5", lw=0.6)
+    ax.xaxis.set_major_formatter(ScalarFormatter())
+    ax.xaxis.set_minor_formatter(ScalarFormatter())
+    ax.tick_params(axis="x", which="minor", labelsize=7)
     ax.set_xlabel("command frequency [Hz]")
     ax.set_ylabel("gain [dB]")
     ax.set_title("Sine tracking (position / command)", fontsize=9)
