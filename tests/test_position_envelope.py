@@ -66,6 +66,20 @@ def test_every_option_is_one_truth(capsys):
             option.check(low * option.si)
 
 
+#: The 150 N lines moved to 300 N along their droops: full drive down gives -2.6 mm/s.
+STALLED_DOWN = PlantModel(frequency=100.0, v0_down=-2.79e-3 - 8.6e-5 * 150, g_down=13.06e-3,
+                          v0_up=-5.94e-3 - 1.8e-4 * 150, g_up=14.38e-3, droop_down=-8.6e-5,
+                          droop_up=-1.8e-4)
+
+
+def test_a_load_past_the_down_stall_is_refused_with_it():
+    # --load 300 (an IndexError) and --target-mm -5 --load 300 (int(NaN)): the stall load
+    # down, 300 N - (-2.63 mm/s) / (-0.086 mm/s per N) = 269 N, is named
+    s = position.PositionSettings(load=300.0, target=-5e-3)
+    with pytest.raises(position.OutsideEnvelope, match=r"stalls moving down .* about 269 N"):
+        position.check_plant(STALLED_DOWN, s)
+
+
 def test_a_stalled_direction_is_refused_with_its_stall_load():
     # at 0 N the identified lines give +6.44 mm/s at full drive up: the old design
     # predicted a step that never settles and the run died on int(NaN); now the stall load
@@ -162,6 +176,40 @@ def test_a_long_run_says_so_before_it_starts(monkeypatch, capsys):
     assert cli.main(["position", "--mode", "compensated", "--frequency", "5",
                      "--backend", "direct"]) == 130
     assert "estimated at about" in capsys.readouterr().err
+
+
+def test_the_plot_shows_the_sine_and_load_step_results(tmp_path, monkeypatch):
+    # --bandwidth --load-step drew the step only; now a panel each, and the title names
+    # the magnetics, the drive, the circuit and the load
+    from smeha.studies import positionplots
+    from smeha.studies.positionloop import PERIOD_FIELDS, LoopRecord
+    n, per_n = 200, 20
+    rows = np.zeros(n, dtype=[(f, float) for f in ("time", "piston_position", "direction",
+                                                   "valves_compressing", "p_big",
+                                                   "p_small")])
+    rows["time"] = np.linspace(0.0, 0.2, n)
+    rows["piston_position"] = np.linspace(0.025, 0.026, n)
+    rows["direction"], rows["p_big"], rows["p_small"] = 1.0, 1.6e6, 1.5e6
+    periods = np.zeros(per_n, dtype=[(f, float) for f in PERIOD_FIELDS])
+    periods["time"] = np.linspace(0.0, 0.19, per_n)
+    periods["position"] = np.linspace(0.025, 0.026, per_n)
+    periods["command"] = np.where(periods["time"] < 0.05, np.nan, 0.030)
+    rec = LoopRecord(rows, periods, 1.0, 100.0, 1.0)
+    results = [position.PositionResult("step", "compensated", {}, [], rec),
+               position.PositionResult("sine", "compensated", {
+                   "tracking": [{"frequency_Hz": 2.0, "gain": 1.0, "phase_deg": -20.0},
+                                {"frequency_Hz": 8.0, "gain": 0.5, "phase_deg": -80.0}],
+                   "predicted_bandwidth_Hz": 6.8}),
+               position.PositionResult("load", "compensated", {
+                   "load_step_at_s": 0.1, "origin_m": 0.025, "load_step_N": 50.0}, [], rec)]
+    seen = {}
+    monkeypatch.setattr(positionplots.plt, "close", lambda fig: seen.setdefault("fig", fig))
+    positionplots.plot_study(tmp_path / "p.png", {"compensated": {"results": results}},
+                             position.PositionSettings())
+    titles = [ax.get_title() for ax in seen["fig"].axes]
+    assert any("Sine tracking" in t for t in titles) and any("Load step" in t for t in titles)
+    assert all(w in titles[0] for w in ("magnetics", "sinusoidal", "realistic", "150 N"))
+    assert (tmp_path / "p.png").stat().st_size > 0
 
 
 @pytest.mark.integration
