@@ -94,7 +94,7 @@ class PumpLimits:
                      - self.compliance * self.pressure_rise(load, direction), 0.0)
         if direction == "down":
             return self.frequency * volume / self.big_area
-        return -self.frequency * volume / self.small_area
+        return 0.0 - self.frequency * volume / self.small_area  # 0.0, not -0.0, at a stall
 
     def as_dict(self) -> dict:
         d = asdict(self)
