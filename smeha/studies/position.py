@@ -264,7 +264,8 @@ def check_plant(model: PlantModel, settings: PositionSettings) -> None:
     down, up = (_identified_stall(model, load, d) for d in ("down", "up"))
     span = (f"the loads it moves both ways are from {up:.0f} to {down:.0f} N"
             if math.isfinite(up) and math.isfinite(down) and up < down
-            else "no load moves it both ways")
+            else f"no load moves it both ways (down needs less than about {down:.0f} N, "
+                 f"up more than about {up:.0f} N)")
     if model.v_max_down <= 0.0:
         raise OutsideEnvelope(
             f"{_where(settings)} the pump stalls moving down (full drive gives "
@@ -483,12 +484,15 @@ def run_load_step(settings, model, gains, fmu_path=None) -> PositionResult:
 
 
 def run_study(settings: PositionSettings, scenarios=("step",), sine_frequencies=None,
-              fmu_path=None) -> dict:
+              fmu_path=None, on_design=None) -> dict:
     """Check the load against the hand calculation, identify, design, then run each
-    scenario; returns {"limits", "model", "design", "results"}."""
+    scenario; returns {"limits", "model", "design", "results"}. ``on_design``, if given,
+    is called with the estimated wall time of the rest [s] before the scenarios run."""
     limits = check_load(settings)
     model = identify(settings, fmu_path)
     gains = design(model, settings.target, settings.controller_periods)
+    if on_design is not None:
+        on_design(estimate_wall_time(settings, scenarios, limits, gains, model))
     results = []
     for scenario in scenarios:
         if scenario == "step":
@@ -510,29 +514,41 @@ WALL_PER_SIMULATED = 1.5
 
 
 def estimate_wall_time(settings: PositionSettings, scenarios=("step",),
-                       limits: PumpLimits | None = None) -> float:
-    """A rough wall time of :func:`run_study` plus the flow table's run, [s], before it
-    starts: the simulated time of the identification (8 runs), the flow table's run and
-    each scenario (the step at the hand calculation's full speed), times
-    :data:`WALL_PER_SIMULATED`."""
-    lim = limits or pump_limits(settings.frequency, settings.mode, settings.circuit)
+                       limits: PumpLimits | None = None, gains: Design | None = None,
+                       model: PlantModel | None = None) -> float:
+    """A rough wall time, [s], of what is left of :func:`run_study` plus the flow table's
+    run, times :data:`WALL_PER_SIMULATED`. Before the design (``gains`` None): the
+    identification (8 runs), the flow table's run and, when the hand calculation moves the
+    load both ways, each scenario with the step at its full speed (nearer a stall the
+    identification decides, and most such runs are refused). After it: the scenarios,
+    the step lasting :func:`step_duration`."""
     period = 1.0 / settings.frequency
-    simulated = (2 * (len(IDENTIFY_FRACTIONS) + 1) * (IDENTIFY_PERIODS + 1)
-                 + DEFAULT_CYCLES + SETTLE_PERIODS) * period
+    if gains is not None:
+        step = step_duration(settings, model, gains)
+        return (_scenarios_time(settings, scenarios, step) + DEFAULT_CYCLES * period) \
+            * WALL_PER_SIMULATED
+    lim = limits or pump_limits(settings.frequency, settings.mode, settings.circuit)
+    simulated = 2 * (len(IDENTIFY_FRACTIONS) + 1) * (IDENTIFY_PERIODS + 1) * period
     direction = "down" if settings.target > 0.0 else "up"
-    # near a stall the hand line's speed goes to 0; the loop is then refused or slow, and
-    # a tenth of the unloaded pump's speed stands for it
-    free = settings.frequency * lim.piston_area * lim.free_stroke / lim.big_area
-    speed = max(abs(lim.velocity(settings.load_force, direction)), 0.1 * free, 1e-9)
-    step = settings.duration or min(max(4.0 * abs(settings.target) / speed, 0.3),
-                                    options.DURATION.high)
-    simulated += step
-    if "sine" in scenarios:  # six frequencies around the bandwidth, ~0.07 f (design)
+    speed = abs(lim.velocity(settings.load_force, direction))
+    if lim.stall_load_up < settings.load_force < lim.stall_load_down and speed > 0.0:
+        step = settings.duration or min(max(4.0 * abs(settings.target) / speed, 0.3),
+                                        options.DURATION.high)
+        simulated += _scenarios_time(settings, scenarios, step) + DEFAULT_CYCLES * period
+    return simulated * WALL_PER_SIMULATED
+
+
+def _scenarios_time(settings, scenarios, step) -> float:
+    """Simulated time of the scenarios, [s]: the step, six sines around the bandwidth
+    (~0.07 f, the design's), the load step."""
+    period = 1.0 / settings.frequency
+    simulated = step + SETTLE_PERIODS * period
+    if "sine" in scenarios:
         simulated += sum(max(4.0 / (0.068 * settings.frequency * r), 0.3) + SETTLE_PERIODS
                          * period for r in (0.25, 0.5, 0.71, 1.0, 1.41, 2.0))
     if "load" in scenarios:
         simulated += (settings.duration or 0.5) + SETTLE_PERIODS * period
-    return simulated * WALL_PER_SIMULATED
+    return simulated
 
 
 def default_sine_frequencies(gains: Design) -> list:

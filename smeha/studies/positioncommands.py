@@ -121,19 +121,24 @@ def _sine_frequencies(text):
 _sine_frequencies.numeric = True
 
 
-def _check_before_work(args, settings, scenarios) -> None:
+def _check_before_work(args, settings, scenarios) -> bool:
     """Every mode's load against the hand calculation (exit 2 before any run), and a note
-    when the run is estimated over :data:`LONG_RUN`."""
+    when the run is estimated over :data:`LONG_RUN`; True if it said so."""
     from . import position
     total = 0.0
     for s in settings.values():
         limits = position.check_load(s)
         total += position.estimate_wall_time(s, scenarios, limits)
     if total > LONG_RUN:
-        warn("position", f"this run is estimated at about {total / 60.0:.0f} min of wall time "
-                         f"({len(settings)} mode(s) at {args.frequency:g} Hz: "
-                         "identification, the flow table's point and "
-                         f"{', '.join(scenarios)}); Ctrl-C stops it")
+        _say_long(total, args, settings, scenarios)
+    return total > LONG_RUN
+
+
+def _say_long(seconds, args, settings, scenarios) -> None:
+    warn("position", f"this run is estimated at about {max(seconds / 60.0, 1.0):.0f} min of "
+                     f"wall time ({len(settings)} mode(s) at {args.frequency:g} Hz: "
+                     "identification, the flow table's point and "
+                     f"{', '.join(scenarios)}); Ctrl-C stops it")
 
 
 def _run_position(args) -> int:
@@ -144,7 +149,12 @@ def _run_position(args) -> int:
     settings = {m: _settings(args, m) for m in modes}
     scenarios = ["step"] + (["sine"] if args.bandwidth else []) + (
         ["load"] if args.load_step is not None else [])
-    _check_before_work(args, settings, scenarios)
+    said = [_check_before_work(args, settings, scenarios)]
+
+    def on_design(seconds):  # the step's length known from the design: said once, if long
+        if seconds > LONG_RUN and not said[0]:
+            said[0] = True
+            _say_long(seconds, args, settings, scenarios)
     from . import flow, position
     fmu = flow.ensure_fmu(quiet=args.json) if args.backend == "fmu" else None
     out = {}
@@ -152,7 +162,7 @@ def _run_position(args) -> int:
         if not args.json:
             print(f"{mode}: identifying, designing, running {', '.join(scenarios)} ...",
                   file=sys.stderr, flush=True)
-        study = position.run_study(settings[mode], scenarios, frequencies, fmu)
+        study = position.run_study(settings[mode], scenarios, frequencies, fmu, on_design)
         study["flow_velocity_m_s"] = position.flow_table_velocity(settings[mode], fmu)
         out[mode] = study
     first = next(iter(settings.values()))
