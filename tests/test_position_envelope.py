@@ -223,3 +223,15 @@ def test_stall_loads_at_20_hz_meet_the_hand_calculation():
     for direction, load in (("down", lim.stall_load_down), ("up", lim.stall_load_up)):
         v = position.full_drive_velocity(s, direction, load)
         assert abs(v) < 0.02 * free, (direction, v, free)
+
+
+@pytest.mark.integration
+@pytest.mark.parametrize("argv, words", [
+    (["--mode", "compensated", "--load", "300"], "stalls moving down"),
+    (["--mode", "uncompensated", "--frequency", "200"], "stalls moving down")])
+def test_a_stall_the_identification_finds_exits_2_in_one_line(argv, words, capsys):
+    # --load 300 and --mode uncompensated --frequency 200 died on an IndexError after the
+    # identification: the identified lines now name the stall (in-process transducer)
+    assert cli.main(["position", *argv, "--backend", "direct", "--json"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and words in err
