@@ -185,6 +185,10 @@ def _run_position(args) -> int:
 
 def _run_envelope(args, modes) -> int:
     """--envelope: each mode and circuit (every circuit unless --circuit names one)."""
+    for given, name in ((args.csv, "--csv"), (args.bandwidth, "--bandwidth"),
+                        (args.load_step is not None, "--load-step")):
+        if given:
+            raise UsageError(f"{name} belongs to the step; --envelope runs no step")
     from . import flow
     from .positionenvelope import format_envelope, run_envelope
     circuits = (args.circuit,) if args.circuit else CIRCUITS
