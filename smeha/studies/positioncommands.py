@@ -186,9 +186,13 @@ def _run_position(args) -> int:
 def _run_envelope(args, modes) -> int:
     """--envelope: each mode and circuit (every circuit unless --circuit names one)."""
     for given, name in ((args.csv, "--csv"), (args.bandwidth, "--bandwidth"),
-                        (args.load_step is not None, "--load-step")):
+                        (args.load_step is not None, "--load-step"),
+                        (args.load is not None, "--load"), (args.duration, "--duration"),
+                        (args.controller_rate, "--controller-rate"),
+                        (args.variant, "--variant")):
         if given:
-            raise UsageError(f"{name} belongs to the step; --envelope runs no step")
+            raise UsageError(f"{name} belongs to the step; --envelope runs no step (its "
+                             "loads span the pump's stall loads)")
     from . import flow
     from .positionenvelope import format_envelope, run_envelope
     circuits = (args.circuit,) if args.circuit else CIRCUITS
