@@ -235,3 +235,19 @@ def test_a_stall_the_identification_finds_exits_2_in_one_line(argv, words, capsy
     assert cli.main(["position", *argv, "--backend", "direct", "--json"]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and words in err
+
+
+def test_envelope_stall_loads_interpolate_the_zero_crossing():
+    # v = 10 - 0.05 F (down) and v = 2 - 0.1 F (up) at loads 0..300: zero at 200 N and 20 N
+    from smeha.studies.positionenvelope import _stall
+    loads = np.linspace(0.0, 300.0, 7)
+    assert _stall(loads, list(10.0 - 0.05 * loads), "down") == pytest.approx(200.0)
+    assert _stall(loads, list(2.0 - 0.1 * loads), "up") == pytest.approx(20.0)
+    assert math.isnan(_stall(loads, list(10.0 + 0 * loads), "down"))  # never stalls
+
+
+def test_envelope_refuses_the_step_options(monkeypatch, capsys):
+    from smeha.studies import positionenvelope
+    monkeypatch.setattr(positionenvelope, "run_envelope", lambda *a, **k: pytest.fail("ran"))
+    assert cli.main(["position", "--envelope", "--load-step"]) == 2
+    assert "--envelope runs no step" in capsys.readouterr().err
