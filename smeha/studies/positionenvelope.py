@@ -73,7 +73,7 @@ def _stall(loads, velocities, direction) -> float:
     """Where the velocity of ``direction`` crosses zero, [N]: the last moving load and the
     first stalled one, linearly (NaN: no crossing among the loads run)."""
     sign = 1.0 if direction == "down" else -1.0
-    moving = [sign * v > 0.0 if math.isfinite(v) else None for v in velocities]
+    moving = [bool(sign * v > 0.0) if math.isfinite(v) else None for v in velocities]
     order = range(len(loads) - 1) if direction == "down" else range(len(loads) - 1, 0, -1)
     for i in order:
         j = i + 1 if direction == "down" else i - 1
