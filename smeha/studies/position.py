@@ -566,6 +566,5 @@ def flow_table_velocity(settings: PositionSettings, fmu_path=None) -> float:
                      load=settings.load_force, backend=settings.backend,
                      variant=settings.variant, step=settings.step)
     row = flow.run_case(case, fmu_path)[2]
-    area = presets.circuit(settings.circuit).cylinder
-    return row["flow_sim_m3_s"] / (math.pi * area.bore_diameter ** 2 / 4.0)
+    return row["flow_sim_m3_s"] / presets.circuit(settings.circuit).cylinder.big_area
 
