@@ -251,3 +251,13 @@ def test_envelope_refuses_the_step_options(monkeypatch, capsys):
     monkeypatch.setattr(positionenvelope, "run_envelope", lambda *a, **k: pytest.fail("ran"))
     assert cli.main(["position", "--envelope", "--load-step"]) == 2
     assert "--envelope runs no step" in capsys.readouterr().err
+
+
+def test_flow_table_speed_over_the_filled_cavitys_area(monkeypatch):
+    # the ideal circuit's through rod fills an annulus, pi (20^2 - 10^2) / 4 mm^2, not the
+    # bore (the speed came out 25 % low there)
+    from smeha.studies import flow
+    monkeypatch.setattr(flow, "run_case", lambda case, fmu=None: (None, None,
+                                                                  {"flow_sim_m3_s": 1e-6}))
+    v = position.flow_table_velocity(position.PositionSettings(circuit="ideal"))
+    assert v == pytest.approx(1e-6 / (math.pi * (0.02 ** 2 - 0.01 ** 2) / 4), rel=1e-12)
