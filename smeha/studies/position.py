@@ -210,22 +210,32 @@ def full_drive_velocity(settings: PositionSettings, direction: str, load: float,
 
 def identify(settings: PositionSettings, fmu_path=None) -> PlantModel:
     """Open-loop runs at :data:`IDENTIFY_FRACTIONS` of the limit in each direction, and
-    at full drive with :data:`DROOP_LOAD` more load: the lines of :class:`PlantModel`;
-    :func:`check_plant` then says why a model the loop cannot use is refused."""
+    at full drive with :data:`DROOP_LOAD` more load: the lines of :class:`PlantModel`.
+    The full-drive runs and the droop's come first, so a direction that stalls is refused
+    (:class:`OutsideEnvelope`) after half the runs; :func:`check_plant` then checks the
+    lines."""
     limit = settings.amplitude_limit
-    points, lines, droops = [], {}, {}
+    full, droops = {}, {}
+    for direction in ("down", "up"):
+        full[direction] = full_drive_velocity(settings, direction, settings.load_force,
+                                              fmu_path)
+        heavier = full_drive_velocity(settings, direction, settings.load_force + DROOP_LOAD,
+                                      fmu_path)
+        droops[direction] = (heavier - full[direction]) / DROOP_LOAD
+    _check_stalls(settings, full["down"], full["up"], droops["down"], droops["up"])
+    points, lines = [], {}
     for direction in ("down", "up"):
         v = []
         for frac in IDENTIFY_FRACTIONS:
-            rec = _loop(settings, fmu_path, IDENTIFY_PERIODS + 1,
-                        lambda k, t, x, d=direction, a=frac * limit: Decision(d, a))
-            v.append(_velocity(rec))
+            if frac == 1.0:
+                v.append(full[direction])
+            else:
+                rec = _loop(settings, fmu_path, IDENTIFY_PERIODS + 1,
+                            lambda k, t, x, d=direction, a=frac * limit: Decision(d, a))
+                v.append(_velocity(rec))
             points.append((direction, frac, v[-1]))
         slope, offset = np.polyfit(IDENTIFY_FRACTIONS, v, 1)
         lines[direction] = (float(offset), float(slope))
-        heavier = full_drive_velocity(settings, direction, settings.load_force + DROOP_LOAD,
-                                      fmu_path)
-        droops[direction] = (heavier - v[-1]) / DROOP_LOAD
     (v0d, gd), (v0u, gu) = lines["down"], lines["up"]
     model = PlantModel(frequency=settings.frequency, v0_down=v0d, g_down=gd, v0_up=v0u,
                        g_up=-gu, droop_down=droops["down"], droop_up=droops["up"],
@@ -239,12 +249,32 @@ def _where(settings: PositionSettings) -> str:
             f"{settings.load_force:g} N)")
 
 
-def _identified_stall(model: PlantModel, load: float, direction: str) -> float:
-    """The load at which the full-drive line of ``direction`` reaches zero velocity, [N]
-    (the line v(F) = v_max + dv/dF (F - load)); NaN without a droop."""
-    v, droop = ((model.v_max_down, model.droop_down) if direction == "down"
-                else (model.v_max_up, model.droop_up))
-    return load - v / droop if droop < 0.0 else math.nan  # more load: slower down, faster up
+def _stall_load(v_full: float, droop: float, load: float) -> float:
+    """The load at which a full-drive line v(F) = v_full + dv/dF (F - load) reaches zero
+    velocity, [N]; NaN without a droop (more load: slower down, faster up)."""
+    return load - v_full / droop if droop < 0.0 else math.nan
+
+
+def _check_stalls(settings: PositionSettings, v_down: float, v_up: float, droop_down: float,
+                  droop_up: float) -> None:
+    """Raise :class:`OutsideEnvelope` when full drive [m/s] does not move the piston both
+    ways, naming the stall loads of the lines through it with their droops [m/s/N]."""
+    load = settings.load_force
+    down, up = _stall_load(v_down, droop_down, load), _stall_load(v_up, droop_up, load)
+    span = (f"the loads it moves both ways are from {up:.0f} to {down:.0f} N"
+            if math.isfinite(up) and math.isfinite(down) and up < down
+            else f"no load moves it both ways (down needs less than about {down:.0f} N, "
+                 f"up more than about {up:.0f} N)")
+    if v_down <= 0.0:
+        raise OutsideEnvelope(
+            f"{_where(settings)} the pump stalls moving down (full drive gives "
+            f"{v_down * 1e3:+.2f} mm/s): the largest load it moves down is about "
+            f"{down:.0f} N; the position loop needs both directions: {span}")
+    if v_up >= 0.0:
+        raise OutsideEnvelope(
+            f"{_where(settings)} the pump cannot lift the piston (full drive up gives "
+            f"{v_up * 1e3:+.2f} mm/s): it lifts only loads above about {up:.0f} N "
+            f"(opposing down); the position loop needs both directions: {span}")
 
 
 def check_plant(model: PlantModel, settings: PositionSettings) -> None:
@@ -260,22 +290,8 @@ def check_plant(model: PlantModel, settings: PositionSettings) -> None:
                 "quarter period, smeha flow marks it flow_reversed), so the design model "
                 "cannot be identified; the position loop needs a lower frequency or the "
                 "compensated drive")
-    load = settings.load_force
-    down, up = (_identified_stall(model, load, d) for d in ("down", "up"))
-    span = (f"the loads it moves both ways are from {up:.0f} to {down:.0f} N"
-            if math.isfinite(up) and math.isfinite(down) and up < down
-            else f"no load moves it both ways (down needs less than about {down:.0f} N, "
-                 f"up more than about {up:.0f} N)")
-    if model.v_max_down <= 0.0:
-        raise OutsideEnvelope(
-            f"{_where(settings)} the pump stalls moving down (full drive gives "
-            f"{model.v_max_down * 1e3:+.2f} mm/s): the largest load it moves down is about "
-            f"{down:.0f} N; the position loop needs both directions: {span}")
-    if model.v_max_up >= 0.0:
-        raise OutsideEnvelope(
-            f"{_where(settings)} the pump cannot lift the piston (full drive up gives "
-            f"{model.v_max_up * 1e3:+.2f} mm/s): it lifts only loads above about {up:.0f} N "
-            f"(opposing down); the position loop needs both directions: {span}")
+    _check_stalls(settings, model.v_max_down, model.v_max_up, model.droop_down,
+                  model.droop_up)
 
 
 def check_load(settings: PositionSettings, limits: PumpLimits | None = None) -> PumpLimits:
