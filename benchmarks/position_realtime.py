@@ -1,4 +1,4 @@
-"""Real-time factor of the closed-loop position study (``smeha position``, issue 19).
+"""Real-time factor of the closed-loop position study (``smeha position``).
 
 Identifies and designs once, then runs the 5 mm step through the transducer FMU
 ``--repeats`` times per mode and prints the median wall time of the co-simulation
