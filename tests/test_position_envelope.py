@@ -261,3 +261,15 @@ def test_flow_table_speed_over_the_filled_cavitys_area(monkeypatch):
                                                                   {"flow_sim_m3_s": 1e-6}))
     v = position.flow_table_velocity(position.PositionSettings(circuit="ideal"))
     assert v == pytest.approx(1e-6 / (math.pi * (0.02 ** 2 - 0.01 ** 2) / 4), rel=1e-12)
+
+
+def test_the_study_owns_its_defaults():
+    # the study imported its defaults from its command line, which imported the study (a
+    # circle); now the command line reads the study's declarations, never the reverse
+    import subprocess
+    import sys
+    code = ("import sys, smeha.studies.position, smeha.studies.positionenvelope; "
+            "print('smeha.studies.positioncommands' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "False"
