@@ -21,8 +21,8 @@ Design (:func:`identify`, :func:`design`), in python-control:
   stops the valves and holds the piston on the oil.
   The loop needs both directions: a load past the pump's stall load in one of them
   (:mod:`smeha.studies.positionlimits`: the hand calculation decides before any run,
-  the identified lines near the limit) and a pump that runs backwards (uncompensated
-  above ~120 Hz) are refused in one line naming the limit (:class:`OutsideEnvelope`).
+  the identified lines near the limit) and a pump that runs backwards (the flow study's
+  ``flow_reversed``) are refused in one line naming the limit (:class:`OutsideEnvelope`).
 * **controller** (:mod:`smeha.studies.positiondesign`): the velocity wanted,
   v* = K_p e + K_i sum(e T) (PI, the integral clamped while the drive saturates:
   anti-windup), is turned into a direction and an amplitude through the identified
