@@ -155,9 +155,9 @@ def format_envelope(curves) -> str:
         up = [p for p in c.points if p.direction == "up"]
         for d, u in zip(down, up):
             note = "; ".join(n for n in (d.note, u.note) if n)
-            lines.append(f"{d.load:>9.1f}  {_n(d.velocity * 1e3, '+8.2f')}  "
+            lines.append(f"{d.load:>9.1f}  {_n(d.velocity * 1e3, '+.2f'):>8}  "
                          f"{d.hand_velocity * 1e3:>+7.2f}  "
-                         f"{_n(d.flow_table_velocity * 1e3, '+12.2f')}  "
-                         f"{_n(u.velocity * 1e3, '+8.2f')}  {u.hand_velocity * 1e3:>+7.2f}"
+                         f"{_n(d.flow_table_velocity * 1e3, '+.2f'):>12}  "
+                         f"{_n(u.velocity * 1e3, '+.2f'):>8}  {u.hand_velocity * 1e3:>+7.2f}"
                          + (f"  ({note})" if note else ""))
     return "\n".join(lines)
