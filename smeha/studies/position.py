@@ -64,7 +64,8 @@ __all__ = ["PositionSettings", "PlantModel", "Design", "PositionResult", "identi
            "pi_step", "predict_step", "run_step", "run_sine", "run_load_step",
            "default_sine_frequencies", "flow_table_velocity", "full_drive_velocity",
            "step_duration",
-           "OutsideEnvelope", "check_load", "check_plant", "estimate_wall_time"]
+           "OutsideEnvelope", "check_load", "check_plant", "estimate_wall_time",
+           "identification_time"]
 
 MODES = flow.MODES
 SCENARIOS = ("step", "sine", "load")
@@ -544,7 +545,7 @@ def estimate_wall_time(settings: PositionSettings, scenarios=("step",),
         return (_scenarios_time(settings, scenarios, step) + DEFAULT_CYCLES * period) \
             * WALL_PER_SIMULATED
     lim = limits or pump_limits(settings.frequency, settings.mode, settings.circuit)
-    simulated = 2 * (len(IDENTIFY_FRACTIONS) + 1) * (IDENTIFY_PERIODS + 1) * period
+    simulated = identification_time(settings) / WALL_PER_SIMULATED
     direction = "down" if settings.target > 0.0 else "up"
     speed = abs(lim.velocity(settings.load_force, direction))
     if lim.stall_load_up < settings.load_force < lim.stall_load_down and speed > 0.0:
@@ -552,6 +553,12 @@ def estimate_wall_time(settings: PositionSettings, scenarios=("step",),
                                         options.DURATION.high)
         simulated += _scenarios_time(settings, scenarios, step) + DEFAULT_CYCLES * period
     return simulated * WALL_PER_SIMULATED
+
+
+def identification_time(settings: PositionSettings) -> float:
+    """The identification's wall time alone, [s] (8 runs; :data:`WALL_PER_SIMULATED`)."""
+    return (2 * (len(IDENTIFY_FRACTIONS) + 1) * (IDENTIFY_PERIODS + 1) / settings.frequency
+            * WALL_PER_SIMULATED)
 
 
 def _scenarios_time(settings, scenarios, step) -> float:

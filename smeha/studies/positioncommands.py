@@ -125,17 +125,22 @@ def _check_before_work(args, settings, scenarios) -> bool:
     """Every mode's load against the hand calculation (exit 2 before any run), and a note
     when the run is estimated over :data:`LONG_RUN`; True if it said so."""
     from . import position
+    # the identification alone first: at a low frequency the hand calculation's free
+    # stroke is itself a long run of the transducer
+    quick = sum(position.identification_time(s) for s in settings.values())
+    if quick > LONG_RUN:
+        _say_long(quick, args, settings, scenarios)
     total = 0.0
     for s in settings.values():
         limits = position.check_load(s)
         total += position.estimate_wall_time(s, scenarios, limits)
-    if total > LONG_RUN:
+    if total > LONG_RUN and quick <= LONG_RUN:
         _say_long(total, args, settings, scenarios)
     return total > LONG_RUN
 
 
 def _say_long(seconds, args, settings, scenarios) -> None:
-    warn("position", f"this run is estimated at about {max(seconds / 60.0, 1.0):.0f} min of "
+    warn("position", f"this run is estimated at over {max(seconds / 60.0, 1.0):.0f} min of "
                      f"wall time ({len(settings)} mode(s) at {args.frequency:g} Hz: "
                      "identification, the flow table's point and "
                      f"{', '.join(scenarios)}); Ctrl-C stops it")
