@@ -175,7 +175,7 @@ def test_a_long_run_says_so_before_it_starts(monkeypatch, capsys):
         KeyboardInterrupt))
     assert cli.main(["position", "--mode", "compensated", "--frequency", "5",
                      "--backend", "direct"]) == 130
-    assert "estimated at about" in capsys.readouterr().err
+    assert "this run is estimated at" in capsys.readouterr().err
 
 
 def test_the_plot_shows_the_sine_and_load_step_results(tmp_path, monkeypatch):
