@@ -62,6 +62,7 @@ def run_one(circuit, mode, frequency, load, target, backend) -> tuple[str, str, 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--backend", choices=("direct", "fmu"), default="direct")
+    p.add_argument("--circuits", type=lambda s: s.split(","), default=CIRCUITS)
     p.add_argument("--loads", type=lambda s: [float(v) for v in s.split(",")], default=LOADS)
     p.add_argument("--frequencies", type=lambda s: [float(v) for v in s.split(",")],
                    default=FREQUENCIES)
@@ -70,7 +71,7 @@ def main(argv=None) -> int:
     print(f"{'circuit':<12} {'mode':<13} {'f [Hz]':>6} {'load [N]':>8} {'step [mm]':>9} "
           f"{'wall [s]':>8}  outcome")
     for circuit, mode, f, load, target in itertools.product(
-            CIRCUITS, MODES, args.frequencies, args.loads, TARGETS):
+            args.circuits, MODES, args.frequencies, args.loads, TARGETS):
         outcome, text, wall = run_one(circuit, mode, f, load, target, args.backend)
         counts[outcome] = counts.get(outcome, 0) + 1
         print(f"{circuit:<12} {mode:<13} {f:>6g} {load:>8g} {target:>+9g} {wall:>8.1f}  "
