@@ -199,8 +199,13 @@ def _run_envelope(args, modes) -> int:
             raise UsageError(f"{name} belongs to the step; --envelope runs no step (its "
                              "loads span the pump's stall loads)")
     from . import flow
-    from .positionenvelope import format_envelope, run_envelope
+    from .positionenvelope import estimate_wall_time, format_envelope, run_envelope
     circuits = (args.circuit,) if args.circuit else CIRCUITS
+    seconds = estimate_wall_time(args.frequency, len(circuits) * len(modes))
+    if seconds > LONG_RUN:
+        warn("position", f"this envelope is estimated at about {seconds / 60.0:.0f} min of "
+                         f"wall time ({len(circuits) * len(modes)} curves at "
+                         f"{args.frequency:g} Hz); Ctrl-C stops it")
     fmu = flow.ensure_fmu(quiet=args.json) if args.backend == "fmu" else None
     curves = []
     for circuit in circuits:

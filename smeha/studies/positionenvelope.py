@@ -21,8 +21,11 @@ import gmt
 from .positionlimits import PumpLimits, pump_limits
 
 __all__ = ["EnvelopePoint", "Envelope", "envelope_loads", "run_envelope", "format_envelope",
-           "LOADS"]
+           "estimate_wall_time", "LOADS"]
 
+#: Wall time a run costs besides its simulated time (the transducer opened, the flow
+#: check), [s]: 6 curves at 100 Hz took 3-4 min on the shared 2-core machine.
+RUN_OVERHEAD = 1.0
 #: Loads a curve is run at: spread over the hand calculation's stall-to-stall range and a
 #: quarter of it beyond each end, so both stalls are bracketed.
 LOADS = 7
@@ -119,6 +122,18 @@ def run_envelope(mode: str, circuit: str, frequency: float, backend: str = "fmu"
     return Envelope(mode=mode, circuit=circuit, frequency=float(frequency),
                     points=tuple(points), stall_load_down=stall["down"],
                     stall_load_up=stall["up"], hand=hand)
+
+
+def estimate_wall_time(frequency: float, curves: int) -> float:
+    """A rough wall time of ``curves`` envelopes at ``frequency`` [Hz], [s]: per load two
+    full-drive runs and the flow table's run, their simulated time times the position
+    study's :data:`~smeha.studies.position.WALL_PER_SIMULATED`, and :data:`RUN_OVERHEAD`
+    each."""
+    from system_models.defaults import DEFAULT_CYCLES
+
+    from .position import IDENTIFY_PERIODS, WALL_PER_SIMULATED
+    periods = LOADS * (2 * (IDENTIFY_PERIODS + 1) + DEFAULT_CYCLES)
+    return curves * (periods / frequency * WALL_PER_SIMULATED + 3 * LOADS * RUN_OVERHEAD)
 
 
 def _n(x, fmt):
