@@ -273,3 +273,11 @@ def test_the_study_owns_its_defaults():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()
     assert out == "False"
+
+
+def test_a_long_envelope_says_so_before_it_starts(monkeypatch, capsys):
+    from smeha.studies import positionenvelope
+    monkeypatch.setattr(positionenvelope, "run_envelope", lambda *a, **k: (_ for _ in ()).throw(
+        KeyboardInterrupt))
+    assert cli.main(["position", "--envelope", "--frequency", "20", "--backend", "direct"]) == 130
+    assert "this envelope is estimated at" in capsys.readouterr().err
