@@ -1,6 +1,8 @@
 """``smeha position``: the cylinder's position in closed loop (:mod:`smeha.studies.position`).
 
-Registered by :mod:`smeha.cli`; nothing heavy is imported before the command runs.
+Registered by :mod:`smeha.cli`; nothing heavy is imported before the command runs. The
+numeric options' ranges, units, defaults and help come from their declarations
+(:mod:`smeha.studies.positionoptions`), which the study enforces too.
 """
 from __future__ import annotations
 
@@ -9,22 +11,29 @@ import json
 import math
 import sys
 
-from ..cliargs import UsageError, input_file, number, number_list, output_file
-from system_models.defaults import REALISTIC_LOAD
+from gmt.errors import ParameterError
 
-from .flowcommands import CIRCUITS, FREQUENCY
+from ..cliargs import UsageError, input_file, number, number_list, output_file, warn
+from . import positionoptions as options
+from .flowcommands import CIRCUITS
 
 __all__ = ["add_position"]
 
 #: --mode's choices: each drive mode, or both (the default).
 MODES = ("compensated", "uncompensated", "both")
-#: The study's defaults (plain numbers, read by --help and by smeha.studies.position):
-#: the step's distance [mm], the pump frequency [Hz], the load step [N].
-TARGET_MM = 5.0
-FREQUENCY_HZ = 100.0
-LOAD_STEP_N = 50.0
-TARGET_LIMIT_MM = 20.0
-DURATION_LIMIT = 60.0
+#: A run estimated longer than this says so before it starts, [s].
+LONG_RUN = 60.0
+
+
+def _number(option: options.Option):
+    """The argparse type of a declared option (its range and unit)."""
+    return number(option.low, option.high, low_open=option.low_open,
+                  high_open=option.high_open, unit=option.unit)
+
+
+def _add(p, option: options.Option, **kwargs):
+    p.add_argument(f"--{option.flag}", type=_number(option), default=option.default,
+                   metavar=option.unit.upper(), help=option.help_text(), **kwargs)
 
 
 def add_position(subparsers):
@@ -36,47 +45,44 @@ def add_position(subparsers):
                     "direction and the drive amplitude once a pump period. It runs a "
                     "position step (and with --bandwidth sine tracking, with --load-step a "
                     "load step) through the transducer FMU and the hydraulic circuit, and "
-                    "prints the measured figures next to python-control's predictions.")
+                    "prints the measured figures next to python-control's predictions. "
+                    "With --envelope it maps the largest steady speed in each direction "
+                    "against load instead, with the stall loads.")
     p.add_argument("--mode", choices=MODES, default="both",
                    help="drive mode: compensated (Figure 9), uncompensated, or both "
                         "(default)")
-    p.add_argument("--target-mm", type=number(-TARGET_LIMIT_MM, TARGET_LIMIT_MM, unit="mm"),
-                   default=TARGET_MM, metavar="MM",
-                   help=f"the step, [mm] in [-{TARGET_LIMIT_MM:g}, {TARGET_LIMIT_MM:g}], not 0; "
-                        f"> 0 moves down (oil into the big cavity) (default {TARGET_MM:g})")
-    p.add_argument("--frequency", type=FREQUENCY, default=FREQUENCY_HZ, metavar="HZ",
-                   help=f"pump frequency [Hz], in (0, 1000] (default {FREQUENCY_HZ:g})")
-    p.add_argument("--load", type=number(-1e4, 1e4, unit="N"), metavar="N",
-                   help="load on the cylinder, opposing down, [N] in (-1e4, 1e4) (default: "
-                        f"the circuit's, {REALISTIC_LOAD:g} N realistic, 0 otherwise)")
-    p.add_argument("--duration", type=number(0.0, DURATION_LIMIT, high_open=False, unit="s"),
-                   metavar="S",
-                   help=f"simulated time of the step [s], in (0, {DURATION_LIMIT:g}] (default: "
-                        "twice the predicted settling time, at least 0.3 s)")
-    p.add_argument("--circuit", choices=CIRCUITS, default="realistic",
-                   help="the hydraulic circuit (default realistic)")
+    _add(p, options.TARGET)
+    _add(p, options.FREQUENCY)
+    _add(p, options.LOAD)
+    _add(p, options.DURATION)
+    p.add_argument("--circuit", choices=CIRCUITS, default=None,
+                   help="the hydraulic circuit (default realistic; with --envelope every "
+                        "circuit)")
     p.add_argument("--variant", metavar="FILE", type=input_file,
                    help="the transducer with a model variant: FILE is 'smeha diagnose --json' "
                         "output or {\"cause\": ..., \"parameters\": {...}}")
     p.add_argument("--bandwidth", nargs="?", const="auto", metavar="HZ,HZ,...",
                    type=_sine_frequencies,
-                   help="also track sines (0.1 mm) at these frequencies (default: around the "
-                        "predicted bandwidth) and measure the closed-loop -3 dB bandwidth")
-    p.add_argument("--load-step", type=number(-1e4, 1e4, unit="N"), nargs="?",
-                   const=LOAD_STEP_N, metavar="N",
-                   help=f"also step the load by N (default {LOAD_STEP_N:g}) while holding "
-                        "the position: deflection, stiffness, recovery")
-    p.add_argument("--controller-rate", type=number(0.0, 1000.0, unit="Hz"), metavar="HZ",
-                   help="the position controller's sample rate [Hz]: the pump frequency over "
-                        "a whole number N (default: the pump frequency, a decision a period). "
-                        "The drive changes at a pump period's start, so a decision holds N "
-                        "periods; the design's sample-and-hold is N/f")
+                   help=f"also track sines ({options.SINE_AMPLITUDE.default:g} mm) at these "
+                        "frequencies (default: around the predicted bandwidth) and measure "
+                        "the closed-loop -3 dB bandwidth")
+    p.add_argument(f"--{options.LOAD_STEP.flag}", type=_number(options.LOAD_STEP), nargs="?",
+                   const=options.LOAD_STEP.default, metavar="N",
+                   help=f"also step the load by N while holding the position: deflection, "
+                        f"stiffness, recovery; [N] in {options.LOAD_STEP.interval()} "
+                        f"(default {options.LOAD_STEP.default:g})")
+    _add(p, options.CONTROLLER_RATE)
+    p.add_argument("--envelope", action="store_true",
+                   help="map the speed-load envelope instead of a step: the largest steady "
+                        "piston speed each way against load, the stall loads, beside the "
+                        "flow table and the hand calculation from the pump's pressure limit")
     p.add_argument("--backend", choices=("fmu", "direct"), default="fmu",
                    help="the transducer: its FMU through fmpy (default) or gmt in-process")
     p.add_argument("--json", action="store_true", help="print only a JSON object")
     p.add_argument("--plot", metavar="FILE", type=output_file,
-                   help="write the step: command and position, velocity, amplitude, valve "
-                        "stage, pressures (PNG)")
+                   help="write the step (command and position, velocity, amplitude, valve "
+                        "stage, pressures; the sine and load-step results when run) or the "
+                        "envelope (PNG)")
     p.add_argument("--csv", metavar="FILE", type=output_file,
                    help="write the step runs' records (one row a communication point)")
     p.set_defaults(run=_run_position)
@@ -88,11 +94,23 @@ def _settings(args, mode):
     if args.target_mm == 0.0:
         raise UsageError("--target-mm 0: a step needs a distance")
     variant = _read_variant(args.variant)[0] if args.variant else None
-    return position.PositionSettings(
-        mode=mode, target=args.target_mm * 1e-3, frequency=args.frequency, load=args.load,
-        duration=args.duration, circuit=args.circuit, variant=variant, backend=args.backend,
-        load_step=args.load_step if args.load_step is not None else position.LOAD_STEP,
-        controller_rate=args.controller_rate)
+    try:
+        return position.PositionSettings(
+            mode=mode, target=args.target_mm * options.TARGET.si, frequency=args.frequency,
+            load=args.load, duration=args.duration, circuit=args.circuit or "realistic",
+            variant=variant, backend=args.backend,
+            load_step=args.load_step if args.load_step is not None else position.LOAD_STEP,
+            controller_rate=args.controller_rate)
+    except ParameterError as exc:  # in the option's words
+        raise UsageError(_in_option_words(str(exc))) from None
+
+
+def _in_option_words(message: str) -> str:
+    """A settings field's message with the command line's option name."""
+    for option in options.OPTIONS.values():
+        if message.startswith(f"{option.field} = "):
+            return f"--{option.flag} " + message[len(option.field) + 3:]
+    return message
 
 
 def _sine_frequencies(text):
@@ -103,36 +121,110 @@ def _sine_frequencies(text):
 _sine_frequencies.numeric = True
 
 
+def _check_before_work(args, settings, scenarios) -> bool:
+    """Every mode's load against the hand calculation (exit 2 before any run), and a note
+    when the run is estimated over :data:`LONG_RUN`; True if it said so."""
+    from . import position
+    # the identification alone first: at a low frequency the hand calculation's free
+    # stroke is itself a long run of the transducer
+    quick = sum(position.identification_time(s) for s in settings.values())
+    if quick > LONG_RUN:
+        _say_long(quick, args, settings, scenarios)
+    total = 0.0
+    for s in settings.values():
+        limits = position.check_load(s)
+        total += position.estimate_wall_time(s, scenarios, limits)
+    if total > LONG_RUN and quick <= LONG_RUN:
+        _say_long(total, args, settings, scenarios)
+    return total > LONG_RUN
+
+
+def _say_long(seconds, args, settings, scenarios) -> None:
+    warn("position", f"this run is estimated at over {max(seconds / 60.0, 1.0):.0f} min of "
+                     f"wall time ({len(settings)} mode(s) at {args.frequency:g} Hz: "
+                     "identification, the flow table's point and "
+                     f"{', '.join(scenarios)}); Ctrl-C stops it")
+
+
 def _run_position(args) -> int:
     modes = ("compensated", "uncompensated") if args.mode == "both" else (args.mode,)
+    if args.envelope:
+        return _run_envelope(args, modes)
     frequencies = None if args.bandwidth in (None, "auto") else args.bandwidth
     settings = {m: _settings(args, m) for m in modes}
-    from . import flow, position
-    fmu = flow.ensure_fmu(quiet=args.json) if args.backend == "fmu" else None
     scenarios = ["step"] + (["sine"] if args.bandwidth else []) + (
         ["load"] if args.load_step is not None else [])
+    said = [_check_before_work(args, settings, scenarios)]
+
+    def on_design(seconds):  # the step's length known from the design: said once, if long
+        if seconds > LONG_RUN and not said[0]:
+            said[0] = True
+            _say_long(seconds, args, settings, scenarios)
+    from . import flow, position
+    fmu = flow.ensure_fmu(quiet=args.json) if args.backend == "fmu" else None
     out = {}
     for mode in modes:
         if not args.json:
             print(f"{mode}: identifying, designing, running {', '.join(scenarios)} ...",
                   file=sys.stderr, flush=True)
-        study = position.run_study(settings[mode], scenarios, frequencies, fmu)
+        study = position.run_study(settings[mode], scenarios, frequencies, fmu, on_design)
         study["flow_velocity_m_s"] = position.flow_table_velocity(settings[mode], fmu)
         out[mode] = study
+    first = next(iter(settings.values()))
     if args.plot:
-        from .positionplots import plot_steps
-        plot_steps(args.plot, [s["results"][0] for s in out.values()],
-                   next(iter(settings.values())))
+        from .positionplots import plot_study
+        plot_study(args.plot, out, first)
     if args.csv:
         _write_csv(args.csv, out)
     if args.json:
         json.dump(_json(out), sys.stdout, indent=2, allow_nan=False)
         sys.stdout.write("\n")
         return 0
-    print(position.format_report(out, next(iter(settings.values()))))
+    from .positionreport import format_report
+    print(format_report(out, first))
     for path in (args.plot, args.csv):
         if path:
             print(f"wrote {path}")
+    return 0
+
+
+def _run_envelope(args, modes) -> int:
+    """--envelope: each mode and circuit (every circuit unless --circuit names one)."""
+    for given, name in ((args.csv, "--csv"), (args.bandwidth, "--bandwidth"),
+                        (args.load_step is not None, "--load-step"),
+                        (args.load is not None, "--load"), (args.duration, "--duration"),
+                        (args.controller_rate, "--controller-rate"),
+                        (args.variant, "--variant")):
+        if given:
+            raise UsageError(f"{name} belongs to the step; --envelope runs no step (its "
+                             "loads span the pump's stall loads)")
+    from . import flow
+    from .positionenvelope import estimate_wall_time, format_envelope, run_envelope
+    circuits = (args.circuit,) if args.circuit else CIRCUITS
+    seconds = estimate_wall_time(args.frequency, len(circuits) * len(modes))
+    if seconds > LONG_RUN:
+        warn("position", f"this envelope is estimated at about {seconds / 60.0:.0f} min of "
+                         f"wall time ({len(circuits) * len(modes)} curves at "
+                         f"{args.frequency:g} Hz); Ctrl-C stops it")
+    fmu = flow.ensure_fmu(quiet=args.json) if args.backend == "fmu" else None
+    curves = []
+    for circuit in circuits:
+        for mode in modes:
+            if not args.json:
+                print(f"{circuit}, {mode}: full drive each way at each load ...",
+                      file=sys.stderr, flush=True)
+            curves.append(run_envelope(mode, circuit, args.frequency, args.backend, fmu))
+    if args.plot:
+        from .positionplots import plot_envelope
+        plot_envelope(args.plot, curves)
+    if args.json:
+        json.dump(_clean({"envelope": [c.as_dict() for c in curves]}), sys.stdout, indent=2,
+                  allow_nan=False)
+        sys.stdout.write("\n")
+        return 0
+    print(format_envelope(curves))
+    if args.plot:
+        print(f"wrote {args.plot}")
     return 0
 
 
@@ -151,7 +243,7 @@ def _json(out) -> dict:
     """One mode: the step's figures at the top, the rest beside them; both: one per mode."""
     def entry(mode, study):
         d = {"mode": mode, "model": study["model"].as_dict(),
-             "design": study["design"].as_dict(),
+             "design": study["design"].as_dict(), "limits": study["limits"].as_dict(),
              "flow_velocity_m_s": study["flow_velocity_m_s"]}
         for res in study["results"]:
             fig = res.as_dict()

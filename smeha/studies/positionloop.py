@@ -179,6 +179,11 @@ def run_loop(backend, mode: str, circuit, frequency: float, periods: int,
         if watch:
             table[k]["outside"] = float(backend.outside_design_point())
     wall, cpu = _time.perf_counter() - wall, _time.process_time() - cpu
+    return LoopRecord(_merged(blocks), table, wall, frequency, cpu)
+
+
+def _merged(blocks) -> np.ndarray:
+    """The periods' rows, each beside its decision's fields, as one structured array."""
     rows = np.concatenate([b[0] for b in blocks])
     extra = np.concatenate([b[1] for b in blocks])
     merged = np.zeros(len(rows), dtype=rows.dtype.descr + extra.dtype.descr)
@@ -186,4 +191,4 @@ def run_loop(backend, mode: str, circuit, frequency: float, periods: int,
         merged[name] = rows[name]
     for name in extra.dtype.names:
         merged[name] = extra[name]
-    return LoopRecord(merged, table, wall, frequency, cpu)
+    return merged
