@@ -47,6 +47,12 @@ class Setting:
         Whole numbers only (a count).
     option : str
         The command line's spelling, if not derived from ``name``.
+    si : float
+        SI per ``unit`` (1e-3 for mm): the study holds ``value * si``.
+    help : str
+        What the setting is, for ``--help`` (without its range and default).
+    default_text : str
+        The default in words where ``default`` is None (decided by the study).
     """
 
     name: str
@@ -63,6 +69,9 @@ class Setting:
     below: str = ""
     #: the same for a value above the range
     above: str = ""
+    si: float = 1.0
+    help: str = ""
+    default_text: str = ""
 
     def __post_init__(self):
         if self.low is not None and self.high is not None and not self.low < self.high:
@@ -100,8 +109,15 @@ class Setting:
     def describe(self) -> str:
         """The range and default for ``--help``: ``in (0, 1000] Hz (default 100)``."""
         kind = "a whole number " if self.whole else ""
-        default = "" if self.default is None else f" (default {self.default:g})"
+        if self.default is not None:
+            default = f" (default {self.default:g})"
+        else:
+            default = f" (default: {self.default_text})" if self.default_text else ""
         return f"{kind}{self.interval()}{default}"
+
+    def help_text(self) -> str:
+        """The whole ``--help`` line: what it is, the range, the default."""
+        return f"{self.help}: {self.describe()}" if self.help else self.describe()
 
     def refusal(self, text: str) -> str | None:
         """Why ``text`` is not a value of this setting (None: it is one), in one line
@@ -132,3 +148,8 @@ class Setting:
             raise ParameterError(f"{self.name} = {reason}")
         v = float(value)
         return int(v) if self.whole else v
+
+    def check_si(self, value_si: float) -> float:
+        """:meth:`check` of a value held in SI (``value * si``); returns it unchanged."""
+        self.check(f"{value_si / self.si:.12g}")  # 12 digits: no float noise of the unit change
+        return value_si

@@ -31,11 +31,6 @@ class FlowCheck:
     drift: float = 0.0
 
     @property
-    def settled(self) -> bool:
-        """The cycles' flows change by at most :data:`SETTLED_DRIFT` a cycle."""
-        return abs(self.drift) <= SETTLED_DRIFT
-
-    @property
     def ratio(self) -> float:
         """flow_sim / flow_eq, [-]."""
         return self.flow_sim / self.flow_eq
@@ -43,15 +38,9 @@ class FlowCheck:
     def as_dict(self) -> dict:
         d = asdict(self)
         d["ratio"] = self.ratio
-        d["settled"] = self.settled
         return d
 
 
-#: The largest trend of the cycles' flows in a settled run, [1/cycle]: 1 % in 100 cycles.
-#: The realistic circuit's state follows the piston (its cavities' volumes, the
-#: accumulator's charge), so its flow keeps changing while the piston travels: the
-#: compensated flow at 100 Hz falls 0.02 % a cycle, ~5 % from 8 cycles to 200.
-SETTLED_DRIFT = 1e-4
 
 
 def cycle_flows(times, volumes, sign=1.0) -> np.ndarray:

@@ -58,12 +58,12 @@ def test_every_option_is_one_truth(capsys):
     assert cli.main(["position", "--help"]) == 0
     text = " ".join(capsys.readouterr().out.split())
     for option in positionoptions.OPTIONS.values():
-        if option.field == "sine_amplitude":
+        if option.name == "sine_amplitude":
             continue  # the study's, not an option of the command line
         assert option.interval() in text, option.flag
         low = option.low - 1.0 if not option.low_open else option.low
-        with pytest.raises(gmt.ParameterError, match=option.field):
-            option.check(low * option.si)
+        with pytest.raises(gmt.ParameterError, match=option.name):
+            option.check_si(low * option.si)
 
 
 #: The 150 N lines moved to 300 N along their droops: full drive down gives -2.6 mm/s.

@@ -55,7 +55,7 @@ def format_table(rows) -> str:
 
 
 def _unsettled_note(rows) -> list:
-    """A line naming the rows whose cycles' flows still change (FlowCheck.settled)."""
+    """A line naming the rows whose cycles' flows still change (smeha.studies.flow.settled)."""
     loose = [r for r in rows if r.get("settled") is False]
     if not loose:
         return []

@@ -125,7 +125,7 @@ class PositionSettings:
         for name in ("frequency", "load", "duration", "load_step", "sine_amplitude",
                      "controller_rate"):
             if getattr(self, name) is not None:
-                options.OPTIONS[name].check(getattr(self, name))
+                options.OPTIONS[name].check_si(getattr(self, name))
         gmt.errors.check_range("step", self.step, 0.0, 1e-3, unit="s", high_open=False)
         if self.backend not in ("fmu", "direct"):
             raise gmt.ParameterError(f"backend = {self.backend!r} is not one of "

@@ -13,7 +13,10 @@ import sys
 
 from gmt.errors import ParameterError
 
-from ..cliargs import UsageError, input_file, number, number_list, output_file, warn
+from ..cliargs import (UsageError, input_file, number_list, output_file, plot_file, say,
+                       setting_type, warn)
+from ..outputs import replacing
+from ..settings import Setting
 from . import positionoptions as options
 from .flowcommands import CIRCUITS
 
@@ -25,14 +28,8 @@ MODES = ("compensated", "uncompensated", "both")
 LONG_RUN = 60.0
 
 
-def _number(option: options.Option):
-    """The argparse type of a declared option (its range and unit)."""
-    return number(option.low, option.high, low_open=option.low_open,
-                  high_open=option.high_open, unit=option.unit)
-
-
-def _add(p, option: options.Option, **kwargs):
-    p.add_argument(f"--{option.flag}", type=_number(option), default=option.default,
+def _add(p, option: Setting, **kwargs):
+    p.add_argument(option.flag, type=setting_type(option), default=option.default,
                    metavar=option.unit.upper(), help=option.help_text(), **kwargs)
 
 
@@ -66,11 +63,10 @@ def add_position(subparsers):
                    help=f"also track sines ({options.SINE_AMPLITUDE.default:g} mm) at these "
                         "frequencies (default: around the predicted bandwidth) and measure "
                         "the closed-loop -3 dB bandwidth")
-    p.add_argument(f"--{options.LOAD_STEP.flag}", type=_number(options.LOAD_STEP), nargs="?",
+    p.add_argument(options.LOAD_STEP.flag, type=setting_type(options.LOAD_STEP), nargs="?",
                    const=options.LOAD_STEP.default, metavar="N",
                    help=f"also step the load by N while holding the position: deflection, "
-                        f"stiffness, recovery; [N] in {options.LOAD_STEP.interval()} "
-                        f"(default {options.LOAD_STEP.default:g})")
+                        f"stiffness, recovery; [N] {options.LOAD_STEP.describe()}")
     _add(p, options.CONTROLLER_RATE)
     p.add_argument("--envelope", action="store_true",
                    help="map the speed-load envelope instead of a step: the largest steady "
@@ -79,7 +75,7 @@ def add_position(subparsers):
     p.add_argument("--backend", choices=("fmu", "direct"), default="fmu",
                    help="the transducer: its FMU through fmpy (default) or gmt in-process")
     p.add_argument("--json", action="store_true", help="print only a JSON object")
-    p.add_argument("--plot", metavar="FILE", type=output_file,
+    p.add_argument("--plot", metavar="FILE", type=plot_file,
                    help="write the step (command and position, velocity, amplitude, valve "
                         "stage, pressures; the sine and load-step results when run) or the "
                         "envelope (PNG)")
@@ -108,8 +104,8 @@ def _settings(args, mode):
 def _in_option_words(message: str) -> str:
     """A settings field's message with the command line's option name."""
     for option in options.OPTIONS.values():
-        if message.startswith(f"{option.field} = "):
-            return f"--{option.flag} " + message[len(option.field) + 3:]
+        if message.startswith(f"{option.name} = "):
+            return f"{option.flag} " + message[len(option.name) + 3:]
     return message
 
 
@@ -161,7 +157,7 @@ def _run_position(args) -> int:
             said[0] = True
             _say_long(seconds, args, settings, scenarios)
     from . import flow, position
-    fmu = flow.ensure_fmu(quiet=args.json) if args.backend == "fmu" else None
+    fmu = flow.ensure_fmu(quiet=args.json, say=say) if args.backend == "fmu" else None
     out = {}
     for mode in modes:
         if not args.json:
@@ -206,7 +202,7 @@ def _run_envelope(args, modes) -> int:
         warn("position", f"this envelope is estimated at about {seconds / 60.0:.0f} min of "
                          f"wall time ({len(circuits) * len(modes)} curves at "
                          f"{args.frequency:g} Hz); Ctrl-C stops it")
-    fmu = flow.ensure_fmu(quiet=args.json) if args.backend == "fmu" else None
+    fmu = flow.ensure_fmu(quiet=args.json, say=say) if args.backend == "fmu" else None
     curves = []
     for circuit in circuits:
         for mode in modes:
@@ -264,7 +260,7 @@ def _write_csv(path, out) -> None:
     fields = ("mode", "time_s", "command_m", "piston_position_m", "piston_velocity_m_s",
               "amplitude", "direction", "stage", "p_pump_Pa", "p_big_Pa", "p_small_Pa",
               "rod_displacement_m", "current_A", "load_N")
-    with open(path, "w", newline="") as fh:
+    with replacing(path) as tmp, open(tmp, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(fields)
         for mode, study in out.items():

@@ -18,6 +18,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.ticker import ScalarFormatter  # noqa: E402
 
+from ..outputs import save_figure  # noqa: E402
 from .flowplots import MODE_COLOURS  # noqa: E402
 
 __all__ = ["plot_study", "plot_envelope", "stages", "describe"]
@@ -140,8 +141,7 @@ def plot_study(path, out, settings) -> None:
     for ax in axes:
         ax.grid(True, alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)
 
 
 def plot_envelope(path, curves) -> None:
@@ -176,5 +176,4 @@ def plot_envelope(path, curves) -> None:
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=6)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)
