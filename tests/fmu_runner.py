@@ -13,6 +13,7 @@ Commands
 ``drive OUT FMU N H F A U0 [NAME=VALUE...]``  u = U0 + A cos(2 pi F t), N steps of H (the
                            C host's drive, tests/fmu_c_host.c)
 ``simulate_bad OUT FMU``   fmpy.simulate_fmu with every bad parameter
+``init_mode OUT FMU``      the calculated parameters read in Initialization Mode (fmpy)
 
 Why a child process: pythonfmu FMUs run in the host's interpreter, and a host
 that already imported ``gmt`` makes the FMU use that copy instead of the one
@@ -744,13 +745,49 @@ def cosim(out_path, fmu_path, n="2000"):
 _KEEP: list = []
 
 
+# -- calculated parameters in Initialization Mode ------------------------------------------
+#: The calculated parameters (fmu_src/smeha_fmu_interface.py MECHANICS, gmt.RodMechanics order).
+MECHANICS = ("equivalent_mass", "equivalent_damping", "equivalent_stiffness", "output_mass",
+             "joint_stiffness", "joint_damping")
+
+
+def init_mode(out_path, fmu_path):
+    """The calculated parameters read between entering and exiting Initialization Mode.
+
+    ``paper``: mass, damping and stiffness set before entering, stiffness set again inside;
+    ``two_dof``: the two-mass variant selected before entering. Each records the values
+    read in Initialization Mode (before and after a parameter set there) and after it.
+    """
+    res = {"gmt_imported_before_fmu": "gmt" in sys.modules}
+    for case, before, inside in (
+            ("paper", {"mass": 0.05, "damping": 1000.0, "stiffness": 2e7}, {"stiffness": 3e7}),
+            ("two_dof", variant_parameters("mechanical_resonance:two_dof", TWO_DOF), {})):
+        fmu = Fmu(fmu_path, name=case)
+        get = fmu.s.getReal if fmu.fmi == "2" else fmu.s.getFloat64
+        vrs = [fmu.vr[n] for n in MECHANICS]
+        statuses = [fmu.set(k, v) for k, v in before.items()]
+        if fmu.fmi == "2":
+            statuses.append(fmu.call(fmu.s.setupExperiment, None, 0.0))
+            statuses.append(fmu.call(fmu.s.enterInitializationMode))
+        else:
+            statuses.append(fmu.call(fmu.s.enterInitializationMode, None, 0.0))
+        entered = list(get(vrs))
+        statuses += [fmu.set(k, v) for k, v in inside.items()]
+        inside_values = list(get(vrs))
+        statuses.append(fmu.call(fmu.s.exitInitializationMode))
+        res[case] = {"entered": entered, "inside": inside_values, "exited": list(get(vrs)),
+                     "statuses": statuses, "logs": fmu.logs}
+    _write(out_path, res)
+
+
 def _write(path, obj):
     with open(path, "w") as fh:
         json.dump(obj, fh, default=str)
 
 
 COMMANDS = {"reference": reference, "behaviour": behaviour, "bad_input": bad_input,
-            "memory": memory, "cosim": cosim, "drive": drive, "simulate_bad": simulate_bad}
+            "memory": memory, "cosim": cosim, "drive": drive, "simulate_bad": simulate_bad,
+            "init_mode": init_mode}
 
 if __name__ == "__main__":
     COMMANDS[sys.argv[1]](*sys.argv[2:])

@@ -27,9 +27,9 @@ except ImportError:  # tests/ imported as a package
                                     run_runner, runner_dir)
 
 try:
-    from fmu_runner import BAD_PARAMETERS
+    from fmu_runner import BAD_PARAMETERS, TWO_DOF
 except ImportError:  # tests/ imported as a package
-    from tests.fmu_runner import BAD_PARAMETERS
+    from tests.fmu_runner import BAD_PARAMETERS, TWO_DOF
 
 from smeha.fmu.build import iface
 
@@ -164,6 +164,27 @@ def test_initial_unknowns_list_every_output(fmu_dist):
     assert [int(u.get("index")) for u in structure.find("Outputs")] == outputs
     assert [int(u.get("index")) for u in structure.find("InitialUnknowns")] == sorted(
         outputs + calculated)
+
+
+@pytest.mark.parametrize("fmi", ["2", "3"])
+def test_calculated_parameters_hold_their_values_in_initialization_mode(fmu_dist, runner_dir,
+                                                                        fmi):
+    # FMI 2.0.4 section 4.2.4 (condition 2: the InitialUnknowns, which section 2.2.8 makes
+    # list every calculatedParameter) and FMI 3.0.2 section 2.3.3 let a host read them in
+    # Initialization Mode; an SSP host routes them into the plant's parameters there.
+    # Reference: eq 27's m, c, K are the parameters mass, damping, stiffness themselves
+    # (exact), and the two-mass variant's values are tests/fmu_runner.py TWO_DOF's (its
+    # rod mass, half of Table 2's 0.02 kg, is the variant's; damping and stiffness Table 2's).
+    res = run_runner("init_mode", runner_dir / f"init_mode{fmi}", fmu_dist[fmi])
+    assert res["gmt_imported_before_fmu"] is False
+    paper, two = res["paper"], res["two_dof"]
+    assert paper["entered"] == [0.05, 1000.0, 2e7, 0.0, 0.0, 0.0], paper["logs"]
+    assert paper["inside"] == paper["exited"] == [0.05, 1000.0, 3e7, 0.0, 0.0, 0.0]
+    assert two["entered"] == two["inside"] == two["exited"]
+    assert two["entered"][:4] == [0.01, 2945.0, 1.963e7, 0.01]
+    assert two["entered"][4:] == pytest.approx([TWO_DOF["joint_stiffness_N_per_m"],
+                                                TWO_DOF["joint_damping_N_s_per_m"]], rel=1e-12)
+    assert set(paper["statuses"]) == set(two["statuses"]) == {0}
 
 
 def test_default_experiment_is_the_50_hz_case(fmu_dist):
