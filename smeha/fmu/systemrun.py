@@ -24,7 +24,7 @@ import numpy as np
 
 from gmt.errors import RunError
 
-from .ssp import MECHANICS  # noqa: F401  (re-exported: what a run may report)
+from .ssp import MECHANICS, NAMESPACES, OSP_CONFIG_NAMESPACE  # noqa: F401  (MECHANICS re-exported)
 
 __all__ = ["PLANT_FIELDS", "ssp_experiment", "osp_experiment", "ssp_parameter_set",
            "run_fmpy", "run_libcosim", "run_container", "flow"]
@@ -42,10 +42,8 @@ def ssp_experiment(ssp_path) -> tuple[float, float]:
 
     with zipfile.ZipFile(ssp_path) as z:
         root = ET.fromstring(z.read("SystemStructure.ssd"))
-    ssd = "{http://ssp-standard.org/SSP1/SystemStructureDescription}"
-    experiment = root.find(f"{ssd}DefaultExperiment")
-    fixed = experiment.find(".//{http://opensimulationplatform.com/SSP/OSPAnnotations}"
-                            "FixedStepAlgorithm")
+    experiment = root.find(f"{{{NAMESPACES['ssd']}}}DefaultExperiment")
+    fixed = experiment.find(f".//{{{NAMESPACES['osp']}}}FixedStepAlgorithm")
     return float(fixed.get("baseStepSize")), float(experiment.get("stopTime"))
 
 
@@ -53,7 +51,7 @@ def osp_experiment(osp_file) -> tuple[float, float]:
     """(step, stop time) [s] of an OspSystemStructure.xml: BaseStepSize, EndTime."""
     from xml.etree import ElementTree as ET
 
-    ns = "{http://opensimulationplatform.com/MSMI/OSPSystemStructure}"
+    ns = f"{{{OSP_CONFIG_NAMESPACE}}}"
     root = ET.parse(osp_file).getroot()
     return float(root.find(f"{ns}BaseStepSize").text), float(root.find(f"{ns}EndTime").text)
 
