@@ -31,6 +31,13 @@
  * smeha_fmu_forward.h (generated) defines the forwarders, resolve_targets() and the
  * T_<function> pointers.
  */
+#if !defined(SMEHA_FMI) || (SMEHA_FMI != 2 && SMEHA_FMI != 3)
+#error "define SMEHA_FMI as 2 or 3 (smeha.fmu.loader.compile_loader does)"
+#endif
+#if !defined(SMEHA_TARGET) || !defined(SMEHA_MODEL)
+#error "define SMEHA_TARGET and SMEHA_MODEL (smeha.fmu.loader.compile_loader does)"
+#endif
+
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <errno.h>
@@ -150,7 +157,14 @@ static void free_instance(Instance *in, void (*free_target)(void *))
 
 /* ---- the search --------------------------------------------------------------------- */
 static pthread_mutex_t search_lock = PTHREAD_MUTEX_INITIALIZER;
-static int python_state; /* 0: not found yet, 1: ready, -1: failed for good */
+/* Where the search stands; every state but SEARCH_PENDING is final for the process. */
+typedef enum {
+    SEARCH_PENDING,     /* not searched yet, or still searching */
+    SEARCH_READY,       /* a Python runs and pythonfmu's binary is open */
+    SEARCH_NO_PYTHON,   /* no Python qualifies (or one started without the packages) */
+    SEARCH_BAD_BINARY   /* pythonfmu's binary cannot be opened or lacks FMI functions */
+} SearchState;
+static SearchState python_state = SEARCH_PENDING;
 static char tried[TEXT_MAX];
 static char chosen[PATH_MAX + 128]; /* the Python used, for the log */
 static void *pythonfmu;
@@ -389,7 +403,7 @@ static int try_system_libpython(const char *packages)
         char missing[512];
         if (import_missing(packages, missing, sizeof missing)) {
             append(tried, " started, without %s", missing);
-            python_state = -1; /* an interpreter cannot be taken back */
+            python_state = SEARCH_NO_PYTHON; /* an interpreter cannot be taken back */
             return 0;
         }
         append(tried, ": used");
@@ -400,13 +414,13 @@ static int try_system_libpython(const char *packages)
     return 0;
 }
 
-static void resolve_targets(void *library);
+static int resolve_targets(void *library, char *missing, size_t n);
 
 /* Find and start a Python, open pythonfmu's binary: 1 when ready (see the top of the file). */
 static int ensure_python(const char *resources)
 {
     pthread_mutex_lock(&search_lock);
-    if (python_state != 0)
+    if (python_state != SEARCH_PENDING)
         goto done;
     char packages[512], exe[PATH_MAX];
     tried[0] = '\0';
@@ -429,19 +443,19 @@ static int ensure_python(const char *resources)
         } else {
             append(tried, "; " ENV_PYTHON " not set");
         }
-        if (!found && python_state == 0) {
+        if (!found && python_state == SEARCH_PENDING) {
             if (record_values(resources, "executable", ' ', exe, sizeof exe))
                 found = try_executable("the build's Python ", exe, packages);
             else
                 append(tried, "; no build record in %s", resources);
         }
-        if (!found && python_state == 0) {
+        if (!found && python_state == SEARCH_PENDING) {
             if (on_path(exe, sizeof exe))
                 found = try_executable("python3 on PATH: ", exe, packages);
             else
                 append(tried, "; no python3 on PATH");
         }
-        if (!found && python_state == 0)
+        if (!found && python_state == SEARCH_PENDING)
             found = try_system_libpython(packages);
     }
     if (found) {
@@ -454,10 +468,14 @@ static int ensure_python(const char *resources)
             int folder = slash ? (int)(slash + 1 - self.dli_fname) : 0;
             snprintf(target, sizeof target, "%.*s%s", folder, self.dli_fname, SMEHA_TARGET);
             pythonfmu = dlopen(target, RTLD_NOW | RTLD_LOCAL);
+            char missing[TEXT_MAX / 2];
             if (!pythonfmu) {
                 append(tried, "; cannot load pythonfmu's binary: %s", dlerror());
+                python_state = SEARCH_BAD_BINARY;
+            } else if (resolve_targets(pythonfmu, missing, sizeof missing) > 0) {
+                append(tried, "; pythonfmu's binary %s lacks %s", target, missing);
+                python_state = SEARCH_BAD_BINARY;
             } else {
-                resolve_targets(pythonfmu);
                 /* pythonfmu frees its interpreter state from a static destructor and again
                  * from its library destructor; its finalizePythonInterpreter, run first,
                  * leaves both a null pointer (smeha_fmu_runtime.arm_clean_exit) */
@@ -467,14 +485,14 @@ static int ensure_python(const char *resources)
                     atexit(finalize);
                 /* this library stays loaded: pythonfmu's instances call its relays */
                 dlopen(self.dli_fname, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
-                python_state = 1;
+                python_state = SEARCH_READY;
             }
         }
-        if (python_state != 1)
-            python_state = -1;
     }
+    if (found && python_state == SEARCH_PENDING)
+        python_state = SEARCH_BAD_BINARY; /* a Python runs: the binary is what failed */
 done:;
-    int ready = python_state == 1;
+    int ready = python_state == SEARCH_READY;
     pthread_mutex_unlock(&search_lock);
     return ready;
 }
@@ -483,6 +501,11 @@ static void no_python_message(char *out, size_t n, const char *resources)
 {
     char packages[512];
     record_values(resources, "required", ' ', packages, sizeof packages);
+    if (python_state == SEARCH_BAD_BINARY) {
+        snprintf(out, n, "%s: a Python runs, but pythonfmu's binary is unusable: %s", SMEHA_MODEL,
+                 tried);
+        return;
+    }
     snprintf(out, n,
              "%s: no usable Python: the FMU needs CPython >= 3.11 with a shared libpython%s%s. "
              "Tried: %s. Point the FMU at a Python: set " ENV_PYTHON
