@@ -1,4 +1,4 @@
-/* A minimal FMI co-simulation host in C, for the FMU tests (issue 13).
+/* A minimal FMI co-simulation host in C, for the FMU tests.
  *
  * It loads an FMU's binary as C and C++ simulation tools do, with
  * dlopen(RTLD_NOW | RTLD_LOCAL) in a process without Python, instantiates it

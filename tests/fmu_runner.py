@@ -14,6 +14,7 @@ Commands
                            C host's drive, tests/fmu_c_host.c)
 ``simulate_bad OUT FMU``   fmpy.simulate_fmu with every bad parameter
 ``init_mode OUT FMU``      the calculated parameters read in Initialization Mode (fmpy)
+``ssp_fmpy OUT SSP F``     the EHA system's .ssp in fmpy's SSP master: piston position, flow
 
 Why a child process: pythonfmu FMUs run in the host's interpreter, and a host
 that already imported ``gmt`` makes the FMU use that copy instead of the one
@@ -780,6 +781,19 @@ def init_mode(out_path, fmu_path):
     _write(out_path, res)
 
 
+# -- the EHA system's .ssp in fmpy ----------------------------------------------------------
+def ssp_fmpy(out_path, ssp_path, frequency):
+    """The .ssp in fmpy's SSP master (smeha.fmu.systemrun.run_fmpy): the plant's piston
+    position at the end of each step, and the cylinder flow of the flow check."""
+    from smeha.fmu import systemrun
+
+    run = systemrun.run_fmpy(ssp_path)
+    flow = systemrun.flow(run.record, float(frequency), 1256e-6).flow_sim
+    _write(out_path, {"time": run.record["time"].tolist(),
+                      "piston_position": run.record["piston_position"].tolist(),
+                      "flow": flow, "wall": run.wall})
+
+
 def _write(path, obj):
     with open(path, "w") as fh:
         json.dump(obj, fh, default=str)
@@ -787,7 +801,7 @@ def _write(path, obj):
 
 COMMANDS = {"reference": reference, "behaviour": behaviour, "bad_input": bad_input,
             "memory": memory, "cosim": cosim, "drive": drive, "simulate_bad": simulate_bad,
-            "init_mode": init_mode}
+            "init_mode": init_mode, "ssp_fmpy": ssp_fmpy}
 
 if __name__ == "__main__":
     COMMANDS[sys.argv[1]](*sys.argv[2:])

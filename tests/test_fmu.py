@@ -1,4 +1,4 @@
-"""The FMI 2.0 FMU (issue #3): build, model description, equality with gmt, state, errors.
+"""The FMI 2.0 FMU: build, model description, equality with gmt, state, errors.
 
 The FMU is built once per session in a child process and run in other
 children that never import the repository's gmt; see ``tests/fmu_fixtures.py``.
@@ -106,10 +106,10 @@ def test_interface_names_causality_and_types(fmu_dist):
                    "amplifier_gain", "current_limit", "compensated", "displacement_per_volt",
                    "control_offset", "branch_rule", "compensator_period", "model_variant",
                    "variant_parameters", "magnetics", "inverse_model"}
-                | set(gmt.TimeDomainParameters.field_names()))  # issue 21
+                | set(gmt.TimeDomainParameters.field_names()))
     assert params == expected
     assert got["magnetics"][1] == got["inverse_model"][1] == "String"
-    # the mechanics the force drives, for a host that integrates the rod (issue 12)
+    # the mechanics the force drives, for a host that integrates the rod
     assert {n for n, (c, _) in got.items() if c == "calculatedParameter"} == {
         "equivalent_mass", "equivalent_damping", "equivalent_stiffness", "output_mass",
         "joint_stiffness", "joint_damping"}
@@ -376,7 +376,7 @@ def test_memory_is_flat_over_1e5_steps(fmu_dist, runner_dir):
 
 # -- the documentation's fmpy example runs as shown ----------------------------------------------
 def test_the_docs_fmpy_example_runs_without_warnings(fmu_dist, tmp_path):
-    # issue 20 item 6: docs/FMU.md's simulate_fmu example printed fmpy's
+    # docs/FMU.md's simulate_fmu example must not print fmpy's
     # 'Warning: missing input for variable "external_force"'; run as written (a child: the
     # pytest process has imported the repository's gmt), on this session's FMU
     import re
@@ -411,7 +411,7 @@ for k in range(2):
 
 @pytest.mark.parametrize("tamper", [False, True])
 def test_loading_the_fmu_twice_warns_only_when_the_physics_differs(tamper, fmu_dist, tmp_path):
-    # issue 20 item 6: the same FMU loaded twice in one process (two extractions) shares its
+    # the same FMU loaded twice in one process (two extractions) shares its
     # physics under one module name; that is no cause for a warning, a different copy is
     proc = subprocess.run([sys.executable, "-c", _TWICE, str(fmu_dist["2"]),
                            "tamper" if tamper else "same"], cwd=tmp_path, env=child_env(),

@@ -1,4 +1,4 @@
-"""The FMUs in hosts that are not fmpy-in-this-venv (issue 13 items 1-4).
+"""The FMUs in hosts that are not fmpy-in-this-venv.
 
 * **A C host** (``tests/fmu_c_host.c``, ours, FMI types declared from the standard) is
   compiled by the system compiler and loads each FMU's binary with
@@ -12,7 +12,7 @@
 * **Failing loudly**: every bad parameter makes ``fmpy.simulate_fmu`` raise and
   ``fmpy simulate`` exit non-zero naming the parameter; the C host gets Error (FMI 2.0
   and 3.0; the loader turns pythonfmu 0.7's Fatal into Error) and the reason on stderr.
-* **The loader** (``fmu_src/smeha_fmu_loader.c``, issue 20) finds a Python in the
+* **The loader** (``fmu_src/smeha_fmu_loader.c``) finds a Python in the
   documented order: the one named by ``SMEHA_FMU_PYTHON`` (executable or prefix), the
   build's, the ``python3`` on ``PATH``; with none usable, instantiation fails, naming what
   was tried, and the host does not crash. Other machines (the build's Python hidden) are
@@ -254,7 +254,7 @@ def test_two_interpreters_in_one_process(fmu_dist, runner_dir, tmp_path):
     assert max_relative_difference(got["rows"], ref["rows"]) <= 1e-12
 
 
-# -- knows its design point (issue 13 item 5; gmt's side in tests/test_design_point.py) --------
+# -- knows its design point (gmt's side in tests/test_design_point.py) --------
 @pytest.mark.parametrize("fmi", ["2", "3"])
 def test_fmu_flags_a_drive_off_its_design_point_and_warns_once(fmi, fmu_dist, runner_dir):
     # the issue's case: frequency left at 50 Hz, driven at 100 Hz (4000 steps, 40 ms)
@@ -288,7 +288,7 @@ def test_time_domain_magnetics_in_the_c_host_and_fmpy_flag_nothing(fmi, c_host, 
 
 @pytest.mark.parametrize("fmi", ["2", "3"])
 def test_fmu_flags_a_drive_at_rest_from_the_first_step(fmi, fmu_dist, runner_dir):
-    # issue 20 item 6: u = 0 from the start gave B = 0.027 T, M = 21 kA/m, F = 1.7 kN at zero
+    # u = 0 from the start gives B = 0.027 T, M = 21 kA/m, F = 1.7 kN at zero
     # field with the flag down for half a period; now flagged after the first doStep (0 A is
     # not the peak at which the model's drive I_m cos(w t) starts, gmt.design_point), with a
     # warning through the FMU's logger, and as standing still from the second
@@ -333,7 +333,7 @@ def test_fmu_follows_the_drive_with_follow_drive(fmi, fmu_dist, runner_dir):
     f, i_m = res["operating_point"][-1]
     assert f == pytest.approx(100.0, rel=1e-6) and i_m == pytest.approx(1.0, rel=1e-6)
     y = [row[2] for row in res["rows"][3000:]]  # the last 10 ms: one 100 Hz period
-    # the model at 100 Hz: 36.0 um peak to peak (issue 13; tests/test_design_point.py
+    # the model at 100 Hz: 36.0 um peak to peak (tests/test_design_point.py
     # checks it against the closed-form steady state)
     assert max(y) - min(y) == pytest.approx(36.0e-6, rel=5e-3)
 

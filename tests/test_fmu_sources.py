@@ -1,4 +1,4 @@
-"""The FMU's sources stand alone (issue 13 item 6): fast checks without building an FMU.
+"""The FMU's sources stand alone: fast checks without building an FMU.
 
 Everything the FMU runs is bundled from ``fmu_src/`` (the slaves, the variable table
 ``smeha_fmu_interface.py`` and ``gmt``); none of it may import the ``smeha`` package, which
@@ -69,7 +69,7 @@ print(json.dumps(sorted(sys.modules)))
 
 
 def test_fmu_run_time_path_imports_numpy_only():
-    # issue 13 item 4: scipy and python-control must never load in the FMU's process
+    # scipy and python-control must never load in the FMU's process
     # (minimal FMUs importing scipy crash the host at exit, numpy-only ones do not)
     import json
     import subprocess

@@ -1,4 +1,4 @@
-"""The FMUs in the FMI community's own hosts: fmusim and the FMU Compliance Checker (issue 20).
+"""The FMUs in the FMI community's own hosts: fmusim, the FMU Compliance Checker, OMSimulator.
 
 fmusim (modelica/Reference-FMUs) and fmuCheck (modelica-tools/FMUComplianceChecker) are not
 Python packages: a machine that has built them names them in ``FMUSIM`` / ``FMUCHECK`` or
@@ -115,3 +115,45 @@ def test_fmucheck_finds_no_problem_and_runs_the_fmu_as_fmpy_does(fmu_dist, drive
     assert rows >= STEPS - 1
     assert _close(got[1:rows + 1, 1:], ref[:rows, 1:]) <= 1e-7
 
+
+
+# -- OpenModelica's OMSimulator ---------------------------------------------------------------
+#: OMSimulator's run of a lone FMU: 500 steps of 10 us from the start values (its command line
+#: sets no inputs: u = 0, the DC drive the design point flags, which moves the rod by the
+#: quadrature term of eq 31 alone)
+OMS_STEPS, OMS_H = 500, 1e-5
+
+
+def _omsimulator() -> str:
+    from smeha.fmu import systemrun
+
+    exe = systemrun.omsimulator()
+    if exe is None:
+        pytest.skip(f"OMSimulator is not installed (set {systemrun.OMSIMULATOR_VARIABLE} to "
+                    "its executable or put it on PATH; docs/FMU.md names its sources)")
+    return exe
+
+
+@pytest.mark.parametrize("fmi", ["2", "3"])
+def test_omsimulator_runs_the_fmu_as_fmpy_does(fmi, fmu_dist, runner_dir, tmp_path):
+    from smeha.fmu.systemrun import omsimulator_errors
+
+    exe = _omsimulator()
+    out = tmp_path / "oms.csv"
+    proc = subprocess.run([exe, str(fmu_dist[fmi]), f"--stopTime={OMS_STEPS * OMS_H!r}",
+                           f"--stepSize={OMS_H!r}", f"--intervals={OMS_STEPS}",
+                           f"--resultFile={out}", f"--tempDir={tmp_path}"], cwd=tmp_path,
+                          capture_output=True, text=True, env=CLEAN_ENV, timeout=300)
+    log = proc.stdout + proc.stderr
+    # OMSimulator exits 0 even when its log holds errors: the log is read
+    assert proc.returncode == 0 and not omsimulator_errors(log), log
+    header = out.read_text().splitlines()[0].replace('"', "").split(",")
+    names = [next(h for h in header if h.endswith(f".{n}")) for n in OUTPUTS]
+    got = _table(out, names)[1:]  # the row at t = 0 is before the first step
+    res = run_runner("drive", runner_dir / f"oms{fmi}", fmu_dist[fmi], str(OMS_STEPS),
+                     repr(OMS_H), repr(FREQUENCY), "0", "0")
+    ref = np.array(res["rows"])
+    assert got.shape == ref.shape
+    # the same arithmetic on the same doubles; 1e-9 bounds OMSimulator's printing and clock
+    # (its times are accumulated), not the model
+    assert _close(got, ref) <= 1e-9

@@ -1,4 +1,4 @@
-"""smeha installed from its wheel, as a user of a package index would (issue 20 item 7).
+"""smeha installed from its wheel, as a user of a package index would.
 
 ``pip wheel`` builds the wheel from this source tree; it is installed into a fresh venv in
 a temporary folder outside the clone, and every command runs from a folder of its own

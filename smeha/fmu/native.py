@@ -1,9 +1,8 @@
-"""What the FMU needs to run in a host that is not a Python program (issue 13 items 1-2).
+"""What the FMU needs to run in a host that is not a Python program.
 
-Since issue 20 the FMU's binary is a loader that finds a Python at run time
-(:mod:`smeha.fmu.loader`); the environment record below is still written (the loader reads
-its ``executable`` and ``required``), and linking libpython is the fallback of a build
-without a C compiler.
+The FMU's binary is a loader that finds a Python at run time (:mod:`smeha.fmu.loader`); the
+environment record below is written for it (the loader reads its ``executable`` and
+``required``), and linking libpython is the fallback of a build without a C compiler.
 
 pythonfmu's export library (the FMU's ``binaries/<platform>/<id>.so``) calls the
 Python C API but does not link libpython: it relies on a host that already has
