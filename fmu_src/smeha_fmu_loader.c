@@ -416,82 +416,92 @@ static int try_system_libpython(const char *packages)
 
 static int resolve_targets(void *library, char *missing, size_t n);
 
+/* Steps 2-5 of the search (the host has no Python): 1 when a Python is now running. */
+static int start_a_python(const char *resources, const char *packages)
+{
+    char exe[PATH_MAX];
+    int found = 0;
+    append(tried, "no Python in the host process");
+    const char *setting = getenv(ENV_PYTHON);
+    if (setting && *setting) {
+        struct stat st;
+        if (stat(setting, &st) == 0 && S_ISDIR(st.st_mode))
+            snprintf(exe, sizeof exe, "%s/bin/python3", setting);
+        else
+            snprintf(exe, sizeof exe, "%s", setting);
+        found = try_executable(ENV_PYTHON "=", exe, packages);
+    } else {
+        append(tried, "; " ENV_PYTHON " not set");
+    }
+    if (!found && python_state == SEARCH_PENDING) {
+        if (record_values(resources, "executable", ' ', exe, sizeof exe))
+            found = try_executable("the build's Python ", exe, packages);
+        else
+            append(tried, "; no build record in %s", resources);
+    }
+    if (!found && python_state == SEARCH_PENDING) {
+        if (on_path(exe, sizeof exe))
+            found = try_executable("python3 on PATH: ", exe, packages);
+        else
+            append(tried, "; no python3 on PATH");
+    }
+    if (!found && python_state == SEARCH_PENDING)
+        found = try_system_libpython(packages);
+    return found;
+}
+
+/* Open pythonfmu's binary next to this library and resolve its functions: the final state. */
+static SearchState open_pythonfmu(void)
+{
+    char target[PATH_MAX], missing[TEXT_MAX / 2];
+    Dl_info self;
+    if (!dladdr((void *)&open_pythonfmu, &self) || !self.dli_fname) {
+        append(tried, "; cannot locate this library");
+        return SEARCH_BAD_BINARY;
+    }
+    const char *slash = strrchr(self.dli_fname, '/');
+    int folder = slash ? (int)(slash + 1 - self.dli_fname) : 0;
+    snprintf(target, sizeof target, "%.*s%s", folder, self.dli_fname, SMEHA_TARGET);
+    pythonfmu = dlopen(target, RTLD_NOW | RTLD_LOCAL);
+    if (!pythonfmu) {
+        append(tried, "; cannot load pythonfmu's binary: %s", dlerror());
+        return SEARCH_BAD_BINARY;
+    }
+    if (resolve_targets(pythonfmu, missing, sizeof missing) > 0) {
+        append(tried, "; pythonfmu's binary %s lacks %s", target, missing);
+        return SEARCH_BAD_BINARY;
+    }
+    /* pythonfmu frees its interpreter state from a static destructor and again from its
+     * library destructor; its finalizePythonInterpreter, run first, leaves both a null
+     * pointer (smeha_fmu_runtime.arm_clean_exit) */
+    void (*finalize)(void) = (void (*)(void))dlsym(pythonfmu, "finalizePythonInterpreter");
+    if (finalize)
+        atexit(finalize);
+    /* this library stays loaded: pythonfmu's instances call its relays */
+    dlopen(self.dli_fname, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+    return SEARCH_READY;
+}
+
 /* Find and start a Python, open pythonfmu's binary: 1 when ready (see the top of the file). */
 static int ensure_python(const char *resources)
 {
     pthread_mutex_lock(&search_lock);
-    if (python_state != SEARCH_PENDING)
-        goto done;
-    char packages[512], exe[PATH_MAX];
-    tried[0] = '\0';
-    record_values(resources, "required", ' ', packages, sizeof packages);
-    int (*is_initialized)(void) = (int (*)(void))dlsym(RTLD_DEFAULT, "Py_IsInitialized");
-    int found = 0;
-    if (is_initialized && is_initialized()) {
-        found = 1; /* the host's own Python; its packages are the slave's concern */
-        snprintf(chosen, sizeof chosen, "the host process's Python");
-    } else {
-        append(tried, "no Python in the host process");
-        const char *setting = getenv(ENV_PYTHON);
-        if (setting && *setting) {
-            struct stat st;
-            if (stat(setting, &st) == 0 && S_ISDIR(st.st_mode))
-                snprintf(exe, sizeof exe, "%s/bin/python3", setting);
-            else
-                snprintf(exe, sizeof exe, "%s", setting);
-            found = try_executable(ENV_PYTHON "=", exe, packages);
+    if (python_state == SEARCH_PENDING) {
+        char packages[512];
+        tried[0] = '\0';
+        record_values(resources, "required", ' ', packages, sizeof packages);
+        int (*is_initialized)(void) = (int (*)(void))dlsym(RTLD_DEFAULT, "Py_IsInitialized");
+        int found = 0;
+        if (is_initialized && is_initialized()) {
+            found = 1; /* the host's own Python; its packages are the slave's concern */
+            snprintf(chosen, sizeof chosen, "the host process's Python");
         } else {
-            append(tried, "; " ENV_PYTHON " not set");
+            found = start_a_python(resources, packages);
         }
-        if (!found && python_state == SEARCH_PENDING) {
-            if (record_values(resources, "executable", ' ', exe, sizeof exe))
-                found = try_executable("the build's Python ", exe, packages);
-            else
-                append(tried, "; no build record in %s", resources);
-        }
-        if (!found && python_state == SEARCH_PENDING) {
-            if (on_path(exe, sizeof exe))
-                found = try_executable("python3 on PATH: ", exe, packages);
-            else
-                append(tried, "; no python3 on PATH");
-        }
-        if (!found && python_state == SEARCH_PENDING)
-            found = try_system_libpython(packages);
+        /* without a Python the search may be tried again (SMEHA_FMU_PYTHON set since) */
+        if (found)
+            python_state = open_pythonfmu();
     }
-    if (found) {
-        char target[PATH_MAX];
-        Dl_info self;
-        if (!dladdr((void *)&ensure_python, &self) || !self.dli_fname) {
-            append(tried, "; cannot locate this library");
-        } else {
-            const char *slash = strrchr(self.dli_fname, '/');
-            int folder = slash ? (int)(slash + 1 - self.dli_fname) : 0;
-            snprintf(target, sizeof target, "%.*s%s", folder, self.dli_fname, SMEHA_TARGET);
-            pythonfmu = dlopen(target, RTLD_NOW | RTLD_LOCAL);
-            char missing[TEXT_MAX / 2];
-            if (!pythonfmu) {
-                append(tried, "; cannot load pythonfmu's binary: %s", dlerror());
-                python_state = SEARCH_BAD_BINARY;
-            } else if (resolve_targets(pythonfmu, missing, sizeof missing) > 0) {
-                append(tried, "; pythonfmu's binary %s lacks %s", target, missing);
-                python_state = SEARCH_BAD_BINARY;
-            } else {
-                /* pythonfmu frees its interpreter state from a static destructor and again
-                 * from its library destructor; its finalizePythonInterpreter, run first,
-                 * leaves both a null pointer (smeha_fmu_runtime.arm_clean_exit) */
-                void (*finalize)(void) = (void (*)(void))dlsym(pythonfmu,
-                                                               "finalizePythonInterpreter");
-                if (finalize)
-                    atexit(finalize);
-                /* this library stays loaded: pythonfmu's instances call its relays */
-                dlopen(self.dli_fname, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
-                python_state = SEARCH_READY;
-            }
-        }
-    }
-    if (found && python_state == SEARCH_PENDING)
-        python_state = SEARCH_BAD_BINARY; /* a Python runs: the binary is what failed */
-done:;
     int ready = python_state == SEARCH_READY;
     pthread_mutex_unlock(&search_lock);
     return ready;
