@@ -626,7 +626,8 @@ DRIVE_OUTPUTS = ("current", "displacement", "velocity", "flux_density", "force")
 
 
 def drive(out_path, fmu_path, steps, h, frequency, amplitude, offset, *settings):
-    """u = offset + amplitude cos(2 pi f t) at t = k h, as the C host drives it; rows [t, outputs]."""
+    """u = offset + amplitude cos(2 pi f t) at t = k h, as the C host drives it; rows
+    [t, outputs]."""
     steps, h, frequency, amplitude, offset = (int(steps), float(h), float(frequency),
                                               float(amplitude), float(offset))
     fmu = Fmu(fmu_path, "drive")

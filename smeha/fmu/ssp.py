@@ -35,9 +35,10 @@ from xml.etree import ElementTree as ET
 
 from system_models.defaults import VALVE_CONTROLLER_PERIOD
 
-__all__ = ["NAMESPACES", "OSP_CONFIG_NAMESPACE", "SYSTEM_NAME", "SYSTEM_STEP", "COMPONENTS", "CONNECTIONS", "MECHANICS",
-           "RECORDED", "SystemDescription", "describe", "ssd_xml", "write_ssp", "osp_xml",
-           "write_osp", "build_system", "CONTAINER_OUTPUTS", "write_container"]
+__all__ = ["NAMESPACES", "OSP_CONFIG_NAMESPACE", "SYSTEM_NAME", "SYSTEM_STEP", "COMPONENTS",
+           "CONNECTIONS", "MECHANICS", "RECORDED", "SystemDescription", "describe", "ssv_values",
+           "ssd_xml", "write_ssp", "osp_xml", "write_osp", "build_system", "CONTAINER_OUTPUTS",
+           "write_container"]
 
 #: Name of the system (the SSD's and the .ssp's).
 SYSTEM_NAME = "SmehaEha"
