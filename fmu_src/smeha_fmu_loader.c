@@ -29,7 +29,9 @@
  *
  * Build defines: SMEHA_FMI (2 or 3), SMEHA_TARGET (file name), SMEHA_MODEL (model name);
  * smeha_fmu_forward.h (generated) defines the forwarders, resolve_targets() and the
- * T_<function> pointers.
+ * T_<function> pointers; smeha_fmu_probe.h (generated from smeha_fmu_probe.py, the build's
+ * own libpython search) the PROBE each candidate runs, MIN_HEXVERSION and
+ * SYSTEM_LIBPYTHONS.
  */
 #if !defined(SMEHA_FMI) || (SMEHA_FMI != 2 && SMEHA_FMI != 3)
 #error "define SMEHA_FMI as 2 or 3 (smeha.fmu.loader.compile_loader does)"
@@ -67,10 +69,11 @@ typedef fmi3Status Status;
 
 extern char **environ;
 
+#include "smeha_fmu_probe.h"
+
 #define ENV_PYTHON "SMEHA_FMU_PYTHON"
 #define RECORD_FILE "smeha_fmu_environment.txt"
 #define RECOVERABLE "smehaRecoverable" /* a log category */
-#define MIN_HEXVERSION 0x030B0000L /* CPython 3.11 */
 #define TEXT_MAX 8192
 
 /* One instance as the host sees it: pythonfmu's instance and the host's callbacks. */
@@ -213,16 +216,6 @@ typedef struct {
     char missing[512];
 } Probe;
 
-static const char PROBE[] =
-    "import importlib.util as u, os, sys, sysconfig\n"
-    "v = sysconfig.get_config_var\n"
-    "so = v('INSTSONAME') or ''\n"
-    "if '.so' not in so: so = 'libpython%s%s.so.1.0' % (v('VERSION'), v('ABIFLAGS') or '')\n"
-    "ds = [v('LIBDIR') or ''] + (['/usr/lib/' + v('MULTIARCH')] if v('MULTIARCH') else [])\n"
-    "lib = [os.path.join(d, so) for d in ds if os.path.isfile(os.path.join(d, so))]\n"
-    "print(sys.hexversion)\n"
-    "print(lib[0] if lib else '')\n"
-    "print(' '.join(m for m in sys.argv[1:] if u.find_spec(m) is None))\n";
 
 /* Run "exe -c PROBE packages...": 1 when it answered (Probe filled), 0 when it did not run. */
 static int probe(const char *exe, const char *packages, Probe *p)
@@ -389,10 +382,9 @@ static int on_path(char *out, size_t n)
 
 static int try_system_libpython(const char *packages)
 {
-    static const char *names[] = {"libpython3.13.so.1.0", "libpython3.12.so.1.0",
-                                  "libpython3.11.so.1.0"};
+    const char *const *names = SYSTEM_LIBPYTHONS;
     append(tried, "; the system's libpython: ");
-    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
+    for (size_t i = 0; i < sizeof SYSTEM_LIBPYTHONS / sizeof SYSTEM_LIBPYTHONS[0]; i++) {
         void *probe_lib = dlopen(names[i], RTLD_LAZY | RTLD_LOCAL);
         if (!probe_lib)
             continue;
@@ -410,7 +402,10 @@ static int try_system_libpython(const char *packages)
         snprintf(chosen, sizeof chosen, "the system's %s", names[i]);
         return 1;
     }
-    append(tried, "none of libpython3.13, 3.12, 3.11 found");
+    append(tried, "none of");
+    for (size_t i = 0; i < sizeof SYSTEM_LIBPYTHONS / sizeof SYSTEM_LIBPYTHONS[0]; i++)
+        append(tried, "%s %s", i ? "," : "", SYSTEM_LIBPYTHONS[i]);
+    append(tried, " found");
     return 0;
 }
 

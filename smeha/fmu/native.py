@@ -44,33 +44,24 @@ class NativeError(RunError):
 
 
 def find_libpython() -> Path:
-    """The shared libpython of this interpreter, [path].
-
-    ``LIBDIR/INSTSONAME`` (a ``--enable-shared`` build such as pyenv's), else the
-    same name in the multiarch directory (Debian's static ``/usr/bin/python3.11``
-    with the ``libpython3.11`` package installed).
+    """The shared libpython of this interpreter, [path]: ``fmu_src/smeha_fmu_probe.py``'s
+    search, the one the FMU's loader runs in each candidate Python.
 
     Raises
     ------
     NativeError
         When this interpreter has no shared libpython.
     """
-    var = sysconfig.get_config_var
-    soname = var("INSTSONAME") or f"libpython{var('VERSION')}{var('ABIFLAGS') or ''}.so.1.0"
-    if not soname.endswith(".so") and ".so." not in soname:
-        soname = f"libpython{var('VERSION')}{var('ABIFLAGS') or ''}.so.1.0"
-    dirs = [var("LIBDIR") or ""]
-    if var("MULTIARCH"):
-        dirs.append(os.path.join("/usr/lib", var("MULTIARCH")))
-    for folder in dirs:
-        path = Path(folder) / soname
-        if path.is_file():
-            return path.resolve()
-    raise NativeError(
-        f"no shared libpython ({soname}) for {sys.executable} in {', '.join(dirs)}: a C host "
-        "could not load the FMU. Use a Python built with --enable-shared (pyenv: "
-        "PYTHON_CONFIGURE_OPTS=--enable-shared) or install the shared library (Debian: "
-        "apt-get install libpython3.11)")
+    from . import build  # the FMU sources' loader (build imports this module at its top)
+
+    found = build.table("smeha_fmu_probe").shared_libpython()
+    if found is None:
+        raise NativeError(
+            f"no shared libpython for {sys.executable} (LIBDIR/INSTSONAME, or the multiarch "
+            "directory): a C host could not load the FMU. Use a Python built with "
+            "--enable-shared (pyenv: PYTHON_CONFIGURE_OPTS=--enable-shared) or install the "
+            "shared library (Debian: apt-get install libpython3.11)")
+    return Path(found)
 
 
 def _package_site(name: str) -> str:
