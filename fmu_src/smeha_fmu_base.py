@@ -71,11 +71,16 @@ class SlaveBase:
     def _parameter_setter(self, name):
         def setter(value):
             try:
+                value = self.TABLE.BY_NAME[name].coerce(value)
                 if self._built():
-                    self._report(f"{name}: a fixed parameter cannot change after "
-                                 f"initialisation; {value!r} ignored (reset first)")
+                    # a set to the value in effect changes nothing and is accepted (an SSP
+                    # host such as OMSimulator re-applies its parameter connections at
+                    # every step); any other value is refused
+                    if value != getattr(self, name):
+                        self._report(f"{name}: a fixed parameter cannot change after "
+                                     f"initialisation; {value!r} ignored (reset first)")
                     return
-                setattr(self, name, self.TABLE.BY_NAME[name].coerce(value))
+                setattr(self, name, value)
             except Exception as exc:  # never raise into pythonfmu
                 self._report(f"{name} = {value!r} rejected: {exc}")
         return setter

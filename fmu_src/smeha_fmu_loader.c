@@ -7,9 +7,11 @@
  *
  *   1. a Python already in the host process (fmpy, a Python tool): used as it is;
  *   2. SMEHA_FMU_PYTHON, a Python executable or the prefix holding bin/python3;
- *   3. the Python the FMU was built with (the build record's "executable");
- *   4. the python3 on PATH;
- *   5. the system's shared libpython (libpython3.13 ... 3.11, the dynamic linker's search).
+ *   3. the python3 on PATH;
+ *   4. the system's shared libpython (SYSTEM_LIBPYTHONS, the dynamic linker's search).
+ *
+ * The FMU names no path of the machine that built it: its record (RECORD_FILE) holds the
+ * packages it needs ("required") and the building interpreter's version.
  *
  * Each executable is asked (a child process) for its version, its shared libpython and
  * whether it finds the packages; the first that qualifies is loaded with RTLD_GLOBAL (so
@@ -411,8 +413,8 @@ static int try_system_libpython(const char *packages)
 
 static int resolve_targets(void *library, char *missing, size_t n);
 
-/* Steps 2-5 of the search (the host has no Python): 1 when a Python is now running. */
-static int start_a_python(const char *resources, const char *packages)
+/* Steps 2-4 of the search (the host has no Python): 1 when a Python is now running. */
+static int start_a_python(const char *packages)
 {
     char exe[PATH_MAX];
     int found = 0;
@@ -427,12 +429,6 @@ static int start_a_python(const char *resources, const char *packages)
         found = try_executable(ENV_PYTHON "=", exe, packages);
     } else {
         append(tried, "; " ENV_PYTHON " not set");
-    }
-    if (!found && python_state == SEARCH_PENDING) {
-        if (record_values(resources, "executable", ' ', exe, sizeof exe))
-            found = try_executable("the build's Python ", exe, packages);
-        else
-            append(tried, "; no build record in %s", resources);
     }
     if (!found && python_state == SEARCH_PENDING) {
         if (on_path(exe, sizeof exe))
@@ -491,7 +487,7 @@ static int ensure_python(const char *resources)
             found = 1; /* the host's own Python; its packages are the slave's concern */
             snprintf(chosen, sizeof chosen, "the host process's Python");
         } else {
-            found = start_a_python(resources, packages);
+            found = start_a_python(packages);
         }
         /* without a Python the search may be tried again (SMEHA_FMU_PYTHON set since) */
         if (found)

@@ -41,11 +41,11 @@ from pathlib import Path
 import pytest
 
 try:
-    from fmu_fixtures import child_env
-    from test_fmu_hosts import CLEAN_ENV, Unzipped, c_host  # noqa: F401  (fixture)
+    from fmu_fixtures import HOST_ENV, child_env
+    from test_fmu_hosts import Unzipped, c_host  # noqa: F401  (fixture)
 except ImportError:  # tests/ imported as a package
-    from tests.fmu_fixtures import child_env
-    from tests.test_fmu_hosts import CLEAN_ENV, Unzipped, c_host  # noqa: F401
+    from tests.fmu_fixtures import HOST_ENV, child_env
+    from tests.test_fmu_hosts import Unzipped, c_host  # noqa: F401
 
 pytestmark = pytest.mark.integration
 
@@ -222,15 +222,15 @@ def test_a_bad_plant_parameter_stops_fmpy_and_is_named(setting, system_dist, tmp
 # -- the plant FMU in a C host --------------------------------------------------------------------
 def test_the_plant_fmu_runs_in_a_c_host_as_in_fmpy(system_dist, c_host, tmp_path):
     # the C host loads the binary with dlopen(RTLD_LOCAL) in a clean environment (no Python
-    # set up: the FMU starts the build's libpython, finds numpy and numba, loads numba's
-    # cache) and drives u = cos(2 pi 100 t) V with the force held at 1442 N (about K y at
+    # set up: the FMU starts the Python SMEHA_FMU_PYTHON names, which has numpy and numba,
+    # and loads numba's cache) and drives u = cos(2 pi 100 t) V with the force held at 1442 N (about K y at
     # the rest position), 1000 steps of 10 us
     fmu = Unzipped(system_dist[0] / "SmehaPlant.fmu", tmp_path / "plant")
     outputs = ("rod_displacement", "p_pump", "p_big", "volume_into_big", "q_v1")
     args = [str(c_host), "2", str(fmu.binary), f"{fmu.resources}/", fmu.token,
             str(fmu.vr["u"]), "1000", "1e-5", "100", "1", "0", f"r:{fmu.vr['force']}=1442",
             "--", *(str(fmu.vr[n]) for n in outputs)]
-    proc = subprocess.run(args, capture_output=True, text=True, env=CLEAN_ENV, timeout=300)
+    proc = subprocess.run(args, capture_output=True, text=True, env=HOST_ENV, timeout=300)
     assert proc.returncode == 0, proc.stderr
     rows = [[float(x) for x in line.split(",")] for line in proc.stdout.split()]
     reference = _run("plant_drive", tmp_path / "fmpy", system_dist[0] / "SmehaPlant.fmu",
@@ -257,7 +257,7 @@ def test_omsimulator_runs_the_built_ssp_as_fmpy_does(system_dist, tmp_path):
         pytest.skip(f"OMSimulator is not installed (set {systemrun.OMSIMULATOR_VARIABLE} to "
                     "its executable or put it on PATH; docs/FMU.md names its sources)")
     ssp = system_dist[0] / "SmehaEha.ssp"
-    oms = systemrun.run_omsimulator(ssp, exe, env=CLEAN_ENV)  # raises on an error line
+    oms = systemrun.run_omsimulator(ssp, exe, env=HOST_ENV)  # raises on an error line
     try:
         from fmu_fixtures import run_runner
     except ImportError:  # tests/ imported as a package
