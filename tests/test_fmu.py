@@ -35,6 +35,8 @@ from smeha.fmu.build import iface
 
 pytestmark = pytest.mark.integration
 
+REPO = Path(__file__).resolve().parents[1]
+
 CASES = ("fixed50", "random100", "comp_control", "comp_demand")
 #: One case per model variant (tests/fmu_runner.py VARIANTS): 100 Hz with random steps and
 #: forces, the saturation variant through the compensator; v_slab and v_two_dof are forms
@@ -185,6 +187,19 @@ def test_calculated_parameters_hold_their_values_in_initialization_mode(fmu_dist
     assert two["entered"][4:] == pytest.approx([TWO_DOF["joint_stiffness_N_per_m"],
                                                 TWO_DOF["joint_damping_N_s_per_m"]], rel=1e-12)
     assert set(paper["statuses"]) == set(two["statuses"]) == {0}
+
+
+@pytest.mark.parametrize("fmi", ["2", "3"])
+def test_the_fmu_holds_no_path_of_the_machine_that_built_it(fmu_dist, fmi):
+    # an FMU travels: nothing in it names the source tree, this Python's installation or the
+    # build's output folder (the loader finds a Python where the FMU runs)
+    needles = {str(REPO), sys.prefix, sys.base_prefix, str(fmu_dist["dir"])}
+    with zipfile.ZipFile(fmu_dist[fmi]) as z:
+        found = [(name, needle) for name in z.namelist() for needle in needles
+                 if needle.encode() in z.read(name)]
+        record = z.read("resources/smeha_fmu_environment.txt").decode()
+    assert found == []
+    assert "required\tnumpy\n" in record and f"version\t{sys.version}\n" in record
 
 
 def test_default_experiment_is_the_50_hz_case(fmu_dist):

@@ -52,7 +52,8 @@ from gmt.errors import RunError
 
 from . import loader, native
 
-__all__ = ["DIST", "FmuSpec", "SPECS", "BuildError", "build_fmu", "build_all", "table"]
+__all__ = ["DIST", "installed_dist", "FmuSpec", "SPECS", "BuildError", "build_fmu",
+           "build_all", "table"]
 
 #: The folder holding the packages: the source tree's root in a checkout (also under
 #: ``pip install -e``), site-packages in an installed wheel.
@@ -61,10 +62,26 @@ REPO = Path(__file__).resolve().parents[2]
 #: package data, ``smeha/fmu/sources/`` (pyproject's package-dir).
 IN_SOURCE_TREE = (REPO / "fmu_src" / "smeha_fmu_interface.py").is_file()
 FMU_SRC = REPO / "fmu_src" if IN_SOURCE_TREE else Path(__file__).resolve().parent / "sources"
+
+
+def installed_dist(cache: str | None = None) -> Path:
+    """Where an installed smeha keeps its FMUs: a per-user cache folder of this installation,
+    ``<cache>/smeha/<version>-<key>/``, with ``cache`` ``$XDG_CACHE_HOME`` or ``~/.cache``
+    and ``key`` a hash of the installation's folder (two installations keep theirs apart;
+    the same one finds its FMUs from any folder, built once)."""
+    import hashlib
+
+    from .. import __version__
+
+    base = Path(cache or os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    key = hashlib.sha256(str(REPO).encode()).hexdigest()[:12]
+    return base / "smeha" / f"{__version__}-{key}"
+
+
 #: Where ``smeha build`` writes the FMUs and ``smeha simulate``/``flow``/``sweep`` look for
 #: ``SmehaGmt.fmu``: dist/ of the source tree, whatever the current folder; installed from a
-#: wheel, ``dist/`` of the current folder.
-DIST = REPO / "dist" if IN_SOURCE_TREE else Path.cwd() / "dist"
+#: wheel, the per-user cache folder of :func:`installed_dist`. ``--out`` overrides both.
+DIST = REPO / "dist" if IN_SOURCE_TREE else installed_dist()
 
 
 def _fmu_src_neighbours(module: str) -> list[str]:
