@@ -270,7 +270,8 @@ def omsimulator_errors(log: str) -> list[str]:
 
 def run_omsimulator(ssp_path, executable: str | None = None, env: dict | None = None
                     ) -> SystemRun:
-    """Run the .ssp in OMSimulator's command line (the SSD's step and stop time).
+    """Run the .ssp in OMSimulator's command line (the step and stop time of
+    :func:`ssp_experiment`).
 
     ``executable`` defaults to :func:`omsimulator`; ``env`` is the environment it runs in
     (default this process's). The result file is OMSimulator's CSV, written in a
@@ -289,11 +290,16 @@ def run_omsimulator(ssp_path, executable: str | None = None, env: dict | None = 
     if exe is None:
         raise RunError(f"OMSimulator not found: set {OMSIMULATOR_VARIABLE} to its "
                        "executable or put it on PATH (docs/FMU.md)")
+    step, stop_time = ssp_experiment(ssp_path)
     with tempfile.TemporaryDirectory(prefix="smeha_oms_") as tmp:
         result = Path(tmp) / "result.csv"
         wall = time.perf_counter()
+        # the command line's defaults (stop at 1 s) override the SSD's, so they are given;
+        # --emitEvents=false: one row per communication point
         proc = subprocess.run([exe, str(Path(ssp_path).resolve()), f"--resultFile={result}",
-                               f"--tempDir={tmp}", f"--workingDir={tmp}"], cwd=tmp, env=env,
+                               f"--stopTime={stop_time!r}", f"--stepSize={step!r}",
+                               "--emitEvents=false", f"--tempDir={tmp}",
+                               f"--workingDir={tmp}"], cwd=tmp, env=env,
                               capture_output=True, text=True, timeout=1800)
         wall = time.perf_counter() - wall
         log = proc.stdout + proc.stderr
@@ -310,9 +316,11 @@ def run_omsimulator(ssp_path, executable: str | None = None, env: dict | None = 
         if len(matches) != 1:
             raise RunError(f"OMSimulator's result has {len(matches)} columns for plant.{name}")
         columns[name] = data[:, matches[0]]
-    # the first row is the state after initialisation; each next one the end of a step
-    return SystemRun(_record(data[1:, header.index("time")],
-                             {n: c[1:] for n, c in columns.items()}), wall)
+    # the first row is the state after initialisation, each next one the end of a step;
+    # OMSimulator writes the last point twice: the last row of each time is kept
+    times = data[:, header.index("time")]
+    last = sorted({t: i for i, t in enumerate(times)}.values())[1:]
+    return SystemRun(_record(times[last], {n: c[last] for n, c in columns.items()}), wall)
 
 
 #: libcosim objects kept alive until the process ends: tearing down an execution that
