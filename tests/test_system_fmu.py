@@ -184,6 +184,15 @@ def test_build_writes_a_valid_ssp_and_osp(system_dist):
             "resources/SmehaDrive.fmu", "resources/plant.ssv"} <= names
     for comp in ("drive", "transducer", "plant"):
         read_ssv(str(ssp), resource=f"resources/{comp}.ssv")  # validated too
+    with zipfile.ZipFile(ssp) as z:
+        ssd_text = z.read("SystemStructure.ssd").decode()
+        ssvs = {c: z.read(f"resources/{c}.ssv").decode() for c in ("drive", "transducer", "plant")}
+    # OMSimulator's master annotation beside libcosim's, the same step; no String binding
+    # (OMSimulator reads none; the default case's Strings are at their start values)
+    assert '<ssc:Annotation type="org.openmodelica">' in ssd_text
+    assert '<oms:FixedStepMaster description="oms-ma" stepSize="1e-05" />' in ssd_text
+    assert 'baseStepSize="1e-05"' in ssd_text
+    assert not any("ssv:String" in text for text in ssvs.values())
     # the OSP file refers to the FMUs next to it
     text = osp.read_text()
     for name in ("SmehaGmt", "SmehaPlant", "SmehaDrive"):

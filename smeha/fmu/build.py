@@ -359,11 +359,11 @@ def finish_model_description(xml: bytes, variables=None) -> bytes:
 LINUX_BINARIES = ("binaries/linux64/", "binaries/x86_64-linux/")
 
 
-def _linux_binaries(zin: zipfile.ZipFile, record: dict) -> dict:
+def _linux_binaries(zin: zipfile.ZipFile) -> dict:
     """The FMU's Linux binary members: the loader (:mod:`smeha.fmu.loader`) as
     ``<modelIdentifier>.so`` and pythonfmu's binary beside it, or, where the loader cannot be
-    compiled (the reason is printed), pythonfmu's binary linked to the libpython of the
-    environment record (:mod:`smeha.fmu.native`)."""
+    compiled (the reason is printed), pythonfmu's binary linked to the building interpreter's
+    libpython (:mod:`smeha.fmu.native`)."""
     root = ET.fromstring(zin.read("modelDescription.xml"))
     fmi = root.get("fmiVersion", "2")[0]
     ident = root.find("CoSimulation").get("modelIdentifier")
@@ -380,8 +380,9 @@ def _linux_binaries(zin: zipfile.ZipFile, record: dict) -> dict:
         except loader.LoaderError as exc:
             print(f"smeha build: note: no loader for {ident} ({exc}): its binary runs with "
                   "the build's Python only (docs/FMU.md)", file=sys.stderr)
-            out[name] = (native.link_libpython(data, record["libpython"][0])
-                         if record.get("libpython") else data)
+            # the fallback names the building libpython in the binary: it runs where that is
+            out[name] = (native.link_libpython(data, str(native.find_libpython()))
+                         if sys.platform.startswith("linux") else data)
     return out
 
 
@@ -395,11 +396,9 @@ def rewrite_fmu(raw: Path, dest: Path, variables=None, extra=None) -> Path:
     dest.parent.mkdir(parents=True, exist_ok=True)
     tmp = dest.with_name(dest.name + ".tmp")
     with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
-        record = _runtime().parse_environment(
-            zin.read(f"resources/{_runtime().ENVIRONMENT_FILE}").decode("utf-8"))
         members = {name: None for name in zin.namelist()}
         members.update(extra or {})
-        members.update(_linux_binaries(zin, record))
+        members.update(_linux_binaries(zin))
         for name in sorted(members):
             data = zin.read(name) if members[name] is None else members[name]
             if name == "modelDescription.xml":
