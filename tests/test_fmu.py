@@ -45,7 +45,7 @@ VARIANT_CASES = ("v_hysteresis", "v_saturation", "v_eddy", "v_delay", "v_mechani
                  "v_slab", "v_two_dof")
 #: Columns of a row (tests/fmu_runner.py OUTPUTS).
 DISPLACEMENT, SATURATION_COUNT, SENSED = 1, 9, 10
-#: Required by the issue: FMU and gmt agree to 1e-12 relative (they run the same
+#: FMU and gmt agree to 1e-12 relative (they run the same
 #: code on the same doubles, so in practice the difference is exactly 0).
 RTOL = 1e-12
 
@@ -91,7 +91,7 @@ def test_fmpy_validation_finds_no_problems(fmu_dist):
 def test_interface_names_causality_and_types(fmu_dist):
     svs = model_description(fmu_dist["2"]).find("ModelVariables").findall("ScalarVariable")
     got = {sv.get("name"): (sv.get("causality"), sv[0].tag) for sv in svs}
-    # names and types required by the issue
+    # the interface's names and types
     assert {n: got[n] for n in ("u", "external_force")} == {
         "u": ("input", "Real"), "external_force": ("input", "Real")}
     outputs = {"current": "Real", "displacement": "Real", "velocity": "Real", "field": "Real",

@@ -245,7 +245,7 @@ def test_two_interpreters_in_one_process(fmu_dist, runner_dir, tmp_path):
 # -- knows its design point (gmt's side in tests/test_design_point.py) --------
 @pytest.mark.parametrize("fmi", ["2", "3"])
 def test_fmu_flags_a_drive_off_its_design_point_and_warns_once(fmi, fmu_dist, runner_dir):
-    # the case: frequency left at 50 Hz, driven at 100 Hz (4000 steps, 40 ms)
+    # frequency left at 50 Hz, driven at 100 Hz (4000 steps, 40 ms)
     res = run_runner("drive", runner_dir / f"design{fmi}", fmu_dist[fmi],
                      "4000", "1e-5", "100", "1", "0")
     assert res["statuses"] == [0]

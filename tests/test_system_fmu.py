@@ -10,7 +10,7 @@ master), fmpy's ``simulate_fmu`` for the container -- and checked against:
 * **the project's co-simulation harness** (``smeha.studies.flow.run_case``: the transducer
   FMU stepped ahead, the plant integrated over windows, a valve controller that knows u
   ahead), its cylinder flow by the flow check of eqs 39-41, at 50 and 100 Hz in both
-  modes, within the issue's 1 %. The harness runs the same plant *physics* in-process;
+  modes, within 1 %. The harness runs the same plant *physics* in-process;
   what the comparison checks is everything the FMI system adds and could get wrong:
   the FMUs as packaged (bundled copies under other names, numba's shipped cache), every
   circuit parameter through the SSV/OSP files and the plant's variable table, the rod's
