@@ -228,6 +228,30 @@ def test_a_bad_plant_parameter_stops_fmpy_and_is_named(setting, system_dist, tmp
     assert BAD_PLANT[setting] in result["stderr"] and "refused" in result["stderr"], result
 
 
+def test_a_plant_missing_a_package_names_it_at_error_level_without_debug_logging(
+        system_dist, tmp_path):
+    # a Python host that lacks a package the plant needs (as Python 3.13 with fmpy and numpy
+    # only lacks numba): fmpy.simulate_fmu, debug logging off, must fail and its default
+    # logger print the package at Error level; the FMU's record gains a package no Python has
+    src = system_dist[0] / "SmehaPlant.fmu"
+    fmu = tmp_path / "SmehaPlant.fmu"
+    record = "resources/smeha_fmu_environment.txt"
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(fmu, "w") as zout:
+        for name in zin.namelist():
+            data = zin.read(name)
+            if name == record:
+                data += b"required\tsmeha_absent_package\n"
+            zout.writestr(name, data)
+    code = ("import sys\nfrom fmpy import simulate_fmu\ntry:\n"
+            f"    simulate_fmu({str(fmu)!r}, stop_time=1e-4, step_size=1e-5)\n"
+            "except Exception as exc:\n    print('raised:', exc)\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=child_env(), cwd=tmp_path, timeout=300)
+    out = proc.stdout + proc.stderr
+    assert "raised: fmi2DoStep failed with status 3 (error)" in out, out
+    assert "[ERROR] the FMU needs the Python package(s) smeha_absent_package" in out, out
+
+
 # -- the plant FMU in a C host --------------------------------------------------------------------
 def test_the_plant_fmu_runs_in_a_c_host_as_in_fmpy(system_dist, c_host, tmp_path):
     # the C host loads the binary with dlopen(RTLD_LOCAL) in a clean environment (no Python
