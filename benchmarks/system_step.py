@@ -32,9 +32,9 @@ def _run(ssp_path, step, frequency) -> dict:
     """Child: one fmpy SSP run; print its flow and wall time as JSON."""
     from smeha.fmu import systemrun
 
-    record, wall = systemrun.run_fmpy(ssp_path, step=float(step))
-    flow = systemrun.flow(record, float(frequency), PISTON_AREA).flow_sim
-    return {"flow": flow, "wall_s": wall, "steps": len(record)}
+    run = systemrun.run_fmpy(ssp_path, step=float(step))
+    flow = systemrun.flow(run.record, float(frequency), PISTON_AREA).flow_sim
+    return {"flow": flow, "wall_s": run.wall, "steps": len(run.record)}
 
 
 def _fmus(dist: Path) -> dict:

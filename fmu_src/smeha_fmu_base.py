@@ -49,6 +49,8 @@ class SlaveBase:
                 options["unit"] = var.unit
             if var.causality == "parameter":
                 options["setter"] = self._parameter_setter(var.name)
+            elif var.causality == "calculatedParameter":
+                options["getter"] = self._calculated_getter(var.name)
             self.register_variable(types[var.kind](
                 var.name, causality=causality[var.causality],
                 variability=variability[var.variability],
@@ -69,14 +71,41 @@ class SlaveBase:
     def _parameter_setter(self, name):
         def setter(value):
             try:
+                value = self.TABLE.BY_NAME[name].coerce(value)
                 if self._built():
-                    self._report(f"{name}: a fixed parameter cannot change after "
-                                 f"initialisation; {value!r} ignored (reset first)")
+                    # a set to the value in effect changes nothing and is accepted (an SSP
+                    # host such as OMSimulator re-applies its parameter connections at
+                    # every step); any other value is refused
+                    if value != getattr(self, name):
+                        self._report(f"{name}: a fixed parameter cannot change after "
+                                     f"initialisation; {value!r} ignored (reset first)")
                     return
-                setattr(self, name, self.TABLE.BY_NAME[name].coerce(value))
+                setattr(self, name, value)
             except Exception as exc:  # never raise into pythonfmu
                 self._report(f"{name} = {value!r} rejected: {exc}")
         return setter
+
+    def _calculated_getter(self, name):
+        def getter():
+            try:
+                return self._calculated_value(name)
+            except Exception as exc:  # never raise into pythonfmu
+                self._report(f"{name} cannot be calculated: {type(exc).__name__}: {exc}")
+                return self.TABLE.BY_NAME[name].initial_value
+        return getter
+
+    def _calculated_value(self, name):
+        """A calculated parameter's value from the parameters as they are now.
+
+        A host may read calculated parameters from Initialization Mode on, before the
+        model is built (FMI 2.0.4, section 4.2.4, calling-sequence table, condition 2:
+        the variables of ``<InitialUnknowns>``, which section 2.2.8 makes list every
+        ``calculatedParameter``; FMI 3.0.2, section 2.3.3 "State: Initialization Mode":
+        ``fmi3Get{VariableType}`` there may trigger computations), and an SSP host routes
+        them into another FMU's parameters there. The slave computes them on request
+        from the parameter values set so far; once built, its model holds them.
+        """
+        return getattr(self, name)
 
     def _refuse_step(self, current_time):
         """An unusable instance's step: log the reason (Error), tell stderr once, fail."""

@@ -7,9 +7,11 @@
  *
  *   1. a Python already in the host process (fmpy, a Python tool): used as it is;
  *   2. SMEHA_FMU_PYTHON, a Python executable or the prefix holding bin/python3;
- *   3. the Python the FMU was built with (the build record's "executable");
- *   4. the python3 on PATH;
- *   5. the system's shared libpython (libpython3.13 ... 3.11, the dynamic linker's search).
+ *   3. the python3 on PATH;
+ *   4. the system's shared libpython (SYSTEM_LIBPYTHONS, the dynamic linker's search).
+ *
+ * The FMU names no path of the machine that built it: its record (RECORD_FILE) holds the
+ * packages it needs ("required") and the building interpreter's version.
  *
  * Each executable is asked (a child process) for its version, its shared libpython and
  * whether it finds the packages; the first that qualifies is loaded with RTLD_GLOBAL (so
@@ -29,8 +31,17 @@
  *
  * Build defines: SMEHA_FMI (2 or 3), SMEHA_TARGET (file name), SMEHA_MODEL (model name);
  * smeha_fmu_forward.h (generated) defines the forwarders, resolve_targets() and the
- * T_<function> pointers.
+ * T_<function> pointers; smeha_fmu_probe.h (generated from smeha_fmu_probe.py, the build's
+ * own libpython search) the PROBE each candidate runs, MIN_HEXVERSION and
+ * SYSTEM_LIBPYTHONS.
  */
+#if !defined(SMEHA_FMI) || (SMEHA_FMI != 2 && SMEHA_FMI != 3)
+#error "define SMEHA_FMI as 2 or 3 (smeha.fmu.loader.compile_loader does)"
+#endif
+#if !defined(SMEHA_TARGET) || !defined(SMEHA_MODEL)
+#error "define SMEHA_TARGET and SMEHA_MODEL (smeha.fmu.loader.compile_loader does)"
+#endif
+
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <errno.h>
@@ -60,10 +71,11 @@ typedef fmi3Status Status;
 
 extern char **environ;
 
+#include "smeha_fmu_probe.h"
+
 #define ENV_PYTHON "SMEHA_FMU_PYTHON"
 #define RECORD_FILE "smeha_fmu_environment.txt"
 #define RECOVERABLE "smehaRecoverable" /* a log category */
-#define MIN_HEXVERSION 0x030B0000L /* CPython 3.11 */
 #define TEXT_MAX 8192
 
 /* One instance as the host sees it: pythonfmu's instance and the host's callbacks. */
@@ -150,7 +162,14 @@ static void free_instance(Instance *in, void (*free_target)(void *))
 
 /* ---- the search --------------------------------------------------------------------- */
 static pthread_mutex_t search_lock = PTHREAD_MUTEX_INITIALIZER;
-static int python_state; /* 0: not found yet, 1: ready, -1: failed for good */
+/* Where the search stands; every state but SEARCH_PENDING is final for the process. */
+typedef enum {
+    SEARCH_PENDING,     /* not searched yet, or still searching */
+    SEARCH_READY,       /* a Python runs and pythonfmu's binary is open */
+    SEARCH_NO_PYTHON,   /* no Python qualifies (or one started without the packages) */
+    SEARCH_BAD_BINARY   /* pythonfmu's binary cannot be opened or lacks FMI functions */
+} SearchState;
+static SearchState python_state = SEARCH_PENDING;
 static char tried[TEXT_MAX];
 static char chosen[PATH_MAX + 128]; /* the Python used, for the log */
 static void *pythonfmu;
@@ -199,16 +218,6 @@ typedef struct {
     char missing[512];
 } Probe;
 
-static const char PROBE[] =
-    "import importlib.util as u, os, sys, sysconfig\n"
-    "v = sysconfig.get_config_var\n"
-    "so = v('INSTSONAME') or ''\n"
-    "if '.so' not in so: so = 'libpython%s%s.so.1.0' % (v('VERSION'), v('ABIFLAGS') or '')\n"
-    "ds = [v('LIBDIR') or ''] + (['/usr/lib/' + v('MULTIARCH')] if v('MULTIARCH') else [])\n"
-    "lib = [os.path.join(d, so) for d in ds if os.path.isfile(os.path.join(d, so))]\n"
-    "print(sys.hexversion)\n"
-    "print(lib[0] if lib else '')\n"
-    "print(' '.join(m for m in sys.argv[1:] if u.find_spec(m) is None))\n";
 
 /* Run "exe -c PROBE packages...": 1 when it answered (Probe filled), 0 when it did not run. */
 static int probe(const char *exe, const char *packages, Probe *p)
@@ -375,10 +384,9 @@ static int on_path(char *out, size_t n)
 
 static int try_system_libpython(const char *packages)
 {
-    static const char *names[] = {"libpython3.13.so.1.0", "libpython3.12.so.1.0",
-                                  "libpython3.11.so.1.0"};
+    const char *const *names = SYSTEM_LIBPYTHONS;
     append(tried, "; the system's libpython: ");
-    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
+    for (size_t i = 0; i < sizeof SYSTEM_LIBPYTHONS / sizeof SYSTEM_LIBPYTHONS[0]; i++) {
         void *probe_lib = dlopen(names[i], RTLD_LAZY | RTLD_LOCAL);
         if (!probe_lib)
             continue;
@@ -389,92 +397,103 @@ static int try_system_libpython(const char *packages)
         char missing[512];
         if (import_missing(packages, missing, sizeof missing)) {
             append(tried, " started, without %s", missing);
-            python_state = -1; /* an interpreter cannot be taken back */
+            python_state = SEARCH_NO_PYTHON; /* an interpreter cannot be taken back */
             return 0;
         }
         append(tried, ": used");
         snprintf(chosen, sizeof chosen, "the system's %s", names[i]);
         return 1;
     }
-    append(tried, "none of libpython3.13, 3.12, 3.11 found");
+    append(tried, "none of");
+    for (size_t i = 0; i < sizeof SYSTEM_LIBPYTHONS / sizeof SYSTEM_LIBPYTHONS[0]; i++)
+        append(tried, "%s %s", i ? "," : "", SYSTEM_LIBPYTHONS[i]);
+    append(tried, " found");
     return 0;
 }
 
-static void resolve_targets(void *library);
+static int resolve_targets(void *library, char *missing, size_t n);
+
+/* Steps 2-4 of the search (the host has no Python): 1 when a Python is now running. */
+static int start_a_python(const char *packages)
+{
+    char exe[PATH_MAX];
+    int found = 0;
+    append(tried, "no Python in the host process");
+    const char *setting = getenv(ENV_PYTHON);
+    if (setting && *setting) {
+        struct stat st;
+        if (stat(setting, &st) == 0 && S_ISDIR(st.st_mode))
+            snprintf(exe, sizeof exe, "%s/bin/python3", setting);
+        else
+            snprintf(exe, sizeof exe, "%s", setting);
+        found = try_executable(ENV_PYTHON "=", exe, packages);
+    } else {
+        append(tried, "; " ENV_PYTHON " not set");
+    }
+    if (!found && python_state == SEARCH_PENDING) {
+        if (on_path(exe, sizeof exe))
+            found = try_executable("python3 on PATH: ", exe, packages);
+        else
+            append(tried, "; no python3 on PATH");
+    }
+    if (!found && python_state == SEARCH_PENDING)
+        found = try_system_libpython(packages);
+    return found;
+}
+
+/* Open pythonfmu's binary next to this library and resolve its functions: the final state. */
+static SearchState open_pythonfmu(void)
+{
+    char target[PATH_MAX], missing[TEXT_MAX / 2];
+    Dl_info self;
+    if (!dladdr((void *)&open_pythonfmu, &self) || !self.dli_fname) {
+        append(tried, "; cannot locate this library");
+        return SEARCH_BAD_BINARY;
+    }
+    const char *slash = strrchr(self.dli_fname, '/');
+    int folder = slash ? (int)(slash + 1 - self.dli_fname) : 0;
+    snprintf(target, sizeof target, "%.*s%s", folder, self.dli_fname, SMEHA_TARGET);
+    pythonfmu = dlopen(target, RTLD_NOW | RTLD_LOCAL);
+    if (!pythonfmu) {
+        append(tried, "; cannot load pythonfmu's binary: %s", dlerror());
+        return SEARCH_BAD_BINARY;
+    }
+    if (resolve_targets(pythonfmu, missing, sizeof missing) > 0) {
+        append(tried, "; pythonfmu's binary %s lacks %s", target, missing);
+        return SEARCH_BAD_BINARY;
+    }
+    /* pythonfmu frees its interpreter state from a static destructor and again from its
+     * library destructor; its finalizePythonInterpreter, run first, leaves both a null
+     * pointer (smeha_fmu_runtime.arm_clean_exit) */
+    void (*finalize)(void) = (void (*)(void))dlsym(pythonfmu, "finalizePythonInterpreter");
+    if (finalize)
+        atexit(finalize);
+    /* this library stays loaded: pythonfmu's instances call its relays */
+    dlopen(self.dli_fname, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+    return SEARCH_READY;
+}
 
 /* Find and start a Python, open pythonfmu's binary: 1 when ready (see the top of the file). */
 static int ensure_python(const char *resources)
 {
     pthread_mutex_lock(&search_lock);
-    if (python_state != 0)
-        goto done;
-    char packages[512], exe[PATH_MAX];
-    tried[0] = '\0';
-    record_values(resources, "required", ' ', packages, sizeof packages);
-    int (*is_initialized)(void) = (int (*)(void))dlsym(RTLD_DEFAULT, "Py_IsInitialized");
-    int found = 0;
-    if (is_initialized && is_initialized()) {
-        found = 1; /* the host's own Python; its packages are the slave's concern */
-        snprintf(chosen, sizeof chosen, "the host process's Python");
-    } else {
-        append(tried, "no Python in the host process");
-        const char *setting = getenv(ENV_PYTHON);
-        if (setting && *setting) {
-            struct stat st;
-            if (stat(setting, &st) == 0 && S_ISDIR(st.st_mode))
-                snprintf(exe, sizeof exe, "%s/bin/python3", setting);
-            else
-                snprintf(exe, sizeof exe, "%s", setting);
-            found = try_executable(ENV_PYTHON "=", exe, packages);
+    if (python_state == SEARCH_PENDING) {
+        char packages[512];
+        tried[0] = '\0';
+        record_values(resources, "required", ' ', packages, sizeof packages);
+        int (*is_initialized)(void) = (int (*)(void))dlsym(RTLD_DEFAULT, "Py_IsInitialized");
+        int found = 0;
+        if (is_initialized && is_initialized()) {
+            found = 1; /* the host's own Python; its packages are the slave's concern */
+            snprintf(chosen, sizeof chosen, "the host process's Python");
         } else {
-            append(tried, "; " ENV_PYTHON " not set");
+            found = start_a_python(packages);
         }
-        if (!found && python_state == 0) {
-            if (record_values(resources, "executable", ' ', exe, sizeof exe))
-                found = try_executable("the build's Python ", exe, packages);
-            else
-                append(tried, "; no build record in %s", resources);
-        }
-        if (!found && python_state == 0) {
-            if (on_path(exe, sizeof exe))
-                found = try_executable("python3 on PATH: ", exe, packages);
-            else
-                append(tried, "; no python3 on PATH");
-        }
-        if (!found && python_state == 0)
-            found = try_system_libpython(packages);
+        /* without a Python the search may be tried again (SMEHA_FMU_PYTHON set since) */
+        if (found)
+            python_state = open_pythonfmu();
     }
-    if (found) {
-        char target[PATH_MAX];
-        Dl_info self;
-        if (!dladdr((void *)&ensure_python, &self) || !self.dli_fname) {
-            append(tried, "; cannot locate this library");
-        } else {
-            const char *slash = strrchr(self.dli_fname, '/');
-            int folder = slash ? (int)(slash + 1 - self.dli_fname) : 0;
-            snprintf(target, sizeof target, "%.*s%s", folder, self.dli_fname, SMEHA_TARGET);
-            pythonfmu = dlopen(target, RTLD_NOW | RTLD_LOCAL);
-            if (!pythonfmu) {
-                append(tried, "; cannot load pythonfmu's binary: %s", dlerror());
-            } else {
-                resolve_targets(pythonfmu);
-                /* pythonfmu frees its interpreter state from a static destructor and again
-                 * from its library destructor; its finalizePythonInterpreter, run first,
-                 * leaves both a null pointer (smeha_fmu_runtime.arm_clean_exit) */
-                void (*finalize)(void) = (void (*)(void))dlsym(pythonfmu,
-                                                               "finalizePythonInterpreter");
-                if (finalize)
-                    atexit(finalize);
-                /* this library stays loaded: pythonfmu's instances call its relays */
-                dlopen(self.dli_fname, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
-                python_state = 1;
-            }
-        }
-        if (python_state != 1)
-            python_state = -1;
-    }
-done:;
-    int ready = python_state == 1;
+    int ready = python_state == SEARCH_READY;
     pthread_mutex_unlock(&search_lock);
     return ready;
 }
@@ -483,6 +502,11 @@ static void no_python_message(char *out, size_t n, const char *resources)
 {
     char packages[512];
     record_values(resources, "required", ' ', packages, sizeof packages);
+    if (python_state == SEARCH_BAD_BINARY) {
+        snprintf(out, n, "%s: a Python runs, but pythonfmu's binary is unusable: %s", SMEHA_MODEL,
+                 tried);
+        return;
+    }
     snprintf(out, n,
              "%s: no usable Python: the FMU needs CPython >= 3.11 with a shared libpython%s%s. "
              "Tried: %s. Point the FMU at a Python: set " ENV_PYTHON

@@ -2,8 +2,8 @@
 
 A pythonfmu FMU embeds no Python: its binary calls the CPython of the host process, or,
 in a host that has none (a C or C++ tool), the one the FMU's loader found and started
-(``smeha_fmu_loader.c``: ``SMEHA_FMU_PYTHON``, the build's Python, ``python3`` on
-``PATH``, the system's libpython). An FMU built without the loader (no C compiler) starts
+(``smeha_fmu_loader.c``: ``SMEHA_FMU_PYTHON``, ``python3`` on ``PATH``, the system's
+libpython). An FMU built without the loader (no C compiler) starts
 the ``libpython`` the build made a needed library of pythonfmu's binary
 (``smeha.fmu.build``). Each slave calls :func:`prepare` as its first statement,
 before pythonfmu, numpy or gmt are imported, because three things may need
@@ -14,7 +14,7 @@ mending first, in this order:
    loaded as the FMU's needed library, then serves the FMU binary only, and
    every extension module (``math``, ``_ctypes``, numpy's) fails to load with
    ``undefined symbol: PyFloat_Type`` or the like. :func:`promote_libpython`
-   re-opens the already loaded libpython with ``RTLD_GLOBAL | RTLD_NOLOAD``
+   re-opens the loaded libpython (:func:`loaded_libpython`) with ``RTLD_GLOBAL | RTLD_NOLOAD``
    (glibc then adds it to the global scope, dlopen(3)). In a Python host the C
    API is already global (the executable or its libpython): nothing changes, and
    ``RTLD_NOLOAD`` never loads a library that is not there.
@@ -23,13 +23,13 @@ mending first, in this order:
    ``PATH`` (CPython's ``getpath``), so with ``PATH=/usr/bin:/bin`` the build's
    libpython runs with the system's standard library, which lacks modules it
    expects. When the running libpython is the build's (same ``sys.version``)
-   but its ``sys.base_prefix`` is not, :func:`restore_standard_library` puts the
-   build's standard library on ``sys.path`` instead. A Python host's own
-   interpreter (a different ``sys.version``, or the right prefix) is left alone.
-3. **The packages the FMU needs must be importable.** When the host's Python
-   lacks them (:func:`required_packages`: numpy for the transducer, numpy and numba for
-   the hydraulic plant), the site-packages of the build environment are appended to
-   ``sys.path`` (after the host's own).
+   and its installation's prefix (the folder above the ``lib`` holding it) is not
+   ``sys.base_prefix``, :func:`restore_standard_library` puts that installation's
+   standard library on ``sys.path`` instead. A Python host's own interpreter (a
+   different ``sys.version``, or the right prefix) is left alone.
+3. **The packages the FMU needs must be importable** (:func:`required_packages`:
+   numpy for the transducer, numpy and numba for the hydraulic plant): the ones this
+   Python cannot import are named, and every instance of the FMU says so at Error level.
 
 And one thing at exit (:func:`arm_clean_exit`, called by each slave when it is
 instantiated): pythonfmu's export library (0.7 and pythonfmu3 0.3.4 alike)
@@ -47,16 +47,18 @@ the pointer once (finalising the interpreter the FMU started, if it started
 one), and leaves both later calls a null pointer, which they handle.
 
 This module runs before the standard library can be trusted: it imports only
-built-in and frozen modules (``sys``, ``os``, ``_imp``). The build environment
-is read from :data:`ENVIRONMENT_FILE`, a text file the build writes next to it
-(one ``key<TAB>value`` per line; keys may repeat).
+built-in and frozen modules (``sys``, ``os``, ``_imp``). The build's record is read
+from :data:`ENVIRONMENT_FILE`, a text file the build writes next to it (one
+``key<TAB>value`` per line; keys may repeat): the building interpreter's version and
+the required packages, no path.
 """
 from __future__ import annotations
 
 import os
 import sys
 
-#: File the build writes into the FMU's resources: the environment the FMU was built in.
+#: File the build writes into the FMU's resources: the interpreter version it was built with
+#: and the packages it needs.
 ENVIRONMENT_FILE = "smeha_fmu_environment.txt"
 #: Top-level packages the transducer FMU imports at run time beyond the standard library
 #: (another FMU's build records its own in the environment record, :func:`required_packages`).
@@ -128,24 +130,40 @@ def _in_standard_location(path: str, roots) -> bool:
     return False
 
 
-def restore_standard_library(record: dict) -> bool:
-    """Put the build interpreter's standard library on ``sys.path`` if another one is there.
+def loaded_libpython() -> str:
+    """Path of the shared libpython mapped into this process, or "" (Linux ``/proc``)."""
+    try:
+        with open("/proc/self/maps", encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                path = line.rstrip("\n").split(None, 5)[-1]
+                if os.path.basename(path).startswith("libpython3") and ".so" in path:
+                    return path
+    except OSError:
+        pass
+    return ""
 
-    Only when the running interpreter is the build's (same ``sys.version``) and
-    started with another prefix, which happens when the FMU started it in a
+
+def restore_standard_library(record: dict, libpython: str) -> bool:
+    """Put the standard library of the installation holding ``libpython`` on ``sys.path``
+    if another one is there.
+
+    Only when the running interpreter is the build's (same ``sys.version``) and started
+    with another prefix, which happens when an FMU linked to its libpython starts it in a
     host that is not a Python program. Returns True if it changed anything.
     """
     version = (record.get("version") or [None])[0]
-    base_prefix = (record.get("base_prefix") or [None])[0]
-    stdlib = record.get("stdlib", [])
-    if sys.version != version or not base_prefix or sys.base_prefix == base_prefix or not stdlib:
+    prefix = os.path.dirname(os.path.dirname(libpython)) if libpython else ""
+    minor = "%d.%d" % sys.version_info[:2]
+    stdlib = os.path.join(prefix, "lib", "python" + minor)
+    if (sys.version != version or not prefix or sys.base_prefix == prefix
+            or not os.path.isfile(os.path.join(stdlib, "os.py"))):
         return False
     wrong = {sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix}
     kept = [p for p in sys.path if not _in_standard_location(p, wrong)]
-    sys.path[:] = kept + [p for p in stdlib if p not in kept]
-    exec_prefix = (record.get("base_exec_prefix") or [base_prefix])[0]
-    sys.prefix = sys.base_prefix = base_prefix
-    sys.exec_prefix = sys.base_exec_prefix = exec_prefix
+    ours = [os.path.join(prefix, "lib", "python%d%d.zip" % sys.version_info[:2]), stdlib,
+            os.path.join(stdlib, "lib-dynload")]
+    sys.path[:] = kept + [p for p in ours if p not in kept]
+    sys.prefix = sys.base_prefix = sys.exec_prefix = sys.base_exec_prefix = prefix
     return True
 
 
@@ -164,30 +182,9 @@ def required_packages(record: dict) -> tuple:
     return tuple(name for name in record["required"] if name)
 
 
-def _same_minor_version(record: dict) -> bool:
-    """Whether this interpreter is the build's X.Y (whose compiled packages it can import);
-    True when the record states no version."""
-    recorded = (record.get("version") or [""])[0].split()
-    if not recorded:
-        return True
-    return recorded[0].split(".")[:2] == [str(v) for v in sys.version_info[:2]]
-
-
-def find_packages(record: dict, packages=REQUIRED_PACKAGES) -> list[str]:
-    """Make ``packages`` importable; return those still missing.
-
-    The host's own ``sys.path`` comes first; the build environment's
-    site-packages are appended only when a package is missing there and this
-    interpreter is the build's X.Y (another version cannot import their compiled
-    modules: the FMU's loader then chose this Python for having the packages itself).
-    """
-    missing = _missing(packages)
-    if missing and _same_minor_version(record):
-        for path in record.get("site", []):
-            if path not in sys.path:
-                sys.path.append(path)
-        missing = _missing(packages)
-    return missing
+def find_packages(packages=REQUIRED_PACKAGES) -> list[str]:
+    """The ``packages`` this interpreter cannot import."""
+    return _missing(packages)
 
 
 #: FMU binaries whose exit handler :func:`arm_clean_exit` has registered.
@@ -266,11 +263,11 @@ def prepare(resources: str | None = None) -> dict:
         record = {}
         report["environment"] = f"no build environment record ({exc})"
     if not _PREPARED:
-        _PROCESS["libpython"] = promote_libpython((record.get("libpython") or [""])[0])
-        _PROCESS["standard_library_restored"] = restore_standard_library(record)
+        libpython = loaded_libpython()
+        _PROCESS["libpython"] = promote_libpython(libpython)
+        _PROCESS["standard_library_restored"] = restore_standard_library(record, libpython)
     report.update(_PROCESS)
-    report["missing"] = find_packages(record, required_packages(record))
-    report["site"] = list(record.get("site", []))
+    report["missing"] = find_packages(required_packages(record))
     _PREPARED[folder] = report
     REPORT.clear()
     REPORT.update(report)
@@ -287,7 +284,7 @@ def missing_packages_message() -> str | None:
     missing = REPORT.get("missing")
     if not missing:
         return None
-    return (f"the FMU needs the Python package(s) {', '.join(missing)}, which neither this "
-            f"process's Python {sys.version.split()[0]} (prefix {sys.prefix}) nor the "
-            f"environment the FMU was built in ({', '.join(REPORT['site']) or 'not recorded'}) "
-            f"provides: install them into either (pip install {' '.join(missing)})")
+    return (f"the FMU needs the Python package(s) {', '.join(missing)}, which this process's "
+            f"Python {sys.version.split()[0]} (prefix {sys.prefix}) cannot import: install "
+            f"them into it (pip install {' '.join(missing)}) or run the FMU in a Python that "
+            "has them (docs/FMU.md)")

@@ -156,6 +156,7 @@ class TransducerSlave(SlaveBase):
         self._transducer = None  # gmt.Transducer, built on leaving initialisation
         self._built_from = None  # parameter values it was built from
         self._warned_design_point = set()  # the design-point warnings logged (once each)
+        self._preview = None  # (values, gmt.Transducer) built to answer calculated parameters
         self._init_base()
 
     def _built(self) -> bool:
@@ -164,10 +165,21 @@ class TransducerSlave(SlaveBase):
     def _discard_model(self) -> None:
         self._transducer, self._built_from = None, None
 
+    def _calculated_value(self, name):
+        if self._transducer is not None:
+            return getattr(self, name)
+        values = parameter_values(self)
+        if self._preview is None or self._preview[0] != values:
+            self._preview = (values, make_transducer(values))  # not yet stepped: reusable
+        # gmt.RodMechanics holds them in MECHANICS order (interface.check_against_gmt)
+        return float(self._preview[1].rod_mechanics()[MECHANICS.index(name)])
+
     def _build(self, values: dict) -> bool:
         """Build the gmt objects from parameter values; log and return False on error."""
         try:
-            self._transducer = make_transducer(values)
+            preview, self._preview = self._preview, None
+            self._transducer = (preview[1] if preview is not None and preview[0] == values
+                                else make_transducer(values))
         except Exception as exc:
             self._transducer, self._built_from = None, None
             self._problem = f"initialisation failed: {type(exc).__name__}: {exc}"

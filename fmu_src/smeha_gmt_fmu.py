@@ -7,7 +7,10 @@ to :class:`gmt.Transducer`. No physics here.
 Life cycle
 ----------
 * Parameters are fixed: they are read when the host leaves initialisation mode
-  (``fmi2ExitInitializationMode``), which builds the gmt objects. ``fmi2Reset``
+  (``fmi2ExitInitializationMode``), which builds the gmt objects. The calculated
+  parameters (the rod's mechanics) are computed from the parameters set so far
+  whenever a host reads them in Initialization Mode
+  (:meth:`smeha_fmu_base.SlaveBase._calculated_value`). ``fmi2Reset``
   re-runs the constructor (pythonfmu), so the host initialises again.
 * ``fmi2DoStep(t, h)`` holds ``u`` and ``external_force`` over [t, t+h) and
   returns the outputs at t+h, as :meth:`gmt.Transducer.step` does.

@@ -28,6 +28,11 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
+#: A clean environment: nothing that points a process at a Python.
+CLEAN_ENV = {"PATH": "/usr/bin:/bin", "LANG": "C.UTF-8"}
+#: A clean environment that names the Python the FMUs run in, as a user of a C host does
+#: (this venv's; an FMU records no path of the machine that built it).
+HOST_ENV = dict(CLEAN_ENV, SMEHA_FMU_PYTHON=sys.executable)
 RUNNER = Path(__file__).resolve().with_name("fmu_runner.py")
 
 

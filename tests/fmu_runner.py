@@ -13,6 +13,8 @@ Commands
 ``drive OUT FMU N H F A U0 [NAME=VALUE...]``  u = U0 + A cos(2 pi F t), N steps of H (the
                            C host's drive, tests/fmu_c_host.c)
 ``simulate_bad OUT FMU``   fmpy.simulate_fmu with every bad parameter
+``init_mode OUT FMU``      the calculated parameters read in Initialization Mode (fmpy)
+``ssp_fmpy OUT SSP F``     the EHA system's .ssp in fmpy's SSP master: piston position, flow
 
 Why a child process: pythonfmu FMUs run in the host's interpreter, and a host
 that already imported ``gmt`` makes the FMU use that copy instead of the one
@@ -365,8 +367,20 @@ def _case_time(name, k):
 
 # -- behaviour: trajectories, instances, reset, state ---------------------------------------
 def behaviour(out_path, fmu_path):
-    before = "gmt" in sys.modules
-    res = {"gmt_imported_before_fmu": before}
+    res = {"gmt_imported_before_fmu": "gmt" in sys.modules}
+    fmus = _behaviour_cases(fmu_path, res)
+    unzip = fmus["fixed50"].dir
+    a, b = _behaviour_pair(fmu_path, unzip, res)
+    r = _behaviour_reset(fmu_path, unzip, res)
+    s, other = _behaviour_state(fmu_path, unzip, res)
+    _behaviour_variant_states(fmu_path, unzip, res)
+    res["logs"] = {n: f.logs for n, f in {**fmus, "a": a, "b": b, "reset": r, "state": s,
+                                            "other": other}.items()}
+    _write(out_path, res)
+
+
+def _behaviour_cases(fmu_path, res) -> dict:
+    """Every case in an instance of its own (one extraction); their rows into ``res``."""
     fmus = {}
     for name in CASES:
         fmu = Fmu(fmu_path, name=name, unzipdir=fmus["fixed50"].dir if fmus else None)
@@ -380,9 +394,11 @@ def behaviour(out_path, fmu_path):
         res[f"outside_{name}"] = bool(fmu.s.getBoolean([fmu.vr["outside_design_point"]])[0])
         res[f"status_{name}"] = sorted(set(statuses))
         fmus[name] = fmu
-    unzip = fmus["fixed50"].dir
+    return fmus
 
-    # two instances in one process, stepped alternately
+
+def _behaviour_pair(fmu_path, unzip, res):
+    """Two instances in one process, stepped alternately."""
     a = Fmu(fmu_path, "pair_a", unzip)
     b = Fmu(fmu_path, "pair_b", unzip)
     a.init(make_case("fixed50")[0])
@@ -403,8 +419,11 @@ def behaviour(out_path, fmu_path):
             tb += hb[k]
             rows_b.append(b.outputs())
     res["pair_fixed50"], res["pair_comp_demand"] = rows_a, rows_b
+    return a, b
 
-    # reset: same parameters again, and back to the start values
+
+def _behaviour_reset(fmu_path, unzip, res):
+    """Reset: the same parameters again, and back to the start values."""
     r = Fmu(fmu_path, "reset", unzip)
     r.init(make_case("comp_demand")[0])
     run_case(r, "comp_demand", 0, 600)
@@ -415,8 +434,11 @@ def behaviour(out_path, fmu_path):
     r.reset()
     r.init()  # no parameters set: the start values apply again
     res["reset_defaults"] = run_case(r, "fixed50")[0]
+    return r
 
-    # FMU state: save at k1, run to k2, restore, replay
+
+def _behaviour_state(fmu_path, unzip, res):
+    """FMU state: save at k1, run to k2, restore, replay (and into another instance)."""
     k1, k2 = 700, 1400
     s = Fmu(fmu_path, "state", unzip)
     s.init(make_case("comp_demand")[0])
@@ -443,9 +465,12 @@ def behaviour(out_path, fmu_path):
     moved = run_case(other, "comp_demand", k1, k2, t1)[0]
     res.update(state_first=first, state_again=again, state_from_bytes=from_bytes,
                state_twice=twice, state_moved=moved, state_k1=k1, state_k2=k2)
+    return s, other
 
-    # the same with stateful variants: the delay line (its length varies), the plays, the
-    # lag's sections, the diffusion's modes and the rod mass of the two masses
+
+def _behaviour_variant_states(fmu_path, unzip, res):
+    """The same with stateful variants: the delay line (its length varies), the plays, the
+    lag's sections, the diffusion's modes and the rod mass of the two masses."""
     for case in STATEFUL_VARIANTS:
         k1, k2 = 500, 1000
         v = Fmu(fmu_path, f"state_{case}", unzip)
@@ -467,9 +492,6 @@ def behaviour(out_path, fmu_path):
         res[f"vstate_{case}"] = {"first": first, "again": again, "from_bytes": from_bytes,
                                  "moved": moved, "k1": k1, "k2": k2, "bytes": len(blob),
                                  "transducer_state": len(json.loads(blob)["transducer"])}
-    res["logs"] = {n: f.logs for n, f in {**fmus, "a": a, "b": b, "reset": r, "state": s,
-                                            "other": other}.items()}
-    _write(out_path, res)
 
 
 # -- bad input --------------------------------------------------------------------------------
@@ -486,33 +508,48 @@ def bad_input(out_path, fmu_path):
     _write(out_path, results)
 
 
-def _bad_input(results, fmu_path):
-    unzip = None
-    clean_cache = {}
+class _Instances:
+    """Fresh instances of one FMU (one extraction), and the outputs of clean runs."""
 
-    def fresh(name, params=None):
-        nonlocal unzip
-        fmu = Fmu(fmu_path, name, unzip)
-        unzip = fmu.dir
-        init = fmu.init(params)
-        return fmu, init
+    def __init__(self, fmu_path):
+        self.fmu_path, self.unzip, self.clean_cache = fmu_path, None, {}
 
-    def clean(params, inputs):
+    def fresh(self, name, params=None):
+        fmu = Fmu(self.fmu_path, name, self.unzip)
+        self.unzip = fmu.dir
+        return fmu, fmu.init(params)
+
+    def clean(self, params, inputs):
         """Outputs after stepping a fresh instance through ``inputs`` [(u, F, h)]."""
         key = json.dumps([params, inputs])
-        if key not in clean_cache:
-            fmu, _ = fresh(f"clean{len(clean_cache)}", params)
+        if key not in self.clean_cache:
+            fmu, _ = self.fresh(f"clean{len(self.clean_cache)}", params)
             t = 0.0
             for u, f, h in inputs:
                 fmu.inputs(u, f)
                 fmu.step(t, h)
                 t += h
-            clean_cache[key] = fmu.outputs()
-        return clean_cache[key]
+            self.clean_cache[key] = fmu.outputs()
+        return self.clean_cache[key]
 
+
+def _bad_input(results, fmu_path):
+    instances = _Instances(fmu_path)
+    _bad_inputs(instances, results)
+    for name, (params, _) in BAD_PARAMETERS.items():
+        fmu, init = instances.fresh(name, params)
+        fmu.inputs(1.0, 0.0)
+        steps = [fmu.step(0.0, 1e-5), fmu.step(1e-5, 1e-5)]
+        results[name] = {"init": init, "bad_step": steps[0], "statuses": steps,
+                         "logs": fmu.logs}
+    _bad_sequences(instances, results)
+    results["process_survived"] = True
+
+
+def _bad_inputs(instances, results):
+    """10 good steps, one bad (u, F, h), 10 good, per case: the bad step must change nothing."""
     def input_case(name, params, bad):
-        """10 good steps, one bad (u, F, h), 10 good: the bad step must change nothing."""
-        fmu, init = fresh(name, params)
+        fmu, init = instances.fresh(name, params)
         good = [(1.0 + 0.1 * k, 5.0, 1e-5) for k in range(20)]
         statuses, t = [], 0.0
         for k, (u, f, h) in enumerate(good):
@@ -523,7 +560,7 @@ def _bad_input(results, fmu_path):
             statuses.append(fmu.step(t, h))
             t += h
         results[name] = {"init": init, "bad_step": statuses[10], "statuses": statuses,
-                         "recovered_exactly": fmu.outputs() == clean(params, good),
+                         "recovered_exactly": fmu.outputs() == instances.clean(params, good),
                          "logs": fmu.logs}
 
     nan, inf = float("nan"), float("inf")
@@ -542,28 +579,22 @@ def _bad_input(results, fmu_path):
     input_case("step_zero_variant_hysteresis", variant_parameters(*VARIANTS["v_hysteresis"]),
                (1.0, 0.0, 0.0))
 
-    def parameter_case(name, params):
-        fmu, init = fresh(name, params)
-        fmu.inputs(1.0, 0.0)
-        steps = [fmu.step(0.0, 1e-5), fmu.step(1e-5, 1e-5)]
-        results[name] = {"init": init, "bad_step": steps[0], "statuses": steps,
-                         "logs": fmu.logs}
 
-    for name, (params, _) in BAD_PARAMETERS.items():
-        parameter_case(name, params)
-
+def _bad_sequences(instances, results):
+    """A parameter set after initialisation, failures in a row, a corrupt serialised state."""
+    nan = float("nan")
     # a fixed parameter set after initialisation is refused and changes nothing
-    fmu, init = fresh("parameter_after_init")
+    fmu, init = instances.fresh("parameter_after_init")
     set_status = fmu.set("mass", 1.0)
     fmu.inputs(1.0, 0.0)
     step = fmu.step(0.0, 1e-5)
     results["parameter_after_init"] = {
         "init": init, "set": set_status, "bad_step": step,
-        "recovered_exactly": fmu.outputs() == clean({}, [(1.0, 0.0, 1e-5)]),
+        "recovered_exactly": fmu.outputs() == instances.clean({}, [(1.0, 0.0, 1e-5)]),
         "logs": fmu.logs}
 
     # many failures in a row in one instance (two exceptions reaching pythonfmu crash it)
-    fmu, init = fresh("repeated_failures", {"frequency": -1.0})
+    fmu, init = instances.fresh("repeated_failures", {"frequency": -1.0})
     statuses = [fmu.step(0.0, 1e-5) for _ in range(3)]
     fmu.reset()
     statuses += fmu.init()
@@ -574,7 +605,7 @@ def _bad_input(results, fmu_path):
     results["repeated_failures"] = {"init": init, "statuses": statuses, "logs": fmu.logs}
 
     # a corrupt serialised state
-    fmu, init = fresh("corrupt_state")
+    fmu, init = instances.fresh("corrupt_state")
     fmu.inputs(1.0, 0.0)
     fmu.step(0.0, 1e-5)
     try:
@@ -585,9 +616,8 @@ def _bad_input(results, fmu_path):
     step = fmu.step(1e-5, 1e-5)
     results["corrupt_state"] = {"init": init, "set": set_status, "bad_step": step,
                                 "recovered_exactly": fmu.outputs()
-                                == clean({}, [(1.0, 0.0, 1e-5)] * 2),
+                                == instances.clean({}, [(1.0, 0.0, 1e-5)] * 2),
                                 "logs": fmu.logs}
-    results["process_survived"] = True
 
 
 # -- the same drive as tests/fmu_c_host.c, and every bad parameter through simulate_fmu ---------
@@ -596,7 +626,8 @@ DRIVE_OUTPUTS = ("current", "displacement", "velocity", "flux_density", "force")
 
 
 def drive(out_path, fmu_path, steps, h, frequency, amplitude, offset, *settings):
-    """u = offset + amplitude cos(2 pi f t) at t = k h, as the C host drives it; rows [t, outputs]."""
+    """u = offset + amplitude cos(2 pi f t) at t = k h, as the C host drives it; rows
+    [t, outputs]."""
     steps, h, frequency, amplitude, offset = (int(steps), float(h), float(frequency),
                                               float(amplitude), float(offset))
     fmu = Fmu(fmu_path, "drive")
@@ -744,13 +775,62 @@ def cosim(out_path, fmu_path, n="2000"):
 _KEEP: list = []
 
 
+# -- calculated parameters in Initialization Mode ------------------------------------------
+#: The calculated parameters (fmu_src/smeha_fmu_interface.py MECHANICS, gmt.RodMechanics order).
+MECHANICS = ("equivalent_mass", "equivalent_damping", "equivalent_stiffness", "output_mass",
+             "joint_stiffness", "joint_damping")
+
+
+def init_mode(out_path, fmu_path):
+    """The calculated parameters read between entering and exiting Initialization Mode.
+
+    ``paper``: mass, damping and stiffness set before entering, stiffness set again inside;
+    ``two_dof``: the two-mass variant selected before entering. Each records the values
+    read in Initialization Mode (before and after a parameter set there) and after it.
+    """
+    res = {"gmt_imported_before_fmu": "gmt" in sys.modules}
+    for case, before, inside in (
+            ("paper", {"mass": 0.05, "damping": 1000.0, "stiffness": 2e7}, {"stiffness": 3e7}),
+            ("two_dof", variant_parameters("mechanical_resonance:two_dof", TWO_DOF), {})):
+        fmu = Fmu(fmu_path, name=case)
+        get = fmu.s.getReal if fmu.fmi == "2" else fmu.s.getFloat64
+        vrs = [fmu.vr[n] for n in MECHANICS]
+        statuses = [fmu.set(k, v) for k, v in before.items()]
+        if fmu.fmi == "2":
+            statuses.append(fmu.call(fmu.s.setupExperiment, None, 0.0))
+            statuses.append(fmu.call(fmu.s.enterInitializationMode))
+        else:
+            statuses.append(fmu.call(fmu.s.enterInitializationMode, None, 0.0))
+        entered = list(get(vrs))
+        statuses += [fmu.set(k, v) for k, v in inside.items()]
+        inside_values = list(get(vrs))
+        statuses.append(fmu.call(fmu.s.exitInitializationMode))
+        res[case] = {"entered": entered, "inside": inside_values, "exited": list(get(vrs)),
+                     "statuses": statuses, "logs": fmu.logs}
+    _write(out_path, res)
+
+
+# -- the EHA system's .ssp in fmpy ----------------------------------------------------------
+def ssp_fmpy(out_path, ssp_path, frequency):
+    """The .ssp in fmpy's SSP master (smeha.fmu.systemrun.run_fmpy): the plant's piston
+    position at the end of each step, and the cylinder flow of the flow check."""
+    from smeha.fmu import systemrun
+
+    run = systemrun.run_fmpy(ssp_path)
+    flow = systemrun.flow(run.record, float(frequency), 1256e-6).flow_sim
+    _write(out_path, {"time": run.record["time"].tolist(),
+                      "piston_position": run.record["piston_position"].tolist(),
+                      "flow": flow, "wall": run.wall})
+
+
 def _write(path, obj):
     with open(path, "w") as fh:
         json.dump(obj, fh, default=str)
 
 
 COMMANDS = {"reference": reference, "behaviour": behaviour, "bad_input": bad_input,
-            "memory": memory, "cosim": cosim, "drive": drive, "simulate_bad": simulate_bad}
+            "memory": memory, "cosim": cosim, "drive": drive, "simulate_bad": simulate_bad,
+            "init_mode": init_mode, "ssp_fmpy": ssp_fmpy}
 
 if __name__ == "__main__":
     COMMANDS[sys.argv[1]](*sys.argv[2:])

@@ -90,28 +90,29 @@ def fmpy(out_path, ssp_path, frequency):
 
     from smeha.fmu import systemrun
 
-    record, wall = systemrun.run_fmpy(ssp_path)
-    chk = systemrun.flow(record, float(frequency), PISTON_AREA)
-    _write(out_path, dict(_check(chk, wall, len(record)), fmpy=fmpy_package.__version__,
-                          end_time=float(record["time"][-1])))
+    run = systemrun.run_fmpy(ssp_path)
+    chk = systemrun.flow(run.record, float(frequency), PISTON_AREA)
+    _write(out_path, dict(_check(chk, run.wall, len(run.record)),
+                          fmpy=fmpy_package.__version__, end_time=float(run.record["time"][-1])))
 
 
 def container(out_path, fmu_path, frequency):
     from smeha.fmu import systemrun
 
-    record, wall = systemrun.run_container(fmu_path)
-    chk = systemrun.flow(record, float(frequency), PISTON_AREA)
-    _write(out_path, _check(chk, wall, len(record) - 1))
+    run = systemrun.run_container(fmu_path)
+    chk = systemrun.flow(run.record, float(frequency), PISTON_AREA)
+    _write(out_path, _check(chk, run.wall, len(run.record) - 1))
 
 
 def libcosim(out_path, osp_path, frequency):
     from smeha.fmu import systemrun
 
-    record, wall, end_ns, units = systemrun.run_libcosim(osp_path, report=(
+    run = systemrun.run_libcosim(osp_path, report=(
         ("transducer", systemrun.MECHANICS + ("displacement",)),
         ("plant", systemrun.MECHANICS + ("rod_start_displacement",))))
-    chk = systemrun.flow(record, float(frequency), PISTON_AREA)
-    _write(out_path, dict(_check(chk, wall, len(record)), end_time_ns=end_ns, units=units))
+    chk = systemrun.flow(run.record, float(frequency), PISTON_AREA)
+    _write(out_path, dict(_check(chk, run.wall, len(run.record)), end_time=run.end_time,
+                          units=run.reported))
 
 
 def free(out_path, frequency, mode, cycles):

@@ -30,7 +30,8 @@ from smeha.fmu import crosscheck
 
 pytestmark = pytest.mark.integration
 
-CLEAN_ENV = {"PATH": "/usr/bin:/bin", "LANG": "C.UTF-8"}
+#: A clean environment naming the Python the FMU runs in (tests/fmu_fixtures.py HOST_ENV)
+CLEAN_ENV = {"PATH": "/usr/bin:/bin", "LANG": "C.UTF-8", "SMEHA_FMU_PYTHON": sys.executable}
 
 #: A child runs the FMU in fmpy from the cross-check files alone and validates the result.
 _FMPY = """

@@ -1,4 +1,4 @@
-"""The FMI 2.0 FMU (issue #3): build, model description, equality with gmt, state, errors.
+"""The FMI 2.0 FMU: build, model description, equality with gmt, state, errors.
 
 The FMU is built once per session in a child process and run in other
 children that never import the repository's gmt; see ``tests/fmu_fixtures.py``.
@@ -27,13 +27,15 @@ except ImportError:  # tests/ imported as a package
                                     run_runner, runner_dir)
 
 try:
-    from fmu_runner import BAD_PARAMETERS
+    from fmu_runner import BAD_PARAMETERS, TWO_DOF
 except ImportError:  # tests/ imported as a package
-    from tests.fmu_runner import BAD_PARAMETERS
+    from tests.fmu_runner import BAD_PARAMETERS, TWO_DOF
 
 from smeha.fmu.build import iface
 
 pytestmark = pytest.mark.integration
+
+REPO = Path(__file__).resolve().parents[1]
 
 CASES = ("fixed50", "random100", "comp_control", "comp_demand")
 #: One case per model variant (tests/fmu_runner.py VARIANTS): 100 Hz with random steps and
@@ -43,7 +45,7 @@ VARIANT_CASES = ("v_hysteresis", "v_saturation", "v_eddy", "v_delay", "v_mechani
                  "v_slab", "v_two_dof")
 #: Columns of a row (tests/fmu_runner.py OUTPUTS).
 DISPLACEMENT, SATURATION_COUNT, SENSED = 1, 9, 10
-#: Required by the issue: FMU and gmt agree to 1e-12 relative (they run the same
+#: FMU and gmt agree to 1e-12 relative (they run the same
 #: code on the same doubles, so in practice the difference is exactly 0).
 RTOL = 1e-12
 
@@ -89,7 +91,7 @@ def test_fmpy_validation_finds_no_problems(fmu_dist):
 def test_interface_names_causality_and_types(fmu_dist):
     svs = model_description(fmu_dist["2"]).find("ModelVariables").findall("ScalarVariable")
     got = {sv.get("name"): (sv.get("causality"), sv[0].tag) for sv in svs}
-    # names and types required by the issue
+    # the interface's names and types
     assert {n: got[n] for n in ("u", "external_force")} == {
         "u": ("input", "Real"), "external_force": ("input", "Real")}
     outputs = {"current": "Real", "displacement": "Real", "velocity": "Real", "field": "Real",
@@ -106,10 +108,10 @@ def test_interface_names_causality_and_types(fmu_dist):
                    "amplifier_gain", "current_limit", "compensated", "displacement_per_volt",
                    "control_offset", "branch_rule", "compensator_period", "model_variant",
                    "variant_parameters", "magnetics", "inverse_model"}
-                | set(gmt.TimeDomainParameters.field_names()))  # issue 21
+                | set(gmt.TimeDomainParameters.field_names()))
     assert params == expected
     assert got["magnetics"][1] == got["inverse_model"][1] == "String"
-    # the mechanics the force drives, for a host that integrates the rod (issue 12)
+    # the mechanics the force drives, for a host that integrates the rod
     assert {n for n, (c, _) in got.items() if c == "calculatedParameter"} == {
         "equivalent_mass", "equivalent_damping", "equivalent_stiffness", "output_mass",
         "joint_stiffness", "joint_damping"}
@@ -164,6 +166,40 @@ def test_initial_unknowns_list_every_output(fmu_dist):
     assert [int(u.get("index")) for u in structure.find("Outputs")] == outputs
     assert [int(u.get("index")) for u in structure.find("InitialUnknowns")] == sorted(
         outputs + calculated)
+
+
+@pytest.mark.parametrize("fmi", ["2", "3"])
+def test_calculated_parameters_hold_their_values_in_initialization_mode(fmu_dist, runner_dir,
+                                                                        fmi):
+    # FMI 2.0.4 section 4.2.4 (condition 2: the InitialUnknowns, which section 2.2.8 makes
+    # list every calculatedParameter) and FMI 3.0.2 section 2.3.3 let a host read them in
+    # Initialization Mode; an SSP host routes them into the plant's parameters there.
+    # Reference: eq 27's m, c, K are the parameters mass, damping, stiffness themselves
+    # (exact), and the two-mass variant's values are tests/fmu_runner.py TWO_DOF's (its
+    # rod mass, half of Table 2's 0.02 kg, is the variant's; damping and stiffness Table 2's).
+    res = run_runner("init_mode", runner_dir / f"init_mode{fmi}", fmu_dist[fmi])
+    assert res["gmt_imported_before_fmu"] is False
+    paper, two = res["paper"], res["two_dof"]
+    assert paper["entered"] == [0.05, 1000.0, 2e7, 0.0, 0.0, 0.0], paper["logs"]
+    assert paper["inside"] == paper["exited"] == [0.05, 1000.0, 3e7, 0.0, 0.0, 0.0]
+    assert two["entered"] == two["inside"] == two["exited"]
+    assert two["entered"][:4] == [0.01, 2945.0, 1.963e7, 0.01]
+    assert two["entered"][4:] == pytest.approx([TWO_DOF["joint_stiffness_N_per_m"],
+                                                TWO_DOF["joint_damping_N_s_per_m"]], rel=1e-12)
+    assert set(paper["statuses"]) == set(two["statuses"]) == {0}
+
+
+@pytest.mark.parametrize("fmi", ["2", "3"])
+def test_the_fmu_holds_no_path_of_the_machine_that_built_it(fmu_dist, fmi):
+    # an FMU travels: nothing in it names the source tree, this Python's installation or the
+    # build's output folder (the loader finds a Python where the FMU runs)
+    needles = {str(REPO), sys.prefix, sys.base_prefix, str(fmu_dist["dir"])}
+    with zipfile.ZipFile(fmu_dist[fmi]) as z:
+        found = [(name, needle) for name in z.namelist() for needle in needles
+                 if needle.encode() in z.read(name)]
+        record = z.read("resources/smeha_fmu_environment.txt").decode()
+    assert found == []
+    assert "required\tnumpy\n" in record and f"version\t{sys.version}\n" in record
 
 
 def test_default_experiment_is_the_50_hz_case(fmu_dist):
@@ -355,7 +391,7 @@ def test_memory_is_flat_over_1e5_steps(fmu_dist, runner_dir):
 
 # -- the documentation's fmpy example runs as shown ----------------------------------------------
 def test_the_docs_fmpy_example_runs_without_warnings(fmu_dist, tmp_path):
-    # issue 20 item 6: docs/FMU.md's simulate_fmu example printed fmpy's
+    # docs/FMU.md's simulate_fmu example must not print fmpy's
     # 'Warning: missing input for variable "external_force"'; run as written (a child: the
     # pytest process has imported the repository's gmt), on this session's FMU
     import re
@@ -390,7 +426,7 @@ for k in range(2):
 
 @pytest.mark.parametrize("tamper", [False, True])
 def test_loading_the_fmu_twice_warns_only_when_the_physics_differs(tamper, fmu_dist, tmp_path):
-    # issue 20 item 6: the same FMU loaded twice in one process (two extractions) shares its
+    # the same FMU loaded twice in one process (two extractions) shares its
     # physics under one module name; that is no cause for a warning, a different copy is
     proc = subprocess.run([sys.executable, "-c", _TWICE, str(fmu_dist["2"]),
                            "tamper" if tamper else "same"], cwd=tmp_path, env=child_env(),

@@ -1,4 +1,4 @@
-"""The FMU's sources stand alone (issue 13 item 6): fast checks without building an FMU.
+"""The FMU's sources stand alone: fast checks without building an FMU.
 
 Everything the FMU runs is bundled from ``fmu_src/`` (the slaves, the variable table
 ``smeha_fmu_interface.py`` and ``gmt``); none of it may import the ``smeha`` package, which
@@ -69,7 +69,7 @@ print(json.dumps(sorted(sys.modules)))
 
 
 def test_fmu_run_time_path_imports_numpy_only():
-    # issue 13 item 4: scipy and python-control must never load in the FMU's process
+    # scipy and python-control must never load in the FMU's process
     # (minimal FMUs importing scipy crash the host at exit, numpy-only ones do not)
     import json
     import subprocess
@@ -109,25 +109,21 @@ def _runtime():
 
 def test_environment_record_round_trips_through_its_text():
     runtime = _runtime()
-    record = {"version": ["3.11.7 (main) [GCC 12.2.0]"], "base_prefix": ["/opt/py"],
-              "stdlib": ["/opt/py/lib/python311.zip", "/opt/py/lib/python3.11"],
-              "site": ["/venv/lib/python3.11/site-packages"]}
+    record = {"version": ["3.11.7 (main) [GCC 12.2.0]"], "required": ["numpy", "numba"]}
     assert runtime.parse_environment(runtime.format_environment(record)) == record
 
 
-def test_the_build_records_this_python():
-    # what smeha.fmu.native writes: this interpreter, its shared libpython, numpy's site
+def test_the_build_records_this_pythons_version_and_the_packages_and_no_path():
+    # what smeha.fmu.native writes into the FMU: nothing of the machine that built it
     import sys
-
-    import numpy
 
     from smeha.fmu import native as fmu_native
 
     record = fmu_native.environment_record(["numpy"])
-    assert record["version"] == [sys.version]
-    assert record["site"] == [str(Path(numpy.__file__).resolve().parents[1])]
-    assert Path(record["libpython"][0]).is_file()
-    assert all(p.startswith(sys.base_prefix) for p in record["stdlib"])
+    assert record == {"version": [sys.version], "required": ["numpy"]}
+    assert fmu_native.environment_record([]) == {"version": [sys.version], "required": [""]}
+    with pytest.raises(fmu_native.NativeError, match="smeha_absent_package"):
+        fmu_native.environment_record(["smeha_absent_package"])
 
 
 def test_standard_locations_are_those_of_a_prefix():
@@ -141,22 +137,12 @@ def test_standard_locations_are_those_of_a_prefix():
     assert not runtime._in_standard_location("/usrx/lib/python3.11", roots)
 
 
-def test_a_missing_package_is_looked_for_in_the_build_environment_and_named(tmp_path,
-                                                                             monkeypatch):
-    import sys
-
+def test_a_missing_package_is_named_with_the_install_command(monkeypatch):
     runtime = _runtime()
-    site = tmp_path / "site"
-    (site / "smeha_probe_pkg").mkdir(parents=True)
-    (site / "smeha_probe_pkg" / "__init__.py").write_text("")
-    monkeypatch.setattr(sys, "path", list(sys.path))
-    assert runtime.find_packages({"site": [str(site)]}, ("smeha_probe_pkg",)) == []
-    assert str(site) == sys.path[-1]  # appended after the host's own
-    monkeypatch.setattr(runtime, "REPORT", {"missing": ["smeha_absent_pkg"],
-                                            "site": ["/nowhere"]})
+    assert runtime.find_packages(("sys", "smeha_absent_pkg")) == ["smeha_absent_pkg"]
+    monkeypatch.setattr(runtime, "REPORT", {"missing": ["smeha_absent_pkg"]})
     message = runtime.missing_packages_message()
-    assert "smeha_absent_pkg" in message and "/nowhere" in message
-    assert runtime.find_packages({"site": []}, ("smeha_absent_pkg",)) == ["smeha_absent_pkg"]
+    assert "smeha_absent_pkg" in message and "pip install smeha_absent_pkg" in message
 
 
 # -- the loader's limits (docs/FMU.md, "The loader": limits) ------------------------------------
@@ -172,3 +158,35 @@ def test_the_loader_is_compiled_for_linux_x86_64_only(monkeypatch, system, machi
     monkeypatch.setattr(loader.platform, "machine", lambda: machine)
     with pytest.raises(loader.LoaderError, match=named):
         loader.compile_loader("2", "SmehaGmt", "SmehaGmt", FMU_SRC / loader.SOURCE_NAME)
+
+
+def test_the_loader_runs_the_builds_own_libpython_search():
+    # one search: fmu_src/smeha_fmu_probe.py, compiled into the loader as its probe and
+    # called by the build (smeha.fmu.native.find_libpython); run as the loader runs it, in
+    # this Python, it names this Python's version, libpython and the missing package
+    import json
+    import subprocess
+    import sys
+
+    from smeha.fmu import loader, native
+
+    text = (FMU_SRC / loader.PROBE_NAME).read_text()
+    header = loader.probe_header(FMU_SRC / loader.PROBE_NAME)
+    assert f"PROBE[] = {json.dumps(text)};" in header
+    assert "#define MIN_HEXVERSION 0x030B0000L" in header  # CPython 3.11
+    assert '"libpython3.13.so.1.0", "libpython3.12.so.1.0", "libpython3.11.so.1.0"' in header
+    assert "sysconfig" not in (FMU_SRC / loader.SOURCE_NAME).read_text()
+    out = subprocess.run([sys.executable, "-c", text, "json", "smeha_absent_pkg"],
+                         capture_output=True, text=True, check=True).stdout.split("\n")
+    assert out[:3] == [str(sys.hexversion), str(native.find_libpython()), "smeha_absent_pkg"]
+
+
+def test_the_loader_checks_every_function_a_cosimulation_fmu_needs():
+    # pythonfmu 0.7's binary lacks FMI 2.0's Model Exchange functions: only the others make
+    # instantiation fail (named) when missing
+    from smeha.fmu import loader
+
+    text = loader.forwarders("2")
+    assert "if (!T_fmi2DoStep && ++count)" in text
+    assert "if (!T_fmi2SetTime" not in text and "T_fmi2SetTime = " in text
+    assert "if (!T_fmi3DoStep && ++count)" in loader.forwarders("3")

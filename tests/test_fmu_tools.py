@@ -1,4 +1,4 @@
-"""The FMUs in the FMI community's own hosts: fmusim and the FMU Compliance Checker (issue 20).
+"""The FMUs in the FMI community's own hosts: fmusim, the FMU Compliance Checker, OMSimulator.
 
 fmusim (modelica/Reference-FMUs) and fmuCheck (modelica-tools/FMUComplianceChecker) are not
 Python packages: a machine that has built them names them in ``FMUSIM`` / ``FMUCHECK`` or
@@ -6,8 +6,8 @@ puts them on ``PATH`` (``fmusim``, ``fmuCheck.linux64`` or ``fmuCheck``); where 
 found, the tests are skipped. docs/FMU.md ("Run time: which Python") says how they were
 built and what they gave on other machines.
 
-Each host runs in a clean environment (``env -i PATH=/usr/bin:/bin``: the FMU's loader finds
-the Python the FMU was built with through its record) on the paper's 50 Hz drive, and its
+Each host runs in a clean environment (``env -i PATH=/usr/bin:/bin``) that names the Python
+the FMU runs in (``SMEHA_FMU_PYTHON``, this venv's) on the paper's 50 Hz drive, and its
 outputs must be fmpy's (tests/fmu_runner.py ``drive``): fmusim's to the last printed digit
 (16 significant digits: 1e-12 relative bounds the printing, not the model), fmuCheck's to
 its clock's rounding (see the test).
@@ -23,13 +23,12 @@ import numpy as np
 import pytest
 
 try:
-    from fmu_fixtures import fmu_dist, run_runner, runner_dir  # noqa: F401
+    from fmu_fixtures import HOST_ENV, fmu_dist, run_runner, runner_dir  # noqa: F401
 except ImportError:  # tests/ imported as a package
-    from tests.fmu_fixtures import fmu_dist, run_runner, runner_dir  # noqa: F401
+    from tests.fmu_fixtures import HOST_ENV, fmu_dist, run_runner, runner_dir  # noqa: F401
 
 pytestmark = pytest.mark.integration
 
-CLEAN_ENV = {"PATH": "/usr/bin:/bin", "LANG": "C.UTF-8"}
 #: The drive of tests/test_fmu_hosts.py: u = cos(2 pi 50 t), 1500 steps of 10 us.
 STEPS, H, FREQUENCY = 1500, 1e-5, 50.0
 OUTPUTS = ("current", "displacement", "velocity", "flux_density", "force")
@@ -86,7 +85,7 @@ def test_fmusim_runs_the_fmu_as_fmpy_does(fmi, fmu_dist, drive_csv, reference, t
     for name in OUTPUTS:
         cmd += ["--output-variable", name]
     proc = subprocess.run([*cmd, str(fmu_dist[fmi])], capture_output=True, text=True,
-                          env=CLEAN_ENV, timeout=300)
+                          env=HOST_ENV, timeout=300)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "[Error]" not in proc.stdout + proc.stderr
     got = _table(out)[1:STEPS + 1]  # the row at t = 0 is before the first step
@@ -101,7 +100,7 @@ def test_fmucheck_finds_no_problem_and_runs_the_fmu_as_fmpy_does(fmu_dist, drive
     out = tmp_path / "out.csv"
     proc = subprocess.run([fmucheck, "-k", "cs", "-h", repr(H), "-s", repr(STEPS * H), "-n",
                            "0", "-i", str(drive_csv), "-o", str(out), str(fmu_dist["2"])],
-                          capture_output=True, text=True, env=CLEAN_ENV, timeout=300)
+                          capture_output=True, text=True, env=HOST_ENV, timeout=300)
     text = proc.stdout + proc.stderr
     assert proc.returncode == 0, text
     assert "\t0 Warning(s)\n\t0 Error(s)" in text and "0 warning(s) and error(s)" in text, text
@@ -115,3 +114,48 @@ def test_fmucheck_finds_no_problem_and_runs_the_fmu_as_fmpy_does(fmu_dist, drive
     assert rows >= STEPS - 1
     assert _close(got[1:rows + 1, 1:], ref[:rows, 1:]) <= 1e-7
 
+
+
+# -- OpenModelica's OMSimulator ---------------------------------------------------------------
+#: OMSimulator's run of a lone FMU: 500 steps of 10 us from the start values (its command line
+#: sets no inputs: u = 0, the DC drive the design point flags, which moves the rod by the
+#: quadrature term of eq 31 alone)
+OMS_STEPS, OMS_H = 500, 1e-5
+
+
+def _omsimulator() -> str:
+    from smeha.fmu import systemrun
+
+    exe = systemrun.omsimulator()
+    if exe is None:
+        pytest.skip(f"OMSimulator is not installed (set {systemrun.OMSIMULATOR_VARIABLE} to "
+                    "its executable or put it on PATH; docs/FMU.md names its sources)")
+    return exe
+
+
+@pytest.mark.parametrize("fmi", ["2", "3"])
+def test_omsimulator_runs_the_fmu_as_fmpy_does(fmi, fmu_dist, runner_dir, tmp_path):
+    from smeha.fmu.systemrun import omsimulator_errors
+
+    exe = _omsimulator()
+    out = tmp_path / "oms.csv"
+    proc = subprocess.run([exe, str(fmu_dist[fmi]), f"--stopTime={OMS_STEPS * OMS_H!r}",
+                           f"--stepSize={OMS_H!r}", f"--intervals={OMS_STEPS}",
+                           "--emitEvents=false",
+                           f"--resultFile={out}", f"--tempDir={tmp_path}"], cwd=tmp_path,
+                          capture_output=True, text=True, env=HOST_ENV, timeout=300)
+    log = proc.stdout + proc.stderr
+    # OMSimulator exits 0 even when its log holds errors: the log is read
+    assert proc.returncode == 0 and not omsimulator_errors(log), log
+    table = _table(out)
+    # a row per communication point, the last of the rows OMSimulator writes at a time
+    # (it writes the final point twice); the row at t = 0 is before the first step
+    last = {t: row for t, row in zip(table[:, 0], table)}
+    got = np.array([last[t] for t in sorted(last)])[1:]
+    res = run_runner("drive", runner_dir / f"oms{fmi}", fmu_dist[fmi], str(OMS_STEPS),
+                     repr(OMS_H), repr(FREQUENCY), "0", "0")
+    ref = np.array(res["rows"])
+    assert got.shape == ref.shape
+    # the same arithmetic on the same doubles; 1e-9 bounds OMSimulator's printing and clock
+    # (its times are accumulated), not the model
+    assert _close(got, ref) <= 1e-9

@@ -1,4 +1,4 @@
-"""smeha installed from its wheel, as a user of a package index would (issue 20 item 7).
+"""smeha installed from its wheel, as a user of a package index would.
 
 ``pip wheel`` builds the wheel from this source tree; it is installed into a fresh venv in
 a temporary folder outside the clone, and every command runs from a folder of its own
@@ -8,9 +8,11 @@ this environment's own smeha is an editable install, whose import hook lives in 
 file of its site-packages that Python does not read from a borrowed folder, so only the
 wheel's smeha, gmt and system_models are importable (the test checks where they come from).
 
-Then: ``smeha build`` writes the FMUs into ``dist/`` of the current folder and says so;
-fmpy runs the FMU built there and it reproduces the 50 Hz drive; ``smeha flow`` at one
-frequency runs the flow study through that FMU.
+Then: ``smeha build`` writes the FMUs into the installation's per-user cache folder
+(``$XDG_CACHE_HOME/smeha/<version>-<key>/``, the test's own cache) and says so; fmpy runs
+the FMU built there and it reproduces the 50 Hz drive; ``smeha flow`` at one frequency,
+from another folder, runs the flow study through that FMU without building it again;
+``--out`` still overrides.
 """
 from __future__ import annotations
 
@@ -48,6 +50,7 @@ def installed(tmp_path_factory):
     wheels = where / "wheels"
     env = dict(os.environ)
     env.pop("PYTHONPATH", None)
+    env["XDG_CACHE_HOME"] = str(where / "cache")  # the per-user cache the FMUs go into
     proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w",
                            str(wheels), str(ROOT)], capture_output=True, text=True, env=env,
                           cwd=where, timeout=900)
@@ -70,6 +73,17 @@ def installed(tmp_path_factory):
     return python, work, env
 
 
+def where_cache(installed) -> Path:
+    return Path(installed[2]["XDG_CACHE_HOME"])
+
+
+def _dist(installed) -> Path:
+    """The installation's FMU folder, as the installed smeha names it."""
+    proc = _run(installed, "-c", "from smeha.fmu import build; print(build.DIST)")
+    assert proc.returncode == 0, proc.stderr
+    return Path(proc.stdout.strip())
+
+
 def _run(installed, *args, timeout=900):
     python, work, env = installed
     return subprocess.run([str(python), *args], capture_output=True, text=True, cwd=work,
@@ -89,7 +103,10 @@ def test_the_wheel_holds_the_fmu_sources_and_imports_from_itself(installed):
     assert in_tree == "False"
     assert (Path(sources) / "smeha_fmu_interface.py").is_file()
     assert (Path(sources) / "smeha_fmu_loader.c").is_file()
-    assert Path(dist) == work / "dist"
+    # built once per installation into the per-user cache, found from any folder
+    assert Path(dist).parent == where_cache(installed) / "smeha"
+    from smeha import __version__
+    assert Path(dist).name.startswith(f"{__version__}-")
 
 
 def test_smeha_build_and_flow_work_from_the_wheel(installed):
@@ -98,7 +115,7 @@ def test_smeha_build_and_flow_work_from_the_wheel(installed):
     proc = subprocess.run([str(smeha), "build"], capture_output=True, text=True, cwd=work,
                           env=installed[2], timeout=900)
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    fmu = work / "dist" / "SmehaGmt.fmu"
+    fmu = _dist(installed) / "SmehaGmt.fmu"
     assert f"FMI 2.0 co-simulation FMU: {fmu}, validated: no problems found" in proc.stdout
     check = _run(installed, "-c", _CHECK_FMU, str(fmu))
     assert check.returncode == 0, check.stderr
@@ -109,7 +126,17 @@ def test_smeha_build_and_flow_work_from_the_wheel(installed):
     from smeha.fmu import crosscheck
     y = [row[2] for row in crosscheck.reference() if row[0] <= 0.01 + 1e-9]
     assert float(words[4]) == pytest.approx(max(y) - min(y), rel=1e-9)
+    # from another folder: the same FMU, not built again; no dist/ anywhere
+    elsewhere = work.parent / "elsewhere"
+    elsewhere.mkdir()
+    built = fmu.stat().st_mtime_ns
     flow = subprocess.run([str(smeha), "flow", "--frequencies", "100"], capture_output=True,
-                          text=True, cwd=work, env=installed[2], timeout=900)
+                          text=True, cwd=elsewhere, env=installed[2], timeout=900)
     assert flow.returncode == 0, flow.stdout + flow.stderr
     assert "100" in flow.stdout and "Errno" not in flow.stdout + flow.stderr
+    assert fmu.stat().st_mtime_ns == built
+    assert not (work / "dist").exists() and not (elsewhere / "dist").exists()
+    # --out still overrides
+    out = subprocess.run([str(smeha), "build", "--out", str(elsewhere / "mine")],
+                         capture_output=True, text=True, cwd=work, env=installed[2], timeout=900)
+    assert out.returncode == 0 and (elsewhere / "mine" / "SmehaGmt.fmu").is_file(), out.stderr

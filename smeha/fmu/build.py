@@ -52,12 +52,8 @@ from gmt.errors import RunError
 
 from . import loader, native
 
-__all__ = ["REPO", "IN_SOURCE_TREE", "FMU_SRC", "DIST", "table", "iface", "RUNTIME_MODULE",
-           "FMU_MODULES", "COMMON_MODULES", "runtime", "PACKAGE_SOURCES", "FmuSpec",
-           "SPECS", "spec", "GUID_NAMESPACE", "FMI2_OPTIONS", "FMI3_OPTIONS", "BuildError",
-           "patch_fmi2", "deterministic_guid", "finish_model_description",
-           "LINUX_BINARIES", "rewrite_fmu", "rename_imports", "bundle_package", "build",
-           "build_fmu", "validate_fmu", "build_all"]
+__all__ = ["DIST", "installed_dist", "FmuSpec", "SPECS", "BuildError", "build_fmu",
+           "build_all", "table"]
 
 #: The folder holding the packages: the source tree's root in a checkout (also under
 #: ``pip install -e``), site-packages in an installed wheel.
@@ -66,10 +62,26 @@ REPO = Path(__file__).resolve().parents[2]
 #: package data, ``smeha/fmu/sources/`` (pyproject's package-dir).
 IN_SOURCE_TREE = (REPO / "fmu_src" / "smeha_fmu_interface.py").is_file()
 FMU_SRC = REPO / "fmu_src" if IN_SOURCE_TREE else Path(__file__).resolve().parent / "sources"
+
+
+def installed_dist(cache: str | None = None) -> Path:
+    """Where an installed smeha keeps its FMUs: a per-user cache folder of this installation,
+    ``<cache>/smeha/<version>-<key>/``, with ``cache`` ``$XDG_CACHE_HOME`` or ``~/.cache``
+    and ``key`` a hash of the installation's folder (two installations keep theirs apart;
+    the same one finds its FMUs from any folder, built once)."""
+    import hashlib
+
+    from .. import __version__
+
+    base = Path(cache or os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    key = hashlib.sha256(str(REPO).encode()).hexdigest()[:12]
+    return base / "smeha" / f"{__version__}-{key}"
+
+
 #: Where ``smeha build`` writes the FMUs and ``smeha simulate``/``flow``/``sweep`` look for
 #: ``SmehaGmt.fmu``: dist/ of the source tree, whatever the current folder; installed from a
-#: wheel, ``dist/`` of the current folder.
-DIST = REPO / "dist" if IN_SOURCE_TREE else Path.cwd() / "dist"
+#: wheel, the per-user cache folder of :func:`installed_dist`. ``--out`` overrides both.
+DIST = REPO / "dist" if IN_SOURCE_TREE else installed_dist()
 
 
 def _fmu_src_neighbours(module: str) -> list[str]:
@@ -117,19 +129,34 @@ def table(module: str):
     return _load_from_fmu_src(module)
 
 
-#: The transducer FMU's variable table (``fmu_src/smeha_fmu_interface.py``).
-iface = table("smeha_fmu_interface")
-RUNTIME_MODULE = iface.RUNTIME_MODULE
-#: The modules of fmu_src/ bundled next to the transducer's slave: the table, the callbacks
-#: both slaves share, the run-time set-up, the variable record.
-FMU_MODULES = (iface.INTERFACE_MODULE, iface.SLAVE_LOGIC_MODULE, iface.RUNTIME_MODULE,
-               iface.VARIABLES_MODULE, iface.BASE_MODULE)
-#: The modules every FMU of the project bundles: the run-time set-up, the variable record,
-#: the callbacks every slave shares.
-COMMON_MODULES = (iface.RUNTIME_MODULE, iface.VARIABLES_MODULE, iface.BASE_MODULE)
-#: The FMUs' run-time set-up (``fmu_src/smeha_fmu_runtime.py``): what it needs, and the
-#: format of the build environment record.
-runtime = _load_from_fmu_src(RUNTIME_MODULE)
+def _iface():
+    """The transducer FMU's variable table (``fmu_src/smeha_fmu_interface.py``)."""
+    return table("smeha_fmu_interface")
+
+
+def _runtime():
+    """The FMUs' run-time set-up (``fmu_src/smeha_fmu_runtime.py``): what it needs, and the
+    format of the build environment record."""
+    return _load_from_fmu_src(_iface().RUNTIME_MODULE)
+
+
+def _common_modules() -> tuple:
+    """The modules every FMU of the project bundles: the run-time set-up, the variable record,
+    the callbacks every slave shares."""
+    iface = _iface()
+    return (iface.RUNTIME_MODULE, iface.VARIABLES_MODULE, iface.BASE_MODULE)
+
+
+def __getattr__(name):
+    # ``iface`` and ``runtime`` are loaded from fmu_src/ when first asked for: importing this
+    # module executes nothing of fmu_src/ (PEP 562)
+    if name == "iface":
+        return _iface()
+    if name == "runtime":
+        return _runtime()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 #: Source of each package an FMU may bundle (under a name of its own, :class:`FmuSpec`).
 PACKAGE_SOURCES = {"gmt": FMU_SRC / "gmt" if IN_SOURCE_TREE else REPO / "gmt",
                    "system_models": REPO / "system_models"}
@@ -180,17 +207,21 @@ class FmuSpec:
 
 
 def _transducer(fmi: str) -> FmuSpec:
+    iface = _iface()
+    # bundled next to the slave: the table, the callbacks both slaves share, and the
+    # modules every FMU bundles
+    modules = (iface.INTERFACE_MODULE, iface.SLAVE_LOGIC_MODULE, *_common_modules())
     return FmuSpec(iface.MODEL_NAME_FMI2 if fmi == "2" else iface.MODEL_NAME_FMI3, fmi,
                    iface.SLAVE_MODULE_FMI2 if fmi == "2" else iface.SLAVE_MODULE_FMI3,
-                   iface.INTERFACE_MODULE, FMU_MODULES,
-                   ((iface.BUNDLED_PHYSICS_PACKAGE, "gmt"),), runtime.REQUIRED_PACKAGES,
+                   iface.INTERFACE_MODULE, modules,
+                   ((iface.BUNDLED_PHYSICS_PACKAGE, "gmt"),), _runtime().REQUIRED_PACKAGES,
                    check="check_against_gmt")
 
 
 def _plant() -> FmuSpec:
     plant = table("smeha_plant_interface")
     return FmuSpec(plant.MODEL_NAME, "2", plant.SLAVE_MODULE, plant.INTERFACE_MODULE,
-                   (plant.INTERFACE_MODULE, plant.MODEL_MODULE, *COMMON_MODULES),
+                   (plant.INTERFACE_MODULE, plant.MODEL_MODULE, *_common_modules()),
                    ((plant.BUNDLED_PLANT_PACKAGE, "system_models"),
                     (plant.BUNDLED_GMT_PACKAGE, "gmt")),
                    plant.REQUIRED_PACKAGES, check="check_against_system_models",
@@ -200,7 +231,7 @@ def _plant() -> FmuSpec:
 def _drive() -> FmuSpec:
     drive = table("smeha_drive_interface")
     return FmuSpec(drive.MODEL_NAME, "2", drive.SLAVE_MODULE, drive.INTERFACE_MODULE,
-                   (drive.INTERFACE_MODULE, *COMMON_MODULES), required=(), check="check")
+                   (drive.INTERFACE_MODULE, *_common_modules()), required=(), check="check")
 
 
 #: Every FMU the project builds, by key: the transducer (FMI 2.0, FMI 3.0), and the EHA
@@ -258,6 +289,7 @@ def patch_fmi2(root: ET.Element, variables=None) -> ET.Element:
     * ``ModelStructure/InitialUnknowns``: every output (initial calculated) and
       calculated parameter, by 1-based index in ModelVariables (pythonfmu issue #193).
     """
+    iface = _iface()
     by_name = iface.BY_NAME if variables is None else variables
     for old in root.findall("UnitDefinitions"):
         root.remove(old)
@@ -327,11 +359,11 @@ def finish_model_description(xml: bytes, variables=None) -> bytes:
 LINUX_BINARIES = ("binaries/linux64/", "binaries/x86_64-linux/")
 
 
-def _linux_binaries(zin: zipfile.ZipFile, record: dict) -> dict:
+def _linux_binaries(zin: zipfile.ZipFile) -> dict:
     """The FMU's Linux binary members: the loader (:mod:`smeha.fmu.loader`) as
     ``<modelIdentifier>.so`` and pythonfmu's binary beside it, or, where the loader cannot be
-    compiled (the reason is printed), pythonfmu's binary linked to the libpython of the
-    environment record (:mod:`smeha.fmu.native`)."""
+    compiled (the reason is printed), pythonfmu's binary linked to the building interpreter's
+    libpython (:mod:`smeha.fmu.native`)."""
     root = ET.fromstring(zin.read("modelDescription.xml"))
     fmi = root.get("fmiVersion", "2")[0]
     ident = root.find("CoSimulation").get("modelIdentifier")
@@ -348,8 +380,9 @@ def _linux_binaries(zin: zipfile.ZipFile, record: dict) -> dict:
         except loader.LoaderError as exc:
             print(f"smeha build: note: no loader for {ident} ({exc}): its binary runs with "
                   "the build's Python only (docs/FMU.md)", file=sys.stderr)
-            out[name] = (native.link_libpython(data, record["libpython"][0])
-                         if record.get("libpython") else data)
+            # the fallback names the building libpython in the binary: it runs where that is
+            out[name] = (native.link_libpython(data, str(native.find_libpython()))
+                         if sys.platform.startswith("linux") else data)
     return out
 
 
@@ -363,11 +396,9 @@ def rewrite_fmu(raw: Path, dest: Path, variables=None, extra=None) -> Path:
     dest.parent.mkdir(parents=True, exist_ok=True)
     tmp = dest.with_name(dest.name + ".tmp")
     with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
-        record = runtime.parse_environment(
-            zin.read(f"resources/{runtime.ENVIRONMENT_FILE}").decode("utf-8"))
         members = {name: None for name in zin.namelist()}
         members.update(extra or {})
-        members.update(_linux_binaries(zin, record))
+        members.update(_linux_binaries(zin))
         for name in sorted(members):
             data = zin.read(name) if members[name] is None else members[name]
             if name == "modelDescription.xml":
@@ -439,7 +470,7 @@ def _stage(fmu: FmuSpec, staging: Path) -> Path:
     shutil.copy2(script, staging / script.name)
     for module in fmu.modules:
         shutil.copy2(FMU_SRC / f"{module}.py", staging)
-    (staging / runtime.ENVIRONMENT_FILE).write_text(runtime.format_environment(
+    (staging / _runtime().ENVIRONMENT_FILE).write_text(_runtime().format_environment(
         native.environment_record(fmu.required)), encoding="utf-8")
     for bundled, key in fmu.packages:
         bundle_package(PACKAGE_SOURCES[key], staging / bundled, fmu.renames)
@@ -460,7 +491,7 @@ def _worker(key: str, workdir: str) -> None:
         getattr(importlib.import_module(module), function)()
     project_files = [script.parent / name for name in (
         *(bundled for bundled, _ in fmu.packages), *(f"{m}.py" for m in fmu.modules),
-        runtime.ENVIRONMENT_FILE)]
+        _runtime().ENVIRONMENT_FILE)]
     if fmu.fmi == "2":
         from pythonfmu.builder import FmuBuilder
         FmuBuilder.build_FMU(script, dest=work / "raw", project_files=project_files,

