@@ -57,7 +57,7 @@ from . import positionoptions as options
 from .positionlimits import PumpLimits, pump_limits
 from .positiondesign import (INTEGRAL_RATIO, LOOP_GAIN, Controller, Design, PlantModel,
                              design, pi_step, predict_step, step_metrics)
-from .positionloop import Decision, LoopRecord, run_loop
+from .positionloop import TIME_TOLERANCE, Decision, LoopRecord, run_loop
 
 __all__ = ["PositionSettings", "PlantModel", "Design", "PositionResult", "identify", "design",
            "run_study", "step_metrics", "MODES", "SCENARIOS", "open_backend", "Controller",
@@ -380,7 +380,7 @@ def _run(settings, model, gains, relative, duration, fmu_path, load=None):
     periods = SETTLE_PERIODS + int(math.ceil(duration / period - 1e-9))
     ctrl = Controller(model, gains, settings.amplitude_limit, relative, SETTLE_PERIODS)
     rec = _loop(settings, fmu_path, periods, ctrl, ctrl.reference, load)
-    after = rec.rows["time"] >= ctrl.start - 1e-12
+    after = rec.rows["time"] >= ctrl.start - TIME_TOLERANCE
     return rec, ctrl, after
 
 
@@ -388,7 +388,7 @@ def _velocities(record, start) -> np.ndarray:
     """Period-averaged piston velocities from ``start`` on, [m/s] (the flow table's flows
     are period means, so these compare with them)."""
     per = record.periods
-    x = per["position"][per["time"] >= start - 1e-12]
+    x = per["position"][per["time"] >= start - TIME_TOLERANCE]
     return np.diff(x) * record.frequency
 
 
@@ -474,9 +474,9 @@ def run_load_step(settings, model, gains, fmu_path=None) -> PositionResult:
     base, extra = settings.load_force, settings.load_step
     at = SETTLE_PERIODS / settings.frequency + LOAD_STEP_AT
     rec, ctrl, after = _run(settings, model, gains, lambda t: 0.0, duration, fmu_path,
-                            load=lambda t: base + (extra if t >= at - 1e-12 else 0.0))
+                            load=lambda t: base + (extra if t >= at - TIME_TOLERANCE else 0.0))
     t, x = rec.rows["time"], rec.rows["piston_position"] - ctrl.origin
-    late = t >= at - 1e-12
+    late = t >= at - TIME_TOLERANCE
     dev = x[late]
     peak = float(dev[np.argmax(np.abs(dev))])
     out = np.flatnonzero(np.abs(dev) > 0.1 * abs(peak))

@@ -256,6 +256,7 @@ def _json(out) -> dict:
 
 
 def _write_csv(path, out) -> None:
+    from .positionloop import TIME_TOLERANCE
     from .positionplots import stages
     fields = ("mode", "time_s", "command_m", "piston_position_m", "piston_velocity_m_s",
               "amplitude", "direction", "stage", "p_pump_Pa", "p_big_Pa", "p_small_Pa",
@@ -266,7 +267,7 @@ def _write_csv(path, out) -> None:
         for mode, study in out.items():
             rec = study["results"][0].record
             rows, per = rec.rows, rec.periods
-            k = (rows["time"][:, None] >= per["time"][None, :] - 1e-12).sum(axis=1) - 1
+            k = (rows["time"][:, None] >= per["time"][None, :] - TIME_TOLERANCE).sum(axis=1) - 1
             command = per["command"][k]
             for i, r in enumerate(rows):
                 w.writerow([mode, f"{r['time']:.7g}", f"{command[i]:.9g}",

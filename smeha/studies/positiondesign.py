@@ -24,7 +24,7 @@ import numpy as np
 import gmt
 
 from . import positionoptions as options
-from .positionloop import Decision
+from .positionloop import TIME_TOLERANCE, Decision
 
 __all__ = ["PlantModel", "Design", "pi_step", "predict_step", "design", "Controller",
            "step_metrics", "LOOP_GAIN", "INTEGRAL_RATIO", "SMALLEST_FRACTION"]
@@ -229,7 +229,7 @@ class Controller:
 
     def reference(self, t) -> float:
         """The position command r(t), [m] (NaN while settling)."""
-        if self.origin is None or t < self.start - 1e-12:
+        if self.origin is None or t < self.start - TIME_TOLERANCE:
             return math.nan
         return self.origin + self.relative(t - self.start)
 

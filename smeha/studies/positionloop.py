@@ -42,7 +42,11 @@ from system_models.rod import RodParameters
 
 from .flow import Sinusoid
 
-__all__ = ["Decision", "LoopRecord", "period_signal", "run_loop"]
+__all__ = ["Decision", "LoopRecord", "period_signal", "run_loop", "TIME_TOLERANCE"]
+
+#: Two instants closer than this are the same, [s]: a communication point's time against a
+#: period's start or a scenario's event, both sums of steps whose round-off is ~1e-16 s.
+TIME_TOLERANCE = 1e-12
 
 
 @dataclass(frozen=True)

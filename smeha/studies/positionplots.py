@@ -20,6 +20,7 @@ from matplotlib.ticker import ScalarFormatter  # noqa: E402
 
 from ..outputs import save_figure  # noqa: E402
 from .flowplots import MODE_COLOURS  # noqa: E402
+from .positionloop import TIME_TOLERANCE  # noqa: E402
 
 __all__ = ["plot_study", "plot_envelope", "stages", "describe"]
 
@@ -33,7 +34,7 @@ def stages(rows) -> np.ndarray:
 
 def _per_period(rows, periods, field):
     """Min, mean and max of a record field over each period but the last."""
-    edges = np.searchsorted(rows["time"], periods["time"] - 1e-12)
+    edges = np.searchsorted(rows["time"], periods["time"] - TIME_TOLERANCE)
     parts = [rows[field][a:b] for a, b in zip(edges[:-1], edges[1:])]
     return tuple(np.array([f(p) if p.size else np.nan for p in parts])
                  for f in (np.min, np.mean, np.max))
