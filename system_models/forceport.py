@@ -85,20 +85,8 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
         points = grid.points(t, settings.window + 1)
         m = min(settings.window, points.size - 1)
         starts, steps = points[:m], np.diff(points[:m + 1])
-        u = np.empty(m + 1)
-        current, force = np.empty(m + 1), np.empty(m + 1)
-        flux, y_free = np.empty(m + 1), np.empty(m + 2)  # y_free[k + 1]: after step k
-        u[0], current[0], force[0], flux[0], y_free[0], y_free[1] = pending
-        for k in range(1, m + 1):
-            if k < points.size - 1:
-                u[k] = control(points[k])
-                h = points[k + 1] - points[k]
-                current[k], force[k] = backend.drive_step(
-                    points[k], h, control(points[k] + mid * h) if mid else u[k])
-                flux[k], y_free[k + 1] = _read(sensors, y_free[k])
-            else:  # the run's end: the last step holds its force
-                u[k], current[k], force[k] = u[k - 1], current[k - 1], force[k - 1]
-                flux[k], y_free[k + 1] = flux[k - 1], y_free[k]
+        u, current, force, flux, y_free = _drive_window(backend, control, points, m, mid,
+                                                        sensors, pending)
         pending = (u[m], current[m], force[m], flux[m], y_free[m], y_free[m + 1])
         commands = controller.commands_over(starts)
         forces = np.column_stack((force[:m], force[1:] if linear else force[:m]))
@@ -110,23 +98,14 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
             if status == kernel.CHAMBER_EMPTIED:
                 raise gmt.ParameterError(f"the rod empties the pump chamber at t = {at:g} s")
             raise integration_failure(rows[done - 1] if done else z, at, steps[done])
-        # row k: the state at the start of step k (the end of step k - 1)
-        ends_x, ends_q, ends_pa = rows[:, :n], rows[:, n:n + 4], rows[:, n + 4]
-        cols = stack_first(first, columns(ends_x[:-1], ends_x[:-1, out:out + 2],
-                                            ends_q[:-1], ends_pa[:-1]))
-        vol_end, comp_end = volume + rows[:, n + 5], compressed + rows[:, n + 6]
-        cols.update({
-            "time": starts, "control": u[:m], "current": current[:m], "force": force[:m],
-            "flux_density": flux[:m], "free_displacement": y_free[:m],
-            "compressing": controller.phases_over(starts),
-            "valves_compressing": commands[:, valves],
-            "volume_into_big": np.concatenate(([volume], vol_end[:-1])),
-            "compression_volume": np.concatenate(([compressed], comp_end[:-1])),
-            "iterations": 1.0})
+        cols, vol_end, comp_end, first = _window_columns(
+            rows, n, out, first, volume, compressed, starts,
+            dict(control=u[:m], current=current[:m], force=force[:m], flux_density=flux[:m],
+                 free_displacement=y_free[:m], compressing=controller.phases_over(starts),
+                 valves_compressing=commands[:, valves]))
         writer.add(cols, m)
-        z = ends_x[-1].copy()
+        z = rows[-1, :n].copy()
         volume, compressed = vol_end[-1], comp_end[-1]
-        first = columns(ends_x[-1:], ends_x[-1:, out:out + 2], ends_q[-1:], ends_pa[-1:])
         previous = commands[-1, valves]
         t = float(points[m])
         controller.forget_before(t)
@@ -139,6 +118,46 @@ def run_force_port(backend, control, circuit, settings, drive, controller, grid,
                  volume_into_big=volume, compression_volume=compressed, iterations=0.0)
     writer.add(final, 1)
     return z
+
+
+def _drive_window(backend, control, points, m, mid, sensors, pending):
+    """The transducer over a window's ``m`` steps, one step ahead of the plant: the control
+    u, current, force, flux density at each step's start (index 0 from ``pending``, the
+    look-ahead of the window before) and the free rod's displacement (``y_free[k + 1]``:
+    after step k). The run's last step holds its force."""
+    u = np.empty(m + 1)
+    current, force = np.empty(m + 1), np.empty(m + 1)
+    flux, y_free = np.empty(m + 1), np.empty(m + 2)
+    u[0], current[0], force[0], flux[0], y_free[0], y_free[1] = pending
+    for k in range(1, m + 1):
+        if k < points.size - 1:
+            u[k] = control(points[k])
+            h = points[k + 1] - points[k]
+            current[k], force[k] = backend.drive_step(
+                points[k], h, control(points[k] + mid * h) if mid else u[k])
+            flux[k], y_free[k + 1] = _read(sensors, y_free[k])
+        else:  # the run's end: the last step holds its force
+            u[k], current[k], force[k] = u[k - 1], current[k - 1], force[k - 1]
+            flux[k], y_free[k + 1] = flux[k - 1], y_free[k]
+    return u, current, force, flux, y_free
+
+
+def _window_columns(rows, n, out, first, volume, compressed, starts, drive):
+    """The record's columns of a window from the plant's ``rows`` (row k: the state at the
+    start of step k, the end of step k - 1) and the transducer's ``drive`` columns; with the
+    running pumped volumes at the window's step ends, and the columns of its last end (the
+    next window's first row)."""
+    ends_x, ends_q, ends_pa = rows[:, :n], rows[:, n:n + 4], rows[:, n + 4]
+    cols = stack_first(first, columns(ends_x[:-1], ends_x[:-1, out:out + 2],
+                                        ends_q[:-1], ends_pa[:-1]))
+    vol_end, comp_end = volume + rows[:, n + 5], compressed + rows[:, n + 6]
+    cols.update({
+        "time": starts, **drive,
+        "volume_into_big": np.concatenate(([volume], vol_end[:-1])),
+        "compression_volume": np.concatenate(([compressed], comp_end[:-1])),
+        "iterations": 1.0})
+    last = columns(ends_x[-1:], ends_x[-1:, out:out + 2], ends_q[-1:], ends_pa[-1:])
+    return cols, vol_end, comp_end, last
 
 
 def _read(sensors, y_before) -> tuple:
