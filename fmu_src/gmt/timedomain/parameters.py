@@ -3,7 +3,7 @@
 The loss coefficients K_h, n, K_e, K_ex stay Table 2's
 (:class:`gmt.TransducerParameters`); the time-domain form needs three more
 numbers, and the extended dynamic loss law (:mod:`gmt.timedomain.dynamic`)
-five, whose defaults switch it off: a frozen dataclass validated on
+seven, whose defaults switch it off: a frozen dataclass validated on
 construction.
 """
 from __future__ import annotations
@@ -47,7 +47,14 @@ class TimeDomainParameters:
         q, [-], in [1, 4]: the loss of a flux transition grows as |dB/dt|^q.
     swing_exponent : float
         beta, [-], in [1, 4]: the rate field and the relaxation scale with the
-        loop's peak-to-peak swing dB_pp as dB_pp^(beta - q) and dB_pp^(beta - 2).
+        loop's peak-to-peak swing dB_pp as dB_pp^(beta - q) and dB_pp^(beta - 2),
+        times the knee factor (1 + (dB_pp/B_k)^2)^(d/2).
+    swing_knee : float
+        B_k, [T], in (0, 10]: the swing about which the swing exponent turns from
+        beta to beta + d (:func:`gmt.timedomain.dynamic.swing_factor`).
+    swing_exponent_change : float
+        d, [-], in [-4, 4]: the change of the swing exponent from swings well
+        below B_k to swings well above it. Default 0: beta at every swing.
     relaxation_coefficient : float
         k_r of the relaxation field H_r = k_r dB_pp^(beta - 2) x, [A/(m T) T^(2 - beta)],
         >= 0. Default 0: no relaxation.
@@ -63,6 +70,8 @@ class TimeDomainParameters:
     swing_exponent: float = 2.0
     relaxation_coefficient: float = 0.0
     relaxation_time: float = 1e-6
+    swing_knee: float = 0.1
+    swing_exponent_change: float = 0.0
 
     def __post_init__(self):
         check_range("reversible_permeability", self.reversible_permeability, 1.0, 1e4,
@@ -80,6 +89,9 @@ class TimeDomainParameters:
                     low_open=False)
         check_range("relaxation_time", self.relaxation_time, 0.0, 1.0, unit="s",
                     high_open=False)
+        check_range("swing_knee", self.swing_knee, 0.0, 10.0, unit="T", high_open=False)
+        check_range("swing_exponent_change", self.swing_exponent_change, -4.0, 4.0, unit="-",
+                    low_open=False, high_open=False)
 
     @property
     def has_extension(self) -> bool:
