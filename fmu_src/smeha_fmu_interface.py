@@ -219,6 +219,10 @@ VARIABLES: tuple[Variable, ...] = (
          "swing exponent turns from beta to beta + d", 0.1),
     _par(_TD, "swing_exponent_change", "1", "Time-domain magnetics: d, the change of the swing "
          "exponent across B_k, factor (1 + (dB_pp/B_k)^2)^(d/2) (0: off)", 0.0),
+    _par(_TD, "second_hysteresis_coefficient", "W.s/(m3.T^n)", "Time-domain magnetics: K_h2 of a "
+         "second stop density, hysteresis loss per cycle K_h B^n + K_h2 B^n2 (0: off)", 0.0),
+    _par(_TD, "second_steinmetz_exponent", "1", "Time-domain magnetics: n2 of the second "
+         "stop density", 3.5),
     # -- calculated parameters: the mechanics the force drives, for a host that
     #    integrates the rod with its load (e.g. a pump chamber fed the output `force`)
     _calc("equivalent_mass", "kg", "Mass m of eq 27 in effect: Table 2's mass, the "

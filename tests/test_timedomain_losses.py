@@ -14,6 +14,7 @@ import pytest
 import gmt
 from gmt.timedomain import magnetics as td_magnetics
 from gmt.timedomain.dynamic import relaxation_lag, segment_losses, sine_losses, swing_factor
+from gmt.timedomain.hysteresis import BranchFunction, BranchSum
 from gmt.timedomain.magnetics import TimeDomainMagnetics
 from gmt.timedomain.parameters import TimeDomainParameters
 from smeha.coreloss.measurements import read_magnet
@@ -26,8 +27,11 @@ LAW = ExtendedLaw(hysteresis_coefficient=279.0, steinmetz_exponent=2.52,
                   eddy_coefficient=0.0, excess_coefficient=1e-2, rate_coefficient=6.2e-8,
                   rate_exponent=2.5, swing_exponent=2.56, relaxation_coefficient=51.4,
                   relaxation_time=2.2e-6)
-#: The same with the swing exponent turning across B_k (the size fitted to N87).
-KNEED = ExtendedLaw(**{**LAW.as_dict(), "swing_knee": 0.54, "swing_exponent_change": -3.0})
+#: The same with the swing exponent turning across B_k and a second, steeper hysteresis
+#: density (sizes of the kind fitted to N87 and N49).
+KNEED = ExtendedLaw(**{**LAW.as_dict(), "swing_knee": 0.54, "swing_exponent_change": -3.0,
+                       "second_hysteresis_coefficient": 900.0,
+                       "second_steinmetz_exponent": 3.4})
 
 
 def _magnetics(law):
@@ -82,6 +86,21 @@ def test_stepped_magnetics_match_closed_form_on_real_rows(family, law):
         stepped = _stepped_cycle_loss(mag, dur, sw, -0.5 * sw[0])
         closed = law.predict(data.subset(np.arange(len(data)) == k))[0] / data.frequency[k]
         assert stepped == pytest.approx(closed, rel=5e-3)
+
+
+def test_second_density_adds_its_loss_per_cycle():
+    # reference: W(a) = integral rho 4 r (a - r) dr is linear in rho, so two densities
+    # lose K_h a^n + K_h2 a^n2 per cycle for r_0 <= a <= r_max (hysteresis module
+    # docstring); n2 = 3.6 > 3, a density growing with r
+    one = BranchFunction(279.0, 2.52, 2e-3, 0.5)
+    two = BranchFunction(900.0, 3.6, 2e-3, 0.5)
+    both = BranchSum(one, two)
+    for a in (0.01, 0.1, 0.3):
+        assert both.cycle_loss(a) == pytest.approx(279.0 * a ** 2.52 + 900.0 * a ** 3.6,
+                                                   rel=1e-12)
+        assert both.value_and_slope(a) == pytest.approx((both.value(a), both.slope(a)))
+    with pytest.raises(gmt.ParameterError, match="steinmetz_exponent"):
+        BranchFunction(900.0, 4.5, 2e-3, 0.5)
 
 
 def test_relaxation_loss_never_negative():
@@ -147,6 +166,10 @@ def test_extension_parameters_checked():
         TimeDomainParameters(swing_knee=0.0)
     with pytest.raises(gmt.ParameterError, match="swing_exponent_change"):
         TimeDomainParameters(swing_exponent_change=-4.5)
+    with pytest.raises(gmt.ParameterError, match="second_steinmetz_exponent"):
+        TimeDomainParameters(second_steinmetz_exponent=1.0)
+    with pytest.raises(gmt.ParameterError, match="second_hysteresis_coefficient"):
+        TimeDomainParameters(second_hysteresis_coefficient=-1.0)
 
 
 def test_flux_density_for_refuses_nan():

@@ -57,7 +57,7 @@ from ..forward import Magnetics, StepResult, bias_displacement
 from ..magnetostriction import magnetostriction
 from ..parameters import TransducerParameters
 from .dynamic import rate_field, relaxation_lag, swing_factor
-from .hysteresis import BranchFunction, SteinmetzHysteresis
+from .hysteresis import BranchFunction, BranchSum, SteinmetzHysteresis
 from .parameters import TimeDomainParameters
 from .separation import eddy_field_coefficient, excess_field_coefficient
 
@@ -96,6 +96,10 @@ class TimeDomainMagnetics:
         self.nu = td.reversible_field_per_tesla
         self.branch = BranchFunction(p.hysteresis_coefficient, p.steinmetz_exponent,
                                      td.steinmetz_lower, td.steinmetz_upper)
+        if td.second_hysteresis_coefficient > 0.0:
+            self.branch = BranchSum(self.branch, BranchFunction(
+                td.second_hysteresis_coefficient, td.second_steinmetz_exponent,
+                td.steinmetz_lower, td.steinmetz_upper))
         steepest = self.nu + self.branch.reversal_slope
         if not steepest < 1.0 / MU_0:
             raise ParameterError(
