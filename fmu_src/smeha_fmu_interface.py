@@ -215,10 +215,6 @@ VARIABLES: tuple[Variable, ...] = (
     _par(_TD, "relaxation_coefficient", "A/m.T^(1-beta)", "Time-domain magnetics: k_r of "
          "the relaxation field k_r dB_pp^(beta-2) x, dx/dt = dB/dt - x/tau (0: off)", 0.0),
     _par(_TD, "relaxation_time", "s", "Time-domain magnetics: tau of the relaxation", 1e-6),
-    _par(_TD, "swing_knee", "T", "Time-domain magnetics: B_k, the swing about which the "
-         "swing exponent turns from beta to beta + d", 0.1),
-    _par(_TD, "swing_exponent_change", "1", "Time-domain magnetics: d, the change of the swing "
-         "exponent across B_k, factor (1 + (dB_pp/B_k)^2)^(d/2) (0: off)", 0.0),
     _par(_TD, "second_hysteresis_coefficient", "W.s/(m3.T^n)", "Time-domain magnetics: K_h2 of a "
          "second stop density, hysteresis loss per cycle K_h B^n + K_h2 B^n2 (0: off)", 0.0),
     _par(_TD, "second_steinmetz_exponent", "1", "Time-domain magnetics: n2 of the second "

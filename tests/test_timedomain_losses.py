@@ -13,7 +13,7 @@ import pytest
 
 import gmt
 from gmt.timedomain import magnetics as td_magnetics
-from gmt.timedomain.dynamic import relaxation_lag, segment_losses, sine_losses, swing_factor
+from gmt.timedomain.dynamic import relaxation_lag, segment_losses, sine_losses
 from gmt.timedomain.hysteresis import BranchFunction, BranchSum
 from gmt.timedomain.magnetics import TimeDomainMagnetics
 from gmt.timedomain.parameters import TimeDomainParameters
@@ -27,11 +27,9 @@ LAW = ExtendedLaw(hysteresis_coefficient=279.0, steinmetz_exponent=2.52,
                   eddy_coefficient=0.0, excess_coefficient=1e-2, rate_coefficient=6.2e-8,
                   rate_exponent=2.5, swing_exponent=2.56, relaxation_coefficient=51.4,
                   relaxation_time=2.2e-6)
-#: The same with the swing exponent turning across B_k and a second, steeper hysteresis
-#: density (sizes of the kind fitted to N87 and N49).
-KNEED = ExtendedLaw(**{**LAW.as_dict(), "swing_knee": 0.54, "swing_exponent_change": -3.0,
-                       "second_hysteresis_coefficient": 900.0,
-                       "second_steinmetz_exponent": 3.4})
+#: The same with a second, steeper hysteresis density (its size fitted to N49).
+TWO_SLOPE = ExtendedLaw(**{**LAW.as_dict(), "second_hysteresis_coefficient": 900.0,
+                           "second_steinmetz_exponent": 3.4})
 
 
 def _magnetics(law):
@@ -71,8 +69,9 @@ def _stepped_cycle_loss(mag, durations, swings, start, steps_per_segment=400):
 
 
 @pytest.mark.parametrize("family, law", [("triangle", LAW), ("trapezoid", LAW),
-                                         ("triangle", KNEED), ("trapezoid", KNEED)],
-                         ids=["triangle", "trapezoid", "triangle-knee", "trapezoid-knee"])
+                                         ("triangle", TWO_SLOPE), ("trapezoid", TWO_SLOPE)],
+                         ids=["triangle", "trapezoid", "triangle-two-slope",
+                              "trapezoid-two-slope"])
 def test_stepped_magnetics_match_closed_form_on_real_rows(family, law):
     # reference: the closed forms (eddy, excess, rate field, Maxwell element's periodic
     # state) and the operator's K_h B^n; tolerance 0.5 %: backward Euler takes H_irr
@@ -130,31 +129,7 @@ def test_relaxation_lag_exact_for_constant_rate():
 
 def test_extension_off_by_default():
     assert not TimeDomainParameters().has_extension
-    assert TimeDomainParameters().swing_exponent_change == 0.0
-
-
-def test_swing_exponent_turns_from_beta_to_beta_plus_change():
-    # reference: d ln g / d ln s = p + d x^2 / (1 + x^2), x = s / B_k, written out:
-    # p well below the knee, p + d well above it, p + d/2 at it (central differences)
-    def slope(s):
-        return (math.log(swing_factor(s * 1.001, 0.6, 0.1, -2.0))
-                - math.log(swing_factor(s / 1.001, 0.6, 0.1, -2.0))) / (2 * math.log(1.001))
-    assert slope(1e-4) == pytest.approx(0.6, abs=1e-5)
-    assert slope(0.1) == pytest.approx(0.6 - 1.0, abs=1e-5)
-    assert slope(100.0) == pytest.approx(0.6 - 2.0, abs=1e-5)
-    assert swing_factor(0.05, 0.6) == 0.05 ** 0.6  # d = 0: the plain power
-
-
-def test_kneed_losses_stay_nonnegative():
-    # passivity: the knee factor is positive, so each term's loss per cycle stays >= 0
-    rng = np.random.default_rng(4)
-    dur = rng.uniform(1e-8, 1e-5, (200, 4))
-    sw = rng.normal(0.0, 0.1, (200, 4))
-    sw[:, -1] = -sw[:, :-1].sum(1)
-    for change in (-4.0, 4.0):
-        parts = segment_losses(dur, sw, np.abs(sw).max(1), 0.0, 0.0, 1.0, 2.5, 2.5, 1.0, 1e-6,
-                               0.05, change)
-        assert all(np.all(p >= 0.0) for p in parts[2:])
+    assert TimeDomainParameters().second_hysteresis_coefficient == 0.0
 
 
 def test_extension_parameters_checked():
@@ -162,10 +137,6 @@ def test_extension_parameters_checked():
         TimeDomainParameters(relaxation_time=0.0)
     with pytest.raises(gmt.ParameterError, match="rate_exponent"):
         TimeDomainParameters(rate_exponent=5.0)
-    with pytest.raises(gmt.ParameterError, match="swing_knee"):
-        TimeDomainParameters(swing_knee=0.0)
-    with pytest.raises(gmt.ParameterError, match="swing_exponent_change"):
-        TimeDomainParameters(swing_exponent_change=-4.5)
     with pytest.raises(gmt.ParameterError, match="second_steinmetz_exponent"):
         TimeDomainParameters(second_steinmetz_exponent=1.0)
     with pytest.raises(gmt.ParameterError, match="second_hysteresis_coefficient"):

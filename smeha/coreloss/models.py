@@ -38,15 +38,13 @@ from .measurements import CoreLossData
 __all__ = ["SeparationLaw", "ExtendedLaw", "SteinmetzLaw", "fit_separation", "fit_steinmetz",
            "fit_extended", "EXPONENT_BOUNDS"]
 
-#: Search ranges of the exponents: n, q, beta, d (-) and log10 of tau (s) and of B_k (T).
+#: Search ranges of the exponents: n, q, beta, n2 (-) and log10 of tau (s).
 EXPONENT_BOUNDS = {"steinmetz_exponent": (1.05, 3.0), "rate_exponent": (1.0, 4.0),
                    "swing_exponent": (1.0, 4.0), "log10_relaxation_time": (-8.0, -4.0),
-                   "log10_swing_knee": (-2.5, 0.0), "swing_exponent_change": (-3.0, 3.0),
                    "second_steinmetz_exponent": (1.05, 4.0)}
 
 
-def _terms(data: CoreLossData, n, q=2.0, beta=2.0, tau=1e-6, extended=False, knee=0.1,
-           change=0.0, n2=3.5):
+def _terms(data: CoreLossData, n, q=2.0, beta=2.0, tau=1e-6, extended=False, n2=3.5):
     """Loss per cycle per unit coefficient of each term, columns (rows, terms), [J/m^3].
 
     Hysteresis B_pk^n (the operator's loss, eq 7, for r_0 <= B_pk <= r_max),
@@ -65,13 +63,13 @@ def _terms(data: CoreLossData, n, q=2.0, beta=2.0, tau=1e-6, extended=False, kne
     out = np.zeros((len(data), 4 if extended else 2))
     if sine.any():
         terms = sine_losses(data.frequency[sine], bm[sine], k_e, k_ex, 1.0 if extended else 0.0,
-                            q, beta, 1.0 if extended else 0.0, tau, knee, change)
+                            q, beta, 1.0 if extended else 0.0, tau)
         out[sine] = np.column_stack(terms[:out.shape[1]])
     other = ~sine
     if other.any():
         terms = segment_losses(data.durations[other], data.swings[other], 2.0 * bm[other], k_e,
                                k_ex, 1.0 if extended else 0.0, q, beta,
-                               1.0 if extended else 0.0, tau, knee, change)
+                               1.0 if extended else 0.0, tau)
         out[other] = np.column_stack(terms[:out.shape[1]])
     if extended:
         out = np.column_stack([out, bm ** n2])
@@ -126,8 +124,6 @@ class ExtendedLaw:
     swing_exponent: float
     relaxation_coefficient: float
     relaxation_time: float
-    swing_knee: float = 0.1
-    swing_exponent_change: float = 0.0
     second_hysteresis_coefficient: float = 0.0
     second_steinmetz_exponent: float = 3.5
 
@@ -139,8 +135,7 @@ class ExtendedLaw:
     def predict(self, data: CoreLossData) -> np.ndarray:
         """Loss per volume of every row, [W/m^3]."""
         cols = _terms(data, self.steinmetz_exponent, self.rate_exponent, self.swing_exponent,
-                      self.relaxation_time, True, self.swing_knee, self.swing_exponent_change,
-                      self.second_steinmetz_exponent)
+                      self.relaxation_time, True, self.second_steinmetz_exponent)
         return data.frequency * (cols @ self.coefficients())
 
     def time_domain_parameters(self):
@@ -222,34 +217,32 @@ def fit_separation(data: CoreLossData) -> SeparationLaw:
 
 
 def fit_extended(data: CoreLossData, start: SeparationLaw | None = None) -> ExtendedLaw:
-    """The thirteen parameters of :class:`ExtendedLaw` on ``data`` (the calibration rows).
+    """The eleven parameters of :class:`ExtendedLaw` on ``data`` (the calibration rows).
 
-    The exponents n, q, beta, log10 tau, log10 B_k, d and n2 are searched within
+    The exponents n, q, beta, log10 tau and n2 are searched within
     :data:`EXPONENT_BOUNDS` from a few starts (n from ``start``; q 2 and 3; tau
-    1 us; B_k 0.1 T, d 0; n2 3.5), the six coefficients solved nonnegative for each.
+    1 us; n2 3.5), the six coefficients solved nonnegative for each.
     Each waveform family weighs as much as the sinusoids (:func:`_group_weights`).
     """
     w = _group_weights(data)
     names = ("steinmetz_exponent", "rate_exponent", "swing_exponent", "log10_relaxation_time",
-             "log10_swing_knee", "swing_exponent_change", "second_steinmetz_exponent")
+             "second_steinmetz_exponent")
     lo = [EXPONENT_BOUNDS[k][0] for k in names]
     hi = [EXPONENT_BOUNDS[k][1] for k in names]
 
     def solve(x):
-        cols = _terms(data, x[0], x[1], x[2], 10.0 ** x[3], True, 10.0 ** x[4], x[5], x[6])
+        cols = _terms(data, x[0], x[1], x[2], 10.0 ** x[3], True, x[4])
         return _relative_nnls(cols, data.frequency, data.loss, w)
 
     n0 = start.steinmetz_exponent if start else 2.5
     best = None
     for q0 in (2.0, 3.0):
-        x0 = np.clip([n0, q0, 2.5, -6.0, -1.0, 0.0, 3.5], np.add(lo, 1e-6),
-                     np.subtract(hi, 1e-6))
+        x0 = np.clip([n0, q0, 2.5, -6.0, 3.5], np.add(lo, 1e-6), np.subtract(hi, 1e-6))
         sol = least_squares(lambda x: solve(x)[1], x0, bounds=(lo, hi), diff_step=1e-4,
                             max_nfev=200)
         if best is None or sol.cost < best.cost:
             best = sol
     coef = solve(best.x)[0]
-    n, q, beta, log_tau, log_knee, change, n2 = (float(v) for v in best.x)
+    n, q, beta, log_tau, n2 = (float(v) for v in best.x)
     return ExtendedLaw(float(coef[0]), n, float(coef[1]), float(coef[2]), float(coef[3]), q,
-                       beta, float(coef[4]), 10.0 ** log_tau, 10.0 ** log_knee, change,
-                       float(coef[5]), n2)
+                       beta, float(coef[4]), 10.0 ** log_tau, float(coef[5]), n2)

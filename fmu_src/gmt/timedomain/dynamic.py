@@ -30,20 +30,6 @@ per cycle is never negative. A
 transition faster than tau loads the spring; the flat part that follows
 lets it relax, as the i2GSE's (1 - exp(-t/tau)) term says.
 
-**Swing exponent varying with the swing.** Both terms above scale with
-the loop's swing as dB_pp^beta (times dB_pp^(-q) or dB_pp^(-2)); the loss
-per cycle of measured ferrites bends away from one power of B (the local
-Steinmetz exponent varies with flux density: Muehlethaler et al. [3]_ tabulate
-it per B; Snelling's loss curves [4]_ bend on log scales). The
-amplitude factor of both terms is multiplied by the knee factor::
-
-    g(dB_pp) = (1 + (dB_pp / B_k)^2)^(d / 2)
-
-whose logarithmic slope d x^2/(1 + x^2), x = dB_pp/B_k, turns the swing
-exponent smoothly from beta (swings well below B_k) to beta + d (swings well
-above it). g > 0, so each term still absorbs nonnegative power; d = 0 (the
-default) switches it off (:func:`swing_factor`).
-
 For a periodic flux made of straight segments (triangles, trapezoids) and for
 a sinusoid the losses per cycle have closed forms (:func:`segment_losses`,
 :func:`sine_losses`); :class:`gmt.timedomain.magnetics.TimeDomainMagnetics`
@@ -60,8 +46,6 @@ References
 .. [3] J. Muehlethaler, J. Biela, J. W. Kolar, A. Ecklebe, "Improved
    core-loss calculation for magnetic components employed in power
    electronic systems", IEEE Trans. Power Electron. 27(2), 2012, 964-973.
-.. [4] E. C. Snelling, *Soft Ferrites: Properties and Applications*, 2nd ed.,
-   Butterworths, 1988, ch. 4 (power loss against flux density and frequency).
 """
 from __future__ import annotations
 
@@ -71,27 +55,11 @@ import numpy as np
 
 from .separation import cos_power_mean
 
-__all__ = ["swing_factor", "rate_field", "relaxation_lag", "segment_losses", "sine_losses"]
+__all__ = ["rate_field", "relaxation_lag", "segment_losses", "sine_losses"]
 
 
-def swing_factor(swing, power, knee=0.1, change=0.0):
-    """dB_pp^power (1 + (dB_pp/B_k)^2)^(d/2): the terms' amplitude factor, [T^power].
-
-    Parameters
-    ----------
-    swing : dB_pp, the loop's peak-to-peak flux density, [T], > 0 (float or array)
-    power : beta - q (rate field) or beta - 2 (relaxation), [-]
-    knee, change : B_k [T] and d [-], ``swing_knee`` and ``swing_exponent_change`` of
-        :class:`gmt.TimeDomainParameters` (module docstring); d = 0: a plain power.
-    """
-    if change == 0.0:
-        return swing ** power
-    return swing ** power * (1.0 + (swing / knee) ** 2) ** (0.5 * change)
-
-
-def rate_field(rate: float, swing: float, k_w: float, q: float, beta: float,
-               knee: float = 0.1, change: float = 0.0) -> float:
-    """H_w = k_w g(dB_pp) dB_pp^(beta - q) |dB/dt|^(q - 1) sign(dB/dt), [A/m].
+def rate_field(rate: float, swing: float, k_w: float, q: float, beta: float) -> float:
+    """H_w = k_w dB_pp^(beta - q) |dB/dt|^(q - 1) sign(dB/dt), [A/m].
 
     Parameters
     ----------
@@ -99,11 +67,10 @@ def rate_field(rate: float, swing: float, k_w: float, q: float, beta: float,
     swing : dB_pp, the loop's peak-to-peak flux density, [T], > 0
     k_w, q, beta : ``rate_coefficient``, ``rate_exponent``, ``swing_exponent`` of
         :class:`gmt.TimeDomainParameters`.
-    knee, change : the knee factor g (:func:`swing_factor`).
     """
     if k_w == 0.0 or rate == 0.0:
         return 0.0
-    h = k_w * swing_factor(swing, beta - q, knee, change) * abs(rate) ** (q - 1.0)
+    h = k_w * swing ** (beta - q) * abs(rate) ** (q - 1.0)
     return h if rate > 0.0 else -h
 
 
@@ -124,7 +91,7 @@ def _rate_sums(durations, swings, q):
 
 
 def segment_losses(durations, swings, peak_to_peak, k_e, k_ex, k_w=0.0, q=2.0, beta=2.0,
-                   k_r=0.0, tau=1e-6, knee=0.1, change=0.0):
+                   k_r=0.0, tau=1e-6):
     """Dynamic losses per cycle of periodic, piecewise-linear flux waveforms, [J/m^3].
 
     Parameters
@@ -136,7 +103,7 @@ def segment_losses(durations, swings, peak_to_peak, k_e, k_ex, k_w=0.0, q=2.0, b
     peak_to_peak : array (rows,)
         dB_pp of each waveform, [T].
     k_e, k_ex : eddy and excess field coefficients (:mod:`gmt.timedomain.separation`).
-    k_w, q, beta, k_r, tau, knee, change : the extension (module docstring).
+    k_w, q, beta, k_r, tau : the extension (module docstring).
 
     Returns
     -------
@@ -151,12 +118,11 @@ def segment_losses(durations, swings, peak_to_peak, k_e, k_ex, k_w=0.0, q=2.0, b
     e2, rate = _rate_sums(durations, swings, 2.0)
     eddy = k_e * e2
     excess = k_ex * _rate_sums(durations, swings, 1.5)[0]
-    rated = (k_w * swing_factor(pp, beta - q, knee, change)
-             * _rate_sums(durations, swings, q)[0] if k_w else np.zeros(len(pp)))
+    rated = (k_w * pp ** (beta - q) * _rate_sums(durations, swings, q)[0] if k_w
+             else np.zeros(len(pp)))
     relax = np.zeros(len(pp))
     if k_r:
-        relax = (k_r * swing_factor(pp, beta - 2.0, knee, change)
-                 * _relaxation_energy(durations, rate, tau))
+        relax = k_r * pp ** (beta - 2.0) * _relaxation_energy(durations, rate, tau)
     return eddy, excess, rated, relax
 
 
@@ -179,14 +145,12 @@ def _relaxation_energy(durations, rate, tau):
     return energy
 
 
-def sine_losses(frequency, amplitude, k_e, k_ex, k_w=0.0, q=2.0, beta=2.0, k_r=0.0, tau=1e-6,
-                knee=0.1, change=0.0):
+def sine_losses(frequency, amplitude, k_e, k_ex, k_w=0.0, q=2.0, beta=2.0, k_r=0.0, tau=1e-6):
     """Dynamic losses per cycle of B = B_m sin(2 pi f t), [J/m^3] (the closed forms).
 
     eddy 2 pi^2 k_e B_m^2 f (eq 9), excess C k_ex B_m^1.5 f^0.5 (eq 11), the rate
-    field k_w g (2 B_m)^(beta - q) (2 pi f B_m)^q <|cos|^q> / f, and the Maxwell
-    element's pi k (B_m^2) w tau / (1 + (w tau)^2) (Debye's relaxation loss), k =
-    k_r g (2 B_m)^(beta - 2), g the knee factor of :func:`swing_factor`.
+    field k_w (2 B_m)^(beta - q) (2 pi f B_m)^q <|cos|^q> / f, and the Maxwell
+    element's pi k (B_m^2) w tau / (1 + (w tau)^2) (Debye's relaxation loss).
 
     Parameters
     ----------
@@ -198,8 +162,8 @@ def sine_losses(frequency, amplitude, k_e, k_ex, k_w=0.0, q=2.0, beta=2.0, k_r=0
     w = 2.0 * math.pi * f
     eddy = k_e * (w * bm) ** 2 * 0.5 / f
     excess = k_ex * (w * bm) ** 1.5 * cos_power_mean(1.5) / f
-    rated = (k_w * swing_factor(2.0 * bm, beta - q, knee, change) * (w * bm) ** q
-             * cos_power_mean(q) / f if k_w else np.zeros(np.shape(f)))
-    relax = (k_r * swing_factor(2.0 * bm, beta - 2.0, knee, change) * math.pi * bm ** 2 * w
-             * tau / (1.0 + (w * tau) ** 2) if k_r else np.zeros(np.shape(f)))
+    rated = (k_w * (2.0 * bm) ** (beta - q) * (w * bm) ** q * cos_power_mean(q) / f
+             if k_w else np.zeros(np.shape(f)))
+    relax = (k_r * (2.0 * bm) ** (beta - 2.0) * math.pi * bm ** 2 * w * tau
+             / (1.0 + (w * tau) ** 2) if k_r else np.zeros(np.shape(f)))
     return eddy, excess, rated, relax

@@ -19,8 +19,8 @@ one solver (:func:`_safeguarded_newton`) serves this and the inverse's
 :class:`gmt.ConvergenceError` when it does not converge.
 
 The extended dynamic law of :mod:`gmt.timedomain.dynamic` (off by default)
-adds the rate field k_w g dB_pp^(beta - q) |dB/dt|^(q - 1) sign(dB/dt) and the
-relaxation field k_r g dB_pp^(beta - 2) x to H (g the knee factor of the swing). Both are non-decreasing in the
+adds the rate field k_w dB_pp^(beta - q) |dB/dt|^(q - 1) sign(dB/dt) and the
+relaxation field k_r dB_pp^(beta - 2) x to H. Both are non-decreasing in the
 step's B (the relaxation's lag advances exactly, x(h) = x_0 e^(-h/tau) +
 dB/dt tau (1 - e^(-h/tau))), dB_pp is read from the hysteresis memory at the
 step's start, so the step equation keeps its single root and its bracket.
@@ -56,7 +56,7 @@ from ..errors import ConvergenceError, ParameterError
 from ..forward import Magnetics, StepResult, bias_displacement
 from ..magnetostriction import magnetostriction
 from ..parameters import TransducerParameters
-from .dynamic import rate_field, relaxation_lag, swing_factor
+from .dynamic import rate_field, relaxation_lag
 from .hysteresis import BranchFunction, BranchSum, SteinmetzHysteresis
 from .parameters import TimeDomainParameters
 from .separation import eddy_field_coefficient, excess_field_coefficient
@@ -168,7 +168,7 @@ class TimeDomainMagnetics:
             stiffness, held = self._relaxation_terms(step)
             h += held + stiffness * (flux_density - b0) + rate_field(
                 rate, self.loop_swing(), td.rate_coefficient, td.rate_exponent,
-                td.swing_exponent, td.swing_knee, td.swing_exponent_change)
+                td.swing_exponent)
         return h
 
     def eddy_stiffness(self, direction: float, step: float, start: float | None = None) -> float:
@@ -280,9 +280,8 @@ class TimeDomainMagnetics:
         if not td.rate_coefficient > 0.0:
             return 0.0, 0.0
         q = td.rate_exponent
-        gain = (td.rate_coefficient * step ** (1.0 - q)
-                * swing_factor(self.loop_swing(), td.swing_exponent - q, td.swing_knee,
-                               td.swing_exponent_change))
+        gain = (td.rate_coefficient * self.loop_swing() ** (td.swing_exponent - q)
+                * step ** (1.0 - q))
         return gain, 2.0 * q - 2.0
 
     def _relaxation_terms(self, step):
@@ -290,8 +289,7 @@ class TimeDomainMagnetics:
         td = self.td
         if not td.relaxation_coefficient > 0.0:
             return 0.0, 0.0
-        k = td.relaxation_coefficient * swing_factor(
-            self.loop_swing(), td.swing_exponent - 2.0, td.swing_knee, td.swing_exponent_change)
+        k = td.relaxation_coefficient * self.loop_swing() ** (td.swing_exponent - 2.0)
         tau = td.relaxation_time
         return (-k * tau * math.expm1(-step / tau) / step,
                 k * relaxation_lag(self._lag, 0.0, step, tau))

@@ -3,7 +3,7 @@
 The loss coefficients K_h, n, K_e, K_ex stay Table 2's
 (:class:`gmt.TransducerParameters`); the time-domain form needs three more
 numbers, the extended dynamic loss law (:mod:`gmt.timedomain.dynamic`)
-seven and a second hysteresis density two, whose defaults switch them off: a frozen dataclass validated on
+five and a second hysteresis density two, whose defaults switch them off: a frozen dataclass validated on
 construction.
 """
 from __future__ import annotations
@@ -47,14 +47,7 @@ class TimeDomainParameters:
         q, [-], in [1, 4]: the loss of a flux transition grows as |dB/dt|^q.
     swing_exponent : float
         beta, [-], in [1, 4]: the rate field and the relaxation scale with the
-        loop's peak-to-peak swing dB_pp as dB_pp^(beta - q) and dB_pp^(beta - 2),
-        times the knee factor (1 + (dB_pp/B_k)^2)^(d/2).
-    swing_knee : float
-        B_k, [T], in (0, 10]: the swing about which the swing exponent turns from
-        beta to beta + d (:func:`gmt.timedomain.dynamic.swing_factor`).
-    swing_exponent_change : float
-        d, [-], in [-4, 4]: the change of the swing exponent from swings well
-        below B_k to swings well above it. Default 0: beta at every swing.
+        loop's peak-to-peak swing dB_pp as dB_pp^(beta - q) and dB_pp^(beta - 2).
     second_hysteresis_coefficient : float
         K_h2 of a second stop density, [J/(m^3 T^n2)], >= 0: the hysteresis loss per
         cycle becomes K_h B_m^n + K_h2 B_m^n2
@@ -77,8 +70,6 @@ class TimeDomainParameters:
     swing_exponent: float = 2.0
     relaxation_coefficient: float = 0.0
     relaxation_time: float = 1e-6
-    swing_knee: float = 0.1
-    swing_exponent_change: float = 0.0
     second_hysteresis_coefficient: float = 0.0
     second_steinmetz_exponent: float = 3.5
 
@@ -98,9 +89,6 @@ class TimeDomainParameters:
                     low_open=False)
         check_range("relaxation_time", self.relaxation_time, 0.0, 1.0, unit="s",
                     high_open=False)
-        check_range("swing_knee", self.swing_knee, 0.0, 10.0, unit="T", high_open=False)
-        check_range("swing_exponent_change", self.swing_exponent_change, -4.0, 4.0, unit="-",
-                    low_open=False, high_open=False)
         check_range("second_hysteresis_coefficient", self.second_hysteresis_coefficient, 0.0,
                     None, low_open=False)
         check_range("second_steinmetz_exponent", self.second_steinmetz_exponent, 1.0, 4.0,
