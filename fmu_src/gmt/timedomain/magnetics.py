@@ -24,6 +24,10 @@ relaxation field k_r dB_pp^(beta - 2) x to H. Both are non-decreasing in the
 step's B (the relaxation's lag advances exactly, x(h) = x_0 e^(-h/tau) +
 dB/dt tau (1 - e^(-h/tau))), dB_pp is read from the hysteresis memory at the
 step's start, so the step equation keeps its single root and its bracket.
+A second stop density (``second_hysteresis_coefficient``, also off by
+default) is superposed on the operator's
+(:class:`gmt.timedomain.hysteresis.BranchSum`): H_irr stays non-decreasing
+along every branch, and the same holds.
 
 Magnetisation
 -------------
