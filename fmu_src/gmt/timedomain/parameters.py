@@ -3,8 +3,8 @@
 The loss coefficients K_h, n, K_e, K_ex stay Table 2's
 (:class:`gmt.TransducerParameters`); the time-domain form needs three more
 numbers, the extended dynamic loss law (:mod:`gmt.timedomain.dynamic`)
-five and a second hysteresis density two, whose defaults switch them off: a frozen dataclass validated on
-construction.
+five and a second hysteresis density two, whose defaults switch them off:
+a frozen dataclass validated on construction.
 """
 from __future__ import annotations
 
