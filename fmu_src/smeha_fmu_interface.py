@@ -215,6 +215,10 @@ VARIABLES: tuple[Variable, ...] = (
     _par(_TD, "relaxation_coefficient", "A/m.T^(1-beta)", "Time-domain magnetics: k_r of "
          "the relaxation field k_r dB_pp^(beta-2) x, dx/dt = dB/dt - x/tau (0: off)", 0.0),
     _par(_TD, "relaxation_time", "s", "Time-domain magnetics: tau of the relaxation", 1e-6),
+    _par(_TD, "second_hysteresis_coefficient", "W.s/(m3.T^n)", "Time-domain magnetics: K_h2 of a "
+         "second stop density, hysteresis loss per cycle K_h B^n + K_h2 B^n2 (0: off)", 0.0),
+    _par(_TD, "second_steinmetz_exponent", "1", "Time-domain magnetics: n2 of the second "
+         "stop density", 3.5),
     # -- calculated parameters: the mechanics the force drives, for a host that
     #    integrates the rod with its load (e.g. a pump chamber fed the output `force`)
     _calc("equivalent_mass", "kg", "Mass m of eq 27 in effect: Table 2's mass, the "

@@ -14,6 +14,7 @@ import pytest
 import gmt
 from gmt.timedomain import magnetics as td_magnetics
 from gmt.timedomain.dynamic import relaxation_lag, segment_losses, sine_losses
+from gmt.timedomain.hysteresis import BranchFunction, BranchSum
 from gmt.timedomain.magnetics import TimeDomainMagnetics
 from gmt.timedomain.parameters import TimeDomainParameters
 from smeha.coreloss.measurements import read_magnet
@@ -26,6 +27,9 @@ LAW = ExtendedLaw(hysteresis_coefficient=279.0, steinmetz_exponent=2.52,
                   eddy_coefficient=0.0, excess_coefficient=1e-2, rate_coefficient=6.2e-8,
                   rate_exponent=2.5, swing_exponent=2.56, relaxation_coefficient=51.4,
                   relaxation_time=2.2e-6)
+#: The same with a second, steeper hysteresis density (its size fitted to N49).
+TWO_SLOPE = ExtendedLaw(**{**LAW.as_dict(), "second_hysteresis_coefficient": 900.0,
+                           "second_steinmetz_exponent": 3.4})
 
 
 def _magnetics(law):
@@ -64,20 +68,38 @@ def _stepped_cycle_loss(mag, durations, swings, start, steps_per_segment=400):
     return energy
 
 
-@pytest.mark.parametrize("family", ["triangle", "trapezoid"])
-def test_stepped_magnetics_match_closed_form_on_real_rows(family):
+@pytest.mark.parametrize("family, law", [("triangle", LAW), ("trapezoid", LAW),
+                                         ("triangle", TWO_SLOPE), ("trapezoid", TWO_SLOPE)],
+                         ids=["triangle", "trapezoid", "triangle-two-slope",
+                              "trapezoid-two-slope"])
+def test_stepped_magnetics_match_closed_form_on_real_rows(family, law):
     # reference: the closed forms (eddy, excess, rate field, Maxwell element's periodic
     # state) and the operator's K_h B^n; tolerance 0.5 %: backward Euler takes H_irr
     # at each step's end, an error of order 1/steps on the hysteresis part
     data = read_magnet("N87")
     rows = np.flatnonzero(data.family(family) & (data.frequency == 200e3))[::400][:3]
-    mag = _magnetics(LAW)
+    mag = _magnetics(law)
     for k in rows:
         mag.reset()
         dur, sw = data.durations[k], data.swings[k]
         stepped = _stepped_cycle_loss(mag, dur, sw, -0.5 * sw[0])
-        closed = LAW.predict(data.subset(np.arange(len(data)) == k))[0] / data.frequency[k]
+        closed = law.predict(data.subset(np.arange(len(data)) == k))[0] / data.frequency[k]
         assert stepped == pytest.approx(closed, rel=5e-3)
+
+
+def test_second_density_adds_its_loss_per_cycle():
+    # reference: W(a) = integral rho 4 r (a - r) dr is linear in rho, so two densities
+    # lose K_h a^n + K_h2 a^n2 per cycle for r_0 <= a <= r_max (hysteresis module
+    # docstring); n2 = 3.6 > 3, a density growing with r
+    one = BranchFunction(279.0, 2.52, 2e-3, 0.5)
+    two = BranchFunction(900.0, 3.6, 2e-3, 0.5)
+    both = BranchSum(one, two)
+    for a in (0.01, 0.1, 0.3):
+        assert both.cycle_loss(a) == pytest.approx(279.0 * a ** 2.52 + 900.0 * a ** 3.6,
+                                                   rel=1e-12)
+        assert both.value_and_slope(a) == pytest.approx((both.value(a), both.slope(a)))
+    with pytest.raises(gmt.ParameterError, match="steinmetz_exponent"):
+        BranchFunction(900.0, 4.5, 2e-3, 0.5)
 
 
 def test_relaxation_loss_never_negative():
@@ -107,6 +129,7 @@ def test_relaxation_lag_exact_for_constant_rate():
 
 def test_extension_off_by_default():
     assert not TimeDomainParameters().has_extension
+    assert TimeDomainParameters().second_hysteresis_coefficient == 0.0
 
 
 def test_extension_parameters_checked():
@@ -114,6 +137,10 @@ def test_extension_parameters_checked():
         TimeDomainParameters(relaxation_time=0.0)
     with pytest.raises(gmt.ParameterError, match="rate_exponent"):
         TimeDomainParameters(rate_exponent=5.0)
+    with pytest.raises(gmt.ParameterError, match="second_steinmetz_exponent"):
+        TimeDomainParameters(second_steinmetz_exponent=1.0)
+    with pytest.raises(gmt.ParameterError, match="second_hysteresis_coefficient"):
+        TimeDomainParameters(second_hysteresis_coefficient=-1.0)
 
 
 def test_flux_density_for_refuses_nan():

@@ -38,17 +38,19 @@ from .measurements import CoreLossData
 __all__ = ["SeparationLaw", "ExtendedLaw", "SteinmetzLaw", "fit_separation", "fit_steinmetz",
            "fit_extended", "EXPONENT_BOUNDS"]
 
-#: Search ranges of the exponents: n, q, beta (-) and log10 of tau (s).
+#: Search ranges of the exponents: n, q, beta, n2 (-) and log10 of tau (s).
 EXPONENT_BOUNDS = {"steinmetz_exponent": (1.05, 3.0), "rate_exponent": (1.0, 4.0),
-                   "swing_exponent": (1.0, 4.0), "log10_relaxation_time": (-8.0, -4.0)}
+                   "swing_exponent": (1.0, 4.0), "log10_relaxation_time": (-8.0, -4.0),
+                   "second_steinmetz_exponent": (1.05, 4.0)}
 
 
-def _terms(data: CoreLossData, n, q=2.0, beta=2.0, tau=1e-6, extended=False):
+def _terms(data: CoreLossData, n, q=2.0, beta=2.0, tau=1e-6, extended=False, n2=3.5):
     """Loss per cycle per unit coefficient of each term, columns (rows, terms), [J/m^3].
 
     Hysteresis B_pk^n (the operator's loss, eq 7, for r_0 <= B_pk <= r_max),
-    eddy, excess, and with ``extended`` the rate field and the relaxation
-    (:mod:`gmt.timedomain.dynamic`), each with unit coefficient. The eddy and
+    eddy, excess, and with ``extended`` the rate field, the relaxation
+    (:mod:`gmt.timedomain.dynamic`) and the second hysteresis density's B_pk^n2
+    (:class:`gmt.timedomain.hysteresis.BranchSum`), each with unit coefficient. The eddy and
     excess columns are per unit K_e and K_ex of eqs 9 and 11 (k_e = K_e/(2 pi^2),
     k_ex = K_ex/C, :mod:`gmt.timedomain.separation`).
     """
@@ -69,6 +71,8 @@ def _terms(data: CoreLossData, n, q=2.0, beta=2.0, tau=1e-6, extended=False):
                                k_ex, 1.0 if extended else 0.0, q, beta,
                                1.0 if extended else 0.0, tau)
         out[other] = np.column_stack(terms[:out.shape[1]])
+    if extended:
+        out = np.column_stack([out, bm ** n2])
     return np.column_stack(cols + [out])
 
 
@@ -120,16 +124,18 @@ class ExtendedLaw:
     swing_exponent: float
     relaxation_coefficient: float
     relaxation_time: float
+    second_hysteresis_coefficient: float = 0.0
+    second_steinmetz_exponent: float = 3.5
 
     def coefficients(self):
         return np.array([self.hysteresis_coefficient, self.eddy_coefficient,
                          self.excess_coefficient, self.rate_coefficient,
-                         self.relaxation_coefficient])
+                         self.relaxation_coefficient, self.second_hysteresis_coefficient])
 
     def predict(self, data: CoreLossData) -> np.ndarray:
         """Loss per volume of every row, [W/m^3]."""
         cols = _terms(data, self.steinmetz_exponent, self.rate_exponent, self.swing_exponent,
-                      self.relaxation_time, extended=True)
+                      self.relaxation_time, True, self.second_steinmetz_exponent)
         return data.frequency * (cols @ self.coefficients())
 
     def time_domain_parameters(self):
@@ -211,31 +217,32 @@ def fit_separation(data: CoreLossData) -> SeparationLaw:
 
 
 def fit_extended(data: CoreLossData, start: SeparationLaw | None = None) -> ExtendedLaw:
-    """The nine parameters of :class:`ExtendedLaw` on ``data`` (the calibration rows).
+    """The eleven parameters of :class:`ExtendedLaw` on ``data`` (the calibration rows).
 
-    The exponents n, q, beta and log10 tau are searched within
+    The exponents n, q, beta, log10 tau and n2 are searched within
     :data:`EXPONENT_BOUNDS` from a few starts (n from ``start``; q 2 and 3; tau
-    1 us), the five coefficients solved nonnegative for each. Each waveform family
-    weighs as much as the sinusoids (:func:`_group_weights`).
+    1 us; n2 3.5), the six coefficients solved nonnegative for each.
+    Each waveform family weighs as much as the sinusoids (:func:`_group_weights`).
     """
     w = _group_weights(data)
-    names = ("steinmetz_exponent", "rate_exponent", "swing_exponent", "log10_relaxation_time")
+    names = ("steinmetz_exponent", "rate_exponent", "swing_exponent", "log10_relaxation_time",
+             "second_steinmetz_exponent")
     lo = [EXPONENT_BOUNDS[k][0] for k in names]
     hi = [EXPONENT_BOUNDS[k][1] for k in names]
 
     def solve(x):
-        cols = _terms(data, x[0], x[1], x[2], 10.0 ** x[3], extended=True)
+        cols = _terms(data, x[0], x[1], x[2], 10.0 ** x[3], True, x[4])
         return _relative_nnls(cols, data.frequency, data.loss, w)
 
     n0 = start.steinmetz_exponent if start else 2.5
     best = None
     for q0 in (2.0, 3.0):
-        x0 = np.clip([n0, q0, 2.5, -6.0], np.add(lo, 1e-6), np.subtract(hi, 1e-6))
+        x0 = np.clip([n0, q0, 2.5, -6.0, 3.5], np.add(lo, 1e-6), np.subtract(hi, 1e-6))
         sol = least_squares(lambda x: solve(x)[1], x0, bounds=(lo, hi), diff_step=1e-4,
                             max_nfev=200)
         if best is None or sol.cost < best.cost:
             best = sol
     coef = solve(best.x)[0]
-    n, q, beta, log_tau = (float(v) for v in best.x)
+    n, q, beta, log_tau, n2 = (float(v) for v in best.x)
     return ExtendedLaw(float(coef[0]), n, float(coef[1]), float(coef[2]), float(coef[3]), q,
-                       beta, float(coef[4]), 10.0 ** log_tau)
+                       beta, float(coef[4]), 10.0 ** log_tau, float(coef[5]), n2)

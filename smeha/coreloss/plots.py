@@ -41,7 +41,7 @@ def plot_error_maps(results, path) -> None:
     fam = {w: np.concatenate([r.data.family(w) for r in results])
            for w in ("triangle", "trapezoid")}
     laws = {"iGSE (Steinmetz fitted on sinusoids)": "predicted_igse",
-            "extended law (rate field + relaxation)": "predicted_extended"}
+            "extended law (fitted on cal. rows)": "predicted_extended"}
     fig, axes = plt.subplots(2, 3, figsize=(14, 7.5), constrained_layout=True)
     names = ", ".join(r.data.name for r in results)
     fig.suptitle(f"Median signed error P_model/P_measured - 1 [%] ({names})")

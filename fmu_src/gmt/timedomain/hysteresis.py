@@ -55,7 +55,12 @@ import math
 
 from ..errors import ParameterError
 
-__all__ = ["BranchFunction", "SteinmetzHysteresis"]
+__all__ = ["BranchFunction", "BranchSum", "SteinmetzHysteresis", "MAX_EXPONENT"]
+
+#: Largest exponent of a stop density r^(n - 3) the operator accepts, [-]: n > 3 is a
+#: density growing with r (still nonnegative); the paper's n itself stays in (1, 3]
+#: (:data:`gmt.parameters.STEINMETZ_RANGE`), a second density may be steeper.
+MAX_EXPONENT = 4.0
 
 
 def _power_integral(a, b, p):
@@ -73,7 +78,7 @@ class BranchFunction:
     hysteresis_coefficient : float
         K_h of eq 7, [W s/(m^3 T^n)] (J/m^3 per cycle at 1 T).
     steinmetz_exponent : float
-        n of eq 7, [-], in (1, 3].
+        n of eq 7, [-], in (1, :data:`MAX_EXPONENT`].
     lower, upper : float
         r_0 and r_max, [T], 0 < r_0 < r_max.
 
@@ -88,10 +93,11 @@ class BranchFunction:
 
     def __init__(self, hysteresis_coefficient, steinmetz_exponent, lower, upper):
         n = float(steinmetz_exponent)
-        if not 1.0 < n <= 3.0:
+        if not 1.0 < n <= MAX_EXPONENT:
             raise ParameterError(
-                f"steinmetz_exponent = {n:g} is outside the allowed range (1, 3] of the "
-                "time-domain hysteresis operator (its stop density K_h n (n-1) r^(n-3)/4)")
+                f"steinmetz_exponent = {n:g} is outside the allowed range (1, {MAX_EXPONENT:g}] "
+                "of the time-domain hysteresis operator (its stop density K_h n (n-1) "
+                "r^(n-3)/4)")
         if not (0.0 < lower < upper and math.isfinite(upper)):
             raise ParameterError(
                 f"steinmetz_lower = {lower:g} T and steinmetz_upper = {upper:g} T must "
@@ -167,6 +173,46 @@ class BranchFunction:
         return loss
 
 
+class BranchSum:
+    """Two stop densities superposed: loss per cycle K_h a^n + K_h2 a^n2.
+
+    Densities add, and so do G, G' and the loss per cycle (each term of the module
+    docstring is linear in rho); both nonnegative, the sum is a Prandtl-Ishlinskii
+    operator too. With n2 > n the exponent of the loss per cycle turns from n at
+    small swings to n2 at large ones, as a ferrite's Steinmetz exponent rises with
+    flux density above its Rayleigh region (Bertotti 1998, ch. 12; Snelling,
+    *Soft Ferrites*, 1988, ch. 4). Same interface as :class:`BranchFunction`.
+    """
+
+    def __init__(self, *parts: BranchFunction):
+        self.parts = parts
+
+    def value(self, x: float) -> float:
+        """G(x), [A/m]."""
+        return sum(p.value(x) for p in self.parts)
+
+    def slope(self, x: float) -> float:
+        """G'(x), [A/(m T)]."""
+        return sum(p.slope(x) for p in self.parts)
+
+    def value_and_slope(self, x: float) -> tuple[float, float]:
+        """(G(x), G'(x))."""
+        g = gs = 0.0
+        for p in self.parts:
+            a, b = p.value_and_slope(x)
+            g, gs = g + a, gs + b
+        return g, gs
+
+    @property
+    def reversal_slope(self) -> float:
+        """G'(0), [A/(m T)]."""
+        return sum(p.reversal_slope for p in self.parts)
+
+    def cycle_loss(self, amplitude: float) -> float:
+        """Loss per cycle and volume, [J/m^3]: the parts' sum."""
+        return sum(p.cycle_loss(amplitude) for p in self.parts)
+
+
 class SteinmetzHysteresis:
     """The operator with its memory: B in, H_irr out (see the module docstring).
 
@@ -178,7 +224,7 @@ class SteinmetzHysteresis:
 
     Parameters
     ----------
-    branch : BranchFunction
+    branch : BranchFunction or BranchSum
 
     Examples
     --------

@@ -24,6 +24,10 @@ relaxation field k_r dB_pp^(beta - 2) x to H. Both are non-decreasing in the
 step's B (the relaxation's lag advances exactly, x(h) = x_0 e^(-h/tau) +
 dB/dt tau (1 - e^(-h/tau))), dB_pp is read from the hysteresis memory at the
 step's start, so the step equation keeps its single root and its bracket.
+A second stop density (``second_hysteresis_coefficient``, also off by
+default) is superposed on the operator's
+(:class:`gmt.timedomain.hysteresis.BranchSum`): H_irr stays non-decreasing
+along every branch, and the same holds.
 
 Magnetisation
 -------------
@@ -57,7 +61,7 @@ from ..forward import Magnetics, StepResult, bias_displacement
 from ..magnetostriction import magnetostriction
 from ..parameters import TransducerParameters
 from .dynamic import rate_field, relaxation_lag
-from .hysteresis import BranchFunction, SteinmetzHysteresis
+from .hysteresis import BranchFunction, BranchSum, SteinmetzHysteresis
 from .parameters import TimeDomainParameters
 from .separation import eddy_field_coefficient, excess_field_coefficient
 
@@ -96,6 +100,10 @@ class TimeDomainMagnetics:
         self.nu = td.reversible_field_per_tesla
         self.branch = BranchFunction(p.hysteresis_coefficient, p.steinmetz_exponent,
                                      td.steinmetz_lower, td.steinmetz_upper)
+        if td.second_hysteresis_coefficient > 0.0:
+            self.branch = BranchSum(self.branch, BranchFunction(
+                td.second_hysteresis_coefficient, td.second_steinmetz_exponent,
+                td.steinmetz_lower, td.steinmetz_upper))
         steepest = self.nu + self.branch.reversal_slope
         if not steepest < 1.0 / MU_0:
             raise ParameterError(

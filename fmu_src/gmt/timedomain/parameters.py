@@ -2,9 +2,9 @@
 
 The loss coefficients K_h, n, K_e, K_ex stay Table 2's
 (:class:`gmt.TransducerParameters`); the time-domain form needs three more
-numbers, and the extended dynamic loss law (:mod:`gmt.timedomain.dynamic`)
-five, whose defaults switch it off: a frozen dataclass validated on
-construction.
+numbers, the extended dynamic loss law (:mod:`gmt.timedomain.dynamic`)
+five and a second hysteresis density two, whose defaults switch them off:
+a frozen dataclass validated on construction.
 """
 from __future__ import annotations
 
@@ -48,6 +48,13 @@ class TimeDomainParameters:
     swing_exponent : float
         beta, [-], in [1, 4]: the rate field and the relaxation scale with the
         loop's peak-to-peak swing dB_pp as dB_pp^(beta - q) and dB_pp^(beta - 2).
+    second_hysteresis_coefficient : float
+        K_h2 of a second stop density, [J/(m^3 T^n2)], >= 0: the hysteresis loss per
+        cycle becomes K_h B_m^n + K_h2 B_m^n2
+        (:class:`gmt.timedomain.hysteresis.BranchSum`). Default 0: eq 7 alone.
+    second_steinmetz_exponent : float
+        n2, [-], in (1, 4]: with n2 > n the hysteresis exponent rises from n at
+        small amplitudes to n2 at large ones.
     relaxation_coefficient : float
         k_r of the relaxation field H_r = k_r dB_pp^(beta - 2) x, [A/(m T) T^(2 - beta)],
         >= 0. Default 0: no relaxation.
@@ -63,6 +70,8 @@ class TimeDomainParameters:
     swing_exponent: float = 2.0
     relaxation_coefficient: float = 0.0
     relaxation_time: float = 1e-6
+    second_hysteresis_coefficient: float = 0.0
+    second_steinmetz_exponent: float = 3.5
 
     def __post_init__(self):
         check_range("reversible_permeability", self.reversible_permeability, 1.0, 1e4,
@@ -80,6 +89,10 @@ class TimeDomainParameters:
                     low_open=False)
         check_range("relaxation_time", self.relaxation_time, 0.0, 1.0, unit="s",
                     high_open=False)
+        check_range("second_hysteresis_coefficient", self.second_hysteresis_coefficient, 0.0,
+                    None, low_open=False)
+        check_range("second_steinmetz_exponent", self.second_steinmetz_exponent, 1.0, 4.0,
+                    unit="-", high_open=False)
 
     @property
     def has_extension(self) -> bool:
