@@ -66,17 +66,25 @@ def main(argv=None) -> int:
     p.add_argument("--loads", type=lambda s: [float(v) for v in s.split(",")], default=LOADS)
     p.add_argument("--frequencies", type=lambda s: [float(v) for v in s.split(",")],
                    default=FREQUENCIES)
+    p.add_argument("--json", action="store_true", help="print one JSON object at the end")
     args = p.parse_args(argv)
-    counts = {}
-    print(f"{'circuit':<12} {'mode':<13} {'f [Hz]':>6} {'load [N]':>8} {'step [mm]':>9} "
-          f"{'wall [s]':>8}  outcome")
+    counts, runs = {}, []
+    if not args.json:
+        print(f"{'circuit':<12} {'mode':<13} {'f [Hz]':>6} {'load [N]':>8} {'step [mm]':>9} "
+              f"{'wall [s]':>8}  outcome")
     for circuit, mode, f, load, target in itertools.product(
             args.circuits, MODES, args.frequencies, args.loads, TARGETS):
         outcome, text, wall = run_one(circuit, mode, f, load, target, args.backend)
         counts[outcome] = counts.get(outcome, 0) + 1
-        print(f"{circuit:<12} {mode:<13} {f:>6g} {load:>8g} {target:>+9g} {wall:>8.1f}  "
-              f"{outcome}: {text}", flush=True)
-    print("outcomes: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
+        runs.append({"circuit": circuit, "mode": mode, "frequency_Hz": f, "load_N": load,
+                     "target_mm": target, "wall_s": wall, "outcome": outcome, "text": text})
+        if not args.json:
+            print(f"{circuit:<12} {mode:<13} {f:>6g} {load:>8g} {target:>+9g} {wall:>8.1f}  "
+                  f"{outcome}: {text}", flush=True)
+    if args.json:
+        print(json.dumps({"runs": runs, "outcomes": counts}))
+    else:
+        print("outcomes: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
     return 1 if counts.get("FAIL") else 0
 
 

@@ -41,6 +41,9 @@ BENCHMARKS = {
     "blas_threads": ([], ["--rows", "4000", "--repeat", "3"]),
     "bounded_solve": ([], ["--problems", "20"]),
     "stacked_differences": (["--diagnose"], ["--repeats", "1"]),
+    "losses_speed": ([], ["--materials", "3F4"]),
+    "position_envelope_sweep": ([], ["--circuits", "ideal", "--loads", "0",
+                                      "--frequencies", "100"]),
 }
 
 
