@@ -7,7 +7,7 @@ the host has already imported the repository's ``gmt`` (the pytest process
 has: ``conftest.py`` and the doctests import it), the FMU silently runs that
 copy instead of the one it bundles. So:
 
-* the FMUs are built **once per session, in a child process** (``build_fmu.py``,
+* the FMUs are built **once per pytest run, in a child process** (``build_fmu.py``,
   which itself runs pythonfmu's builder in a further child);
 * every FMU is stepped **in another child** (``tests/fmu_runner.py``) that never
   imports gmt; it records that ``gmt`` was absent before the FMU loaded and
@@ -64,7 +64,7 @@ def run_runner(command: str, workdir: Path, *args, timeout=600) -> dict:
     return json.loads(out.read_text())
 
 
-#: Results shared by every test module of the session. The test modules import
+#: Results shared by every test module of the pytest run. The test modules import
 #: these fixtures, and pytest makes one fixture definition per importing module,
 #: so a session fixture alone would build (and run) once per module.
 _SESSION: dict = {}

@@ -1,6 +1,6 @@
 """The FMI 2.0 FMU: build, model description, equality with gmt, state, errors.
 
-The FMU is built once per session in a child process and run in other
+The FMU is built once per pytest run in a child process and run in other
 children that never import the repository's gmt; see ``tests/fmu_fixtures.py``.
 Expected trajectories come from :class:`gmt.Transducer` stepped with the same
 inputs (the FMU's contract is to be that model, step for step), computed in a
@@ -393,7 +393,7 @@ def test_memory_is_flat_over_1e5_steps(fmu_dist, runner_dir):
 def test_the_docs_fmpy_example_runs_without_warnings(fmu_dist, tmp_path):
     # docs/FMU.md's simulate_fmu example must not print fmpy's
     # 'Warning: missing input for variable "external_force"'; run as written (a child: the
-    # pytest process has imported the repository's gmt), on this session's FMU
+    # pytest process has imported the repository's gmt), on this run's FMU
     import re
 
     doc = (Path(__file__).resolve().parents[1] / "docs" / "FMU.md").read_text()

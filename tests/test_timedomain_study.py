@@ -1,4 +1,4 @@
-"""The studies' side of issue 21: drive waveforms, --magnetics and --waveform, the flow cases.
+"""The studies with the time-domain magnetics: waveforms, --magnetics and --waveform, flows.
 
 References: the trapezoid's RMS by numerical quadrature (not the module's closed form);
 the valve controller's own phase rule (system_models.controller.pump_phase, Figure 2's
@@ -51,8 +51,8 @@ def test_cli_choices_agree_with_the_models():
 
 
 def test_the_paper_drive_stays_the_default():
-    # nothing of today's results changes unless asked: the default case builds the same
-    # control signal (a Sinusoid) and the same FMU start values as before issue 21
+    # the paper's drive unless asked: the default case builds the same
+    # control signal (a Sinusoid) and the FMU start values of the paper's magnetics
     case = flow.Case(frequency=100.0, mode="compensated")
     assert (case.magnetics, case.waveform, case.inverse, case.amplitude) == ("paper", "sine",
                                                                              None, None)
