@@ -394,20 +394,30 @@ def rewrite_fmu(raw: Path, dest: Path, variables=None, extra=None) -> Path:
     stamp = _build_time().timetuple()[:6] if os.environ.get("SOURCE_DATE_EPOCH") \
         else (1980, 1, 1, 0, 0, 0)
     dest.parent.mkdir(parents=True, exist_ok=True)
-    tmp = dest.with_name(dest.name + ".tmp")
-    with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
-        members = {name: None for name in zin.namelist()}
-        members.update(extra or {})
-        members.update(_linux_binaries(zin))
-        for name in sorted(members):
-            data = zin.read(name) if members[name] is None else members[name]
-            if name == "modelDescription.xml":
-                data = finish_model_description(data, variables)
-            info = zipfile.ZipInfo(name, date_time=stamp)
-            info.compress_type = zipfile.ZIP_DEFLATED
-            info.external_attr = 0o644 << 16
-            zout.writestr(info, data)
-    os.replace(tmp, dest)
+    # a temporary name of its own: two processes building the same FMU at once (test
+    # workers, two shells) each rename a whole file onto dest, the same bytes either way
+    fd, tmp_name = tempfile.mkstemp(dir=dest.parent, prefix=f".{dest.name}.", suffix=".tmp")
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        with zipfile.ZipFile(raw) as zin, \
+                zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
+            members = {name: None for name in zin.namelist()}
+            members.update(extra or {})
+            members.update(_linux_binaries(zin))
+            for name in sorted(members):
+                data = zin.read(name) if members[name] is None else members[name]
+                if name == "modelDescription.xml":
+                    data = finish_model_description(data, variables)
+                info = zipfile.ZipInfo(name, date_time=stamp)
+                info.compress_type = zipfile.ZIP_DEFLATED
+                info.external_attr = 0o644 << 16
+                zout.writestr(info, data)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, dest)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     return dest
 
 
