@@ -480,17 +480,44 @@ def format_diagnosis(d, path: str = "") -> str:
                  f"{d.paper.heldout_rms * 1e6:.4g} um, extended "
                  f"{d.extended.heldout_rms * 1e6:.4g} um")
     lines.append("")
-    head = (f"{'candidate':<72} {'misfit [um]':>12} {'RMS [um]':>10} {'chi2/n':>10} "
-            f"{'score':>12} {'k':>5}")
-    lines += [head, "-" * len(head)]
-    for f in sorted([d.paper] + d.fits + d.combinations, key=lambda f: f.score):
-        lines.append(f"{('paper (none)' if f.cause == 'none' else f.label):<72.72} "
-                     f"{f.heldout_misfit * 1e6:>12.4g} {f.heldout_rms * 1e6:>10.4g} "
-                     f"{f.heldout_chi2 / f.heldout_n:>10.4g} {f.score:>12.5g} {f.k:>5.3g}")
+    lines += candidate_table(d)
     lines.append("")
     lines.append("evidence:")
     lines += [f"  - {e}" for e in d.evidence]
     return "\n".join(lines)
+
+
+def display_label(fit) -> str:
+    """The model's name in the report: its label, or "paper (none)"."""
+    return fit.label if fit.candidate.members else "paper (none)"
+
+
+def candidate_table(d) -> list[str]:
+    """The table of the text report: the named model first (its row is the headline's
+    figures), then the other models tried, each once (the best-scored fit of a model
+    fitted more than once), best held-out score first; labels whole; a note on k."""
+    rows, seen = [d.extended], {display_label(d.extended)}
+    for f in sorted([d.paper] + list(d.fits) + list(d.combinations), key=lambda f: f.score):
+        name = display_label(f)
+        if name not in seen:
+            seen.add(name)
+            rows.append(f)
+    named = d.cause not in ("none", "unexplained")
+    marks = ["named"] + [""] * (len(rows) - 1) if named else [""] * len(rows)
+    width = max(len(display_label(f)) for f in rows) + 2
+    head = (f"{'model':<{width}} {'':<6} {'misfit [um]':>12} {'RMS [um]':>10} "
+            f"{'chi2/n':>10} {'score':>12} {'k':>6}")
+    out = [head, "-" * len(head)]
+    for f, mark in zip(rows, marks):
+        out.append(f"{display_label(f):<{width}} {mark:<6} {f.heldout_misfit * 1e6:>12.4g} "
+                   f"{f.heldout_rms * 1e6:>10.4g} {f.heldout_chi2 / f.heldout_n:>10.4g} "
+                   f"{f.score:>12.5g} {f.k:>6.3g}")
+    out.append("misfit, RMS, chi2/n and score on the held-out runs (score: held-out chi^2 + "
+               "k ln n, lower is better); k: the parameters the score charges, counted as "
+               "effective degrees of freedom where a model holds the Preisach density (its "
+               "penalised nonnegative weights count by the trace of the fit's hat matrix, "
+               "so k need not be whole)")
+    return out
 
 
 def _fit_dict(fit) -> dict:
