@@ -30,6 +30,7 @@ Default held-out runs: :func:`default_holdout`. The extended model is a
 the report. The method and its limits: docs/DIAGNOSE.md.
 """
 from ..measured import DataError
+from . import progress
 from .candidates import CAUSES, FORMS, PAPER, Batch, Candidate, Evaluator, candidates
 from .decision import MAX_CAUSES
 from .rules import MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE
@@ -41,7 +42,7 @@ from .workflow import (CONFUSABLE_WITHOUT_B, Diagnosis, default_holdout,
                        diagnose)
 
 __all__ = [
-    "DataError", "CAUSES", "FORMS", "PAPER", "Batch", "Candidate", "Evaluator", "candidates",
+    "DataError", "progress", "CAUSES", "FORMS", "PAPER", "Batch", "Candidate", "Evaluator", "candidates",
     "MAX_CAUSES", "MIN_BIC_DROP", "MIN_EXPLAINED", "WITHIN_NOISE", "HARMONICS", "MIN_CYCLES",
     "RunFeatures", "SkippedRun", "run_features", "Fit", "characterise", "format_diagnosis",
     "write_report", "read_variant", "read_variant_json", "variant_from_diagnosis",

@@ -81,6 +81,7 @@ from .fit import Fit, fit_all
 from .joins import (join_jobs, joined, ranked_forms, refit_job, screened_round,
                     start_vector)
 from .linearfit import linear_member
+from .progress import step
 from .resolution import Refinement
 from .rules import (MIN_BIC_DROP, added_member, admitted, evidence_channels, firm_in,
                     no_channel_worse, passes, passes_first, passes_in_own, refusal,
@@ -143,6 +144,7 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         best = _evident_first(paper, singles, timelike)
         first_in = evidence_channels(best.candidate.members[0]) if best is not None else ()
     if best is None:
+        step("two causes at once")
         best, order, tried = _pair_first(ev, train, held, paper, singles, sense, timelike,
                                          workers)
         if best is not None:
@@ -169,6 +171,7 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
         if len(current.causes) >= MAX_CAUSES:
             stopped = f"at most {MAX_CAUSES} causes are named"
             break
+        step(f"cause {len(current.causes) + 1} beside {current.label}")
         # the combinations are fitted from current's values by the same steps as current
         # refitted from them, the reference each is judged against (:func:`_settled`)
         if linear_member(current.candidate) is not None:

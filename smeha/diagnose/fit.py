@@ -417,12 +417,14 @@ def fit_all(ev, train, held, jobs, workers=None, costs=None) -> list:
     a long fit handed out last; the result stays in job order.
     """
     from ..pool import default_workers, run_jobs
+    from .progress import bar_settings
 
     workers = default_workers() if workers is None else workers
     order = (list(range(len(jobs))) if costs is None
              else sorted(range(len(jobs)), key=lambda i: -costs[i]))
+    desc, quiet = bar_settings()
     done = run_jobs(_fit_or_reason, [(ev, train, held) + tuple(jobs[i]) for i in order],
-                    workers, desc="fits", unit="fit", quiet=True)
+                    workers, desc=desc, unit="fit", quiet=quiet)
     out = [None] * len(jobs)
     for i, result in zip(order, done):
         out[i] = result

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from .candidates import Candidate
 from .fit import Fit, fit_all
+from .progress import step
 
 __all__ = ["richer_form", "finer_candidate", "finer_job", "Refinement"]
 
@@ -94,6 +95,7 @@ class Refinement:
     def finer(self):
         """The finer model's fit (or the reason its fit failed), fitted on first use."""
         if self._finer is None:
+            step(f"richer form of {self.current.label}")
             self._finer = fit_all(*self._args, [self.job()], self.workers)[0]
         return self._finer
 

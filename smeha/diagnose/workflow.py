@@ -293,6 +293,7 @@ def _prepared(runs, holdout, params) -> tuple:
 
 def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
     """:func:`diagnose` on checked arguments."""
+    from .progress import step
     from .report import characterise, evidence
 
     check_plausible(runs, params)
@@ -306,6 +307,7 @@ def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
     # decision differ with B present (sense)
     sense = bool(train.has_b.any())
     paper = fit_and_score(ev, train, held, PAPER, base0)
+    step("single causes")
     # within noise the answer is "none" whatever the candidates give (decision.select's
     # first rule): they are not fitted
     tried = () if within_noise(paper) else candidates()[1:]
