@@ -42,7 +42,8 @@ from .workflow import (CONFUSABLE_WITHOUT_B, Diagnosis, default_holdout,
                        diagnose)
 
 __all__ = [
-    "DataError", "progress", "CAUSES", "FORMS", "PAPER", "Batch", "Candidate", "Evaluator", "candidates",
+    "DataError", "progress", "CAUSES", "FORMS", "PAPER", "Batch", "Candidate", "Evaluator",
+    "candidates",
     "MAX_CAUSES", "MIN_BIC_DROP", "MIN_EXPLAINED", "WITHIN_NOISE", "HARMONICS", "MIN_CYCLES",
     "RunFeatures", "SkippedRun", "run_features", "Fit", "characterise", "format_diagnosis",
     "write_report", "read_variant", "read_variant_json", "variant_from_diagnosis",

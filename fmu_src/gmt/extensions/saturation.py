@@ -167,8 +167,8 @@ class SoftSaturation:
         """M_sat = M_s S(k (M_b + M) / M_s) - M_b of the linear M, [A/m] (per sample)."""
         ms = self.saturation_magnetization
         total = self.bias_magnetization + np.asarray(magnetization, dtype=float)
-        return ms * anhysteretic(self.initial_slope * total / ms, self.knee_exponent, self.tail_exponent,
-                                 self.shoulder) - self.bias_magnetization
+        return ms * anhysteretic(self.initial_slope * total / ms, self.knee_exponent,
+                                 self.tail_exponent, self.shoulder) - self.bias_magnetization
 
 
 class SaturationForm(MagnetizationStage, Extension):
