@@ -1,11 +1,12 @@
-"""The density on the finer grid fits no worse than on its own (smeha.diagnose.resolution).
+"""A richer form fits no worse than the form it refines (smeha.diagnose.resolution).
 
 The finer grid holds 1.5 times the nodes along each axis over the same range, so the
 density it can represent includes, to within its quadrature, every density of the coarse
 grid: fitted from the coarse fit carried over (gmt.extensions.preisach.projected_weights),
-it must describe the training runs at least as well. Until 2026-11-29 it was fitted from
-its own starts and ended above the coarse fit on two of three labsim datasets (seed 3 at
-800 samples a period: 2 210 against 1 778), which let the check pass any cause.
+it must describe the training runs at least as well. Fitted from its own starts it ended
+above the coarse fit on two of three labsim datasets (seed 3 at 800 samples a period:
+2 210 against 1 778), which let the check pass any cause. The richer saturation law holds
+the law it refines (c = 0) and starts from its fit.
 
 Data: labsim's general Preisach densities (tests/labsim, written apart from the
 candidates), at 400 samples a period (the outside lab files' clock), seeds 221 and 222,

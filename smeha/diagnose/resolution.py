@@ -49,14 +49,13 @@ def finer_candidate(cand: Candidate):
 
 
 def finer_job(fit: Fit) -> tuple:
-    """The fit job (candidate, base0, starts) of ``fit``'s model on the finer grid: one
-    start, ``fit``'s values with each discretised member's carried to its finer form
-    (its ``finer_start``: the density's output held, :func:`gmt.extensions.preisach.
-    projected_weights`).
+    """The fit job (candidate, base0, starts) of ``fit``'s model in its richer form: one
+    start, ``fit``'s values with each member that has a richer form carried to it (its
+    ``finer_start``: the density's output held, :func:`gmt.extensions.preisach.
+    projected_weights`; the saturation law as it is, c = 0).
 
-    Until 2026-11-29 a single density was fitted on the finer grid from its own starts,
-    as every single is. That fit often ended worse than the coarse one, and then the
-    check asked nothing a cause did not already pass beside the coarse density (labsim's
+    Fitted from its own starts, as every single is, the richer fit may end worse than the
+    fit it refines, and the check then asks nothing a cause does not already pass (labsim's
     Preisach data at 800 samples a period, training chi^2 coarse / finer from its own
     starts / finer from the projected fit: seed 3 1 778 / 2 210 / 857, seed 103 503 /
     1 411 / 374, seed 108 58 718 / 1 500 / 643; with eddy diffusion beside, seed 3
