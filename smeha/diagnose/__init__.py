@@ -38,7 +38,8 @@ from .features import HARMONICS, MIN_CYCLES, RunFeatures, SkippedRun, run_featur
 from .fit import Fit
 from .report import characterise, format_diagnosis, write_report
 from .variant import read_variant, read_variant_json, variant_from_diagnosis
-from .workflow import (CONFUSABLE_WITHOUT_B, Diagnosis, default_holdout,
+from .rules import CONFUSABLE_WITHOUT_B
+from .workflow import (Diagnosis, default_holdout,
                        diagnose)
 
 __all__ = [

@@ -10,9 +10,8 @@ from gmt import extensions as ext
 from .candidates import CAUSES, FORMS, Batch, Evaluator, label
 from . import remainder
 from .decision import leader
-from .rules import (MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, alike_at_levels, channels,
-                    explained, passes, shares_in_words, within_noise)
-from .workflow import CONFUSABLE_WITHOUT_B
+from .rules import (CONFUSABLE_WITHOUT_B, MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE,
+                    alike_at_levels, channels, explained, passes, shares_in_words, within_noise)
 
 __all__ = ["SIGNALS", "SCALE_SPAN", "characterise", "cautions", "y_worse_caution",
            "scale_caution", "evidence",

@@ -23,12 +23,21 @@ from gmt.extensions import HIGHER_HARMONICS
 
 from .fit import Fit
 
-__all__ = ["WITHIN_NOISE", "MIN_BIC_DROP", "MIN_EXPLAINED", "MIN_SHARE", "MIN_SHARE_WITH_B",
+__all__ = ["CONFUSABLE_WITHOUT_B", "WITHIN_NOISE", "MIN_BIC_DROP", "MIN_EXPLAINED", "MIN_SHARE", "MIN_SHARE_WITH_B",
            "channels", "evidence_channels", "share", "significant", "explained", "passes",
            "passes_in_own", "passes_first", "alike_at_levels", "level_shares", "explained_at",
            "shares_in_words", "shows_signature", "downstream_identifiable", "firm_in",
            "no_channel_worse", "beyond_forms", "within_noise", "refusal", "admitted",
            "added_member"]
+
+#: Without B (no sense voltage) these causes are told apart only by the shape of y:
+#: each magnetic cause that changes B and y together against the causes that change y only
+#: and leave a similar trace in y's harmonics against f.
+CONFUSABLE_WITHOUT_B = (
+    ("eddy_current_diffusion", "mechanical_resonance"),
+    ("eddy_current_diffusion", "transport_delay"),
+    ("rate_independent_hysteresis", "magnetization_saturation"),
+)
 
 #: Reduced chi^2 at or below which a model "explains the data within noise".
 WITHIN_NOISE = 2.0
