@@ -37,9 +37,10 @@ The rules and their constants (:data:`WITHIN_NOISE`, :func:`passes`, ... below) 
   a magnetic one only when that one misses B no more than y
   (:func:`downstream_identifiable`), and no
   channel it acts on may be predicted worse (:func:`no_channel_worse`), and it must
-  predict better than the causes before it in any other form (:func:`beyond_forms`) and,
-  beside a discretised form (the Preisach density), than that form on a finer grid
-  (:mod:`smeha.diagnose.resolution`), and its unknowns must be off their bounds
+  predict better than the causes before it in any other form (:func:`beyond_forms`) and
+  than the model before it in its richer form (the Preisach density on a finer grid, the
+  saturation law with a further term: :mod:`smeha.diagnose.resolution`; else the data
+  are "also consistent with a richer" first cause), and its unknowns must be off their bounds
   (:func:`firm_in`: with a sense voltage the round's leader is chosen among the
   combinations whose added cause is firm, and when that one is not admitted the leader of
   all, if weak, may be, as a weak finding; without one a weak leader ends the selection);
