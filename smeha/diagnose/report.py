@@ -379,10 +379,13 @@ def _named_lines(d) -> list[str]:
         added = [m for m in best.candidate.members if m not in first.candidate.members]
         chans = channels(added[0]) if added else None
         where = "" if chans is None else f" in {', '.join(first.measured_of(chans))}"
-        out.append(f"forward selection: the best second cause, {best.label}, lowers the "
-                   f"held-out BIC by {first.score - best.score:.4g} and removes "
+        out.append(f"forward selection: of the models with a further cause, {best.label} "
+                   f"predicts the held-out runs best (held-out BIC lower by "
+                   f"{first.score - best.score:.4g}, "
                    f"{100 * explained(first, best, chans):.3g} % of the remaining "
-                   f"excess{where}; no second cause named")
+                   f"excess{where} removed); no further cause is named"
+                   + (" (the rule the best-ranked try failed: next line)" if d.stopped
+                      else ""))
     if d.stopped:
         out.append(f"no further cause named: {d.stopped}")
     if d.screened:
