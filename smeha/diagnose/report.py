@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import textwrap
 
 import numpy as np
 
@@ -514,11 +515,12 @@ def candidate_table(d) -> list[str]:
         out.append(f"{display_label(f):<{width}} {mark:<6} {f.heldout_misfit * 1e6:>12.4g} "
                    f"{f.heldout_rms * 1e6:>10.4g} {f.heldout_chi2 / f.heldout_n:>10.4g} "
                    f"{f.score:>12.5g} {f.k:>6.3g}")
-    out.append("misfit, RMS, chi2/n and score on the held-out runs (score: held-out chi^2 + "
-               "k ln n, lower is better); k: the parameters the score charges, counted as "
-               "effective degrees of freedom where a model holds the Preisach density (its "
-               "penalised nonnegative weights count by the trace of the fit's hat matrix, "
-               "so k need not be whole)")
+    out += textwrap.wrap(
+        "misfit, RMS, chi2/n and score on the held-out runs (score: held-out chi^2 + k ln n, "
+        "lower is better); k: the parameters the score charges, counted as effective degrees "
+        "of freedom where a model holds the Preisach density (its penalised nonnegative "
+        "weights count by the trace of the fit's hat matrix, so k need not be whole)",
+        width=len(head))
     return out
 
 
