@@ -348,7 +348,10 @@ def _named_lines(d) -> list[str]:
     p, e = d.paper, d.extended
     without = d.runs_without_sense_voltage
     out = []
-    first = leader([f for f in d.fits if f.causes == (d.cause,)])
+    # the named model itself where it holds the first cause alone (a refit of the single
+    # may have replaced it: the table's row and the headline are of that fit)
+    first = (e if e.causes == (d.cause,) else
+             leader([f for f in d.fits if f.causes == (d.cause,)]))
     out.append(f"named {first.label} (acts on {SIGNALS[d.cause]}): held-out BIC lower by "
                f"{p.score - first.score:.4g} (threshold {MIN_BIC_DROP:g}), "
                f"{100 * explained(p, first):.3g} % of the paper's excess chi^2 removed; "
