@@ -120,11 +120,9 @@ def anhysteretic(u, knee=2.0, tail=1.0, shoulder=0.0):
     True
     """
     u = np.asarray(u, dtype=float)
-    u_max, s_max, spline = _inverse_table(float(knee), float(tail), float(shoulder))
-    a = np.abs(u)
-    inside = a < u_max
-    s = np.where(inside, spline(np.where(inside, a, 0.0)), s_max)
-    return np.sign(u) * s
+    u_max, _, spline = _inverse_table(float(knee), float(tail), float(shoulder))
+    # beyond the table's last node S is its last value, the spline's there
+    return np.copysign(spline(np.minimum(np.abs(u), u_max)), u)
 
 
 @dataclass(frozen=True)
@@ -171,6 +169,12 @@ class SoftSaturation:
                                  self.tail_exponent, self.shoulder) - self.bias_magnetization
 
 
+@functools.lru_cache(maxsize=256)
+def _law(*args) -> SoftSaturation:
+    """The law of these arguments, checked once (a fit asks the same law many times)."""
+    return SoftSaturation(*(float(v) for v in args))
+
+
 class SaturationForm(MagnetizationStage, Extension):
     """The anhysteretic law of eq (1) on the total magnetisation (module docstring);
     no memory."""
@@ -215,11 +219,9 @@ class SaturationForm(MagnetizationStage, Extension):
                 f"{cls.cause} parameter saturation_magnetization_A_per_m = {ms:g} A/m is "
                 f"outside the allowed range (bias_magnetization = {params.bias_magnetization:g}"
                 ", inf) A/m")
-        return SoftSaturation(ms, params.bias_magnetization,
-                              values.get("initial_slope", 1.0),
-                              values.get("knee_exponent", 2.0),
-                              values.get("tail_exponent", 1.0),
-                              values.get("shoulder", 0.0))
+        return _law(ms, params.bias_magnetization, values.get("initial_slope", 1.0),
+                    values.get("knee_exponent", 2.0), values.get("tail_exponent", 1.0),
+                    values.get("shoulder", 0.0))
 
     # periodic form
     @classmethod
