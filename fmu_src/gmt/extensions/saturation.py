@@ -74,9 +74,9 @@ TABLE_SPAN = 24.0
 TABLE_STEPS = 1200
 
 #: Range of the law's initial slope k against the paper's susceptibility, [-].
-SLOPE_RANGE = (0.25, 4.0)
+SLOPE_RANGE = (0.5, 2.0)
 #: Range of the knee and tail exponents p, q of eq (1), [-].
-EXPONENT_RANGE = (0.3, 8.0)
+EXPONENT_RANGE = (0.5, 4.0)
 #: Range of the richer form's shoulder c of (1 + c S^2), [-].
 SHOULDER_RANGE = (-0.9, 8.0)
 
@@ -189,8 +189,11 @@ class SaturationForm(MagnetizationStage, Extension):
                             high_open=False, optional=True),
                   Parameter("tail_exponent", "-", *EXPONENT_RANGE, low_open=False,
                             high_open=False, optional=True))
+    # one start, the tanh law tangent to the paper at zero: started also from M_b/M_s 0.6
+    # and from Froehlich-Kennelly, the fits ended within 2 of its held-out score on
+    # labsim's Langevin law (seed 3 at 800 a period) and outside lab D, at 3 times the cost
     fit = FitSpec(("M_b/M_s", "initial_slope", "knee_exponent", "tail_exponent"),
-                  ((0.3, 1.0, 2.0, 1.0), (0.6, 1.0, 2.0, 1.0), (0.45, 1.0, 1.0, 2.0)),
+                  ((0.3, 1.0, 2.0, 1.0),),
                   (1e-3, SLOPE_RANGE[0]) + (EXPONENT_RANGE[0],) * 2,
                   (0.97, SLOPE_RANGE[1]) + (EXPONENT_RANGE[1],) * 2,
                   neutral=(1e-3, 1.0, 2.0, 1.0))
