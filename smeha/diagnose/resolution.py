@@ -68,7 +68,7 @@ def finer_job(fit: Fit) -> tuple:
 
 class Refinement:
     """The check of the module docstring for the causes that may join ``current``: the
-    finer model is fitted once, on the first call that needs it."""
+    richer model is fitted once, on the first call that needs it."""
 
     def __init__(self, ev, train, held, current: Fit, workers=None):
         self._args = (ev, train, held)
@@ -78,21 +78,21 @@ class Refinement:
 
     @property
     def pending(self) -> bool:
-        """True while the finer model is not fitted and ``current`` has one."""
+        """True while the richer model is not fitted and ``current`` has one."""
         return self._finer is None and finer_candidate(self.current.candidate) is not None
 
     def job(self) -> tuple:
-        """The finer model's fit job, for a caller that fits it beside others
+        """The richer model's fit job, for a caller that fits it beside others
         (:func:`smeha.diagnose.joins.screened_round`), then hands it over (:meth:`given`)."""
         return finer_job(self.current)
 
     def given(self, fit) -> None:
-        """The finer model's fit (or the reason it failed) of :meth:`job`, fitted elsewhere."""
+        """The richer model's fit (or the reason it failed) of :meth:`job`, fitted elsewhere."""
         self._finer = fit
 
     @property
     def finer(self):
-        """The finer model's fit (or the reason its fit failed), fitted on first use."""
+        """The richer model's fit (or the reason its fit failed), fitted on first use."""
         if self._finer is None:
             step(f"richer form of {self.current.label}")
             self._finer = fit_all(*self._args, [self.job()], self.workers)[0]
@@ -100,8 +100,8 @@ class Refinement:
 
     def passed_by(self, new: Fit, added) -> bool:
         """True when ``added`` (the member ``new`` adds to ``current``) needs no check (it
-        acts on y only, or ``current`` holds no discretised form) or ``new`` predicts the
-        held-out runs better than the finer model (score lower)."""
+        acts on y only, or ``current`` holds no form with a richer one) or ``new`` predicts the
+        held-out runs better than the richer model (score lower)."""
         if added.signals != "B and y" or finer_candidate(self.current.candidate) is None:
             return True
         finer = self.finer
