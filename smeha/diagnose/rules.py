@@ -23,8 +23,8 @@ from gmt.extensions import HIGHER_HARMONICS
 
 from .fit import Fit
 
-__all__ = ["CONFUSABLE_WITHOUT_B", "WITHIN_NOISE", "MIN_BIC_DROP", "MIN_EXPLAINED", "MIN_SHARE", "MIN_SHARE_WITH_B",
-           "channels", "evidence_channels", "share", "significant", "explained", "passes",
+__all__ = ["CONFUSABLE_WITHOUT_B", "WITHIN_NOISE", "MIN_BIC_DROP", "MIN_EXPLAINED", "MIN_SHARE",
+           "MIN_SHARE_WITH_B", "channels", "evidence_channels", "share", "significant", "explained", "passes",
            "passes_in_own", "passes_first", "alike_at_levels", "level_shares", "explained_at",
            "shares_in_words", "shows_signature", "downstream_identifiable", "firm_in",
            "no_channel_worse", "beyond_forms", "within_noise", "refusal", "admitted",
