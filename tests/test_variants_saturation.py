@@ -108,7 +108,7 @@ def test_the_richer_form_holds_the_law_and_starts_from_it():
     assert SaturationForm.finer is RicherSaturationForm
     start = SaturationForm.finer_start(x)
     assert RicherSaturationForm.from_fit(start, ctx) == dict(
-        SaturationForm.from_fit(x, ctx), shoulder=0.0)
+        SaturationForm.from_fit(x, ctx), shoulder=0.0, bias_shift=0.0)
     params = gmt.TransducerParameters()
     m = np.linspace(-5e4, 5e4, 11)
     assert np.allclose(RicherSaturationForm.law(RicherSaturationForm.from_fit(start, ctx),

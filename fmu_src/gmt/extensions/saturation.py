@@ -41,9 +41,10 @@ monotone), and vanishes at |S| = 1 (so |S| < 1 for q >= 1; for q < 1 S reaches
 
 and measured curves between and beyond these. The richer form
 (:class:`RicherSaturationForm`) multiplies (1) by (1 + c S^2), c > -1, the next
-term of an even susceptibility in S: the check of the diagnosis behind a later
-cause that acts on the magnetisation beside a saturation
-(:mod:`smeha.diagnose.resolution`).
+term of an even susceptibility in S, and shifts the bias along the curve by d
+(S(k (M_b + M) / M_s + d): a law of which the paper's M is the tangent at the bias,
+not at zero): the check of the diagnosis behind a later cause that acts on the
+magnetisation beside a saturation (:mod:`smeha.diagnose.resolution`).
 
 * periodic form: M_sat(M) over one period (:meth:`SaturationForm.steady_output`;
   the paper's part of M is the one whose saturated total gives the measured
@@ -79,6 +80,8 @@ SLOPE_RANGE = (0.5, 2.0)
 EXPONENT_RANGE = (0.5, 4.0)
 #: Range of the richer form's shoulder c of (1 + c S^2), [-].
 SHOULDER_RANGE = (-0.9, 8.0)
+#: Range of the richer form's shift d of the bias on the law's curve, [-] (of u).
+SHIFT_RANGE = (-1.0, 1.0)
 
 
 @functools.lru_cache(maxsize=256)
@@ -149,6 +152,7 @@ class SoftSaturation:
     knee_exponent: float = 2.0
     tail_exponent: float = 1.0
     shoulder: float = 0.0
+    bias_shift: float = 0.0
 
     def __post_init__(self):
         check_range("saturation_magnetization", self.saturation_magnetization,
@@ -160,13 +164,16 @@ class SoftSaturation:
                         low_open=False, high_open=False)
         check_range("shoulder", self.shoulder, *SHOULDER_RANGE, unit="-",
                     low_open=False, high_open=False)
+        check_range("bias_shift", self.bias_shift, *SHIFT_RANGE, unit="-",
+                    low_open=False, high_open=False)
 
     def magnetization(self, magnetization):
         """M_sat = M_s S(k (M_b + M) / M_s) - M_b of the linear M, [A/m] (per sample)."""
         ms = self.saturation_magnetization
         total = self.bias_magnetization + np.asarray(magnetization, dtype=float)
-        return ms * anhysteretic(self.initial_slope * total / ms, self.knee_exponent,
-                                 self.tail_exponent, self.shoulder) - self.bias_magnetization
+        return ms * anhysteretic(self.initial_slope * total / ms + self.bias_shift,
+                                 self.knee_exponent, self.tail_exponent,
+                                 self.shoulder) - self.bias_magnetization
 
 
 @functools.lru_cache(maxsize=256)
@@ -224,7 +231,7 @@ class SaturationForm(MagnetizationStage, Extension):
                 ", inf) A/m")
         return _law(ms, params.bias_magnetization, values.get("initial_slope", 1.0),
                     values.get("knee_exponent", 2.0), values.get("tail_exponent", 1.0),
-                    values.get("shoulder", 0.0))
+                    values.get("shoulder", 0.0), values.get("bias_shift", 0.0))
 
     # periodic form
     @classmethod
@@ -245,30 +252,33 @@ class SaturationForm(MagnetizationStage, Extension):
 
 
 class RicherSaturationForm(SaturationForm):
-    """Eq (1) times (1 + c S^2): not a candidate of its own, but the check of the
+    """Eq (1) times (1 + c S^2), the bias shifted by d: not a candidate of its own, but the check of the
     diagnosis behind a later cause that acts on the magnetisation beside a saturation
     (:mod:`smeha.diagnose.resolution`), never named."""
 
     parameters = SaturationForm.parameters + (
         Parameter("shoulder", "-", *SHOULDER_RANGE, low_open=False, high_open=False,
-                  optional=True),)
+                  optional=True),
+        Parameter("bias_shift", "-", *SHIFT_RANGE, low_open=False, high_open=False,
+                  optional=True))
 
-    fit = FitSpec(SaturationForm.fit.names + ("shoulder",),
-                  tuple(s + (0.0,) for s in SaturationForm.fit.starts),
-                  SaturationForm.fit.lower + (SHOULDER_RANGE[0],),
-                  SaturationForm.fit.upper + (SHOULDER_RANGE[1],),
-                  neutral=SaturationForm.fit.neutral + (0.0,))
+    fit = FitSpec(SaturationForm.fit.names + ("shoulder", "bias_shift"),
+                  tuple(s + (0.0, 0.0) for s in SaturationForm.fit.starts),
+                  SaturationForm.fit.lower + (SHOULDER_RANGE[0], SHIFT_RANGE[0]),
+                  SaturationForm.fit.upper + (SHOULDER_RANGE[1], SHIFT_RANGE[1]),
+                  neutral=SaturationForm.fit.neutral + (0.0, 0.0))
     finer = None
 
     @classmethod
     def from_fit(cls, x, context):
-        return dict(SaturationForm.from_fit(x[:4], context), shoulder=float(x[4]))
+        return dict(SaturationForm.from_fit(x[:4], context), shoulder=float(x[4]),
+                    bias_shift=float(x[5]))
 
 
 def _richer_start(x):
     """Unknowns ``x`` of :class:`SaturationForm` carried to the richer form's: the same
-    law (c = 0), a start for its fit."""
-    return tuple(x) + (0.0,)
+    law (c = 0, d = 0), a start for its fit."""
+    return tuple(x) + (0.0, 0.0)
 
 
 SaturationForm.finer = RicherSaturationForm
