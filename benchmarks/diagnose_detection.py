@@ -1,4 +1,4 @@
-"""Detection study of ``smeha diagnose`` (issue 11, "done when").
+"""Detection study of ``smeha diagnose``.
 
 For clean data, each hidden cause alone and pairs of causes, over many seeds, at
 several sample rates, noise levels and strengths, run :func:`smeha.diagnose.diagnose`
@@ -342,7 +342,7 @@ def latest(results) -> list:
 
 
 def summary_table(results, outside) -> str:
-    """The issue's "done when" table of the results of several studies: per generator
+    """The detection targets' table of the results of several studies: per generator
     (labsim's formulations), sense voltage and kind of case, the share named at each
     sample clock, the misnamed ones counted, then every dataset not named."""
     def group(r):

@@ -71,7 +71,7 @@ def test_clean_data_without_voltage_is_none():
 def test_names_saturation_without_voltage():
     runs = generate_runs("magnetization_saturation", seed=11, strength=1.0)
     result = diagnose.diagnose(_without_voltage(runs), holdout=HOLDOUT)
-    # the one cause it holds (issue 18, rule 3: no extra cause); this seed used to reach a
+    # the one cause it holds (no extra cause); this seed used to reach a
     # gain of 2 only with a one-mass mechanics on its bounds added (weak, now refused:
     # rules.firm_in); saturation alone removes 82 % of the held-out excess, gain 1.86
     assert result.causes == ["magnetization_saturation"], "\n".join(result.evidence)

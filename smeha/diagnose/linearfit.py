@@ -36,6 +36,7 @@ import numpy as np
 from scipy.optimize import nnls
 
 from . import differences
+from .baseunknowns import BASE_LOWER, BASE_UPPER, base_factor
 from .boxsolve import bounded_least_squares
 from .candidates import Batch, Candidate, Evaluator
 
@@ -241,7 +242,6 @@ def _joint(prob, base, w, chi2, other, lam, rounds=None):
     bound at every damping, the weights took their whole linearised step, and no step was
     ever kept (labsim's Preisach hysteresis, seed 101: training chi^2 1.39e6 after the
     alternation and after these steps; 3.2e5 with the damping on every unknown)."""
-    from .fit import BASE_LOWER, BASE_UPPER, base_factor
 
     rounds = JOINT_ROUNDS if rounds is None else rounds
     nb = len(BASE_LOWER)
@@ -453,7 +453,6 @@ def _choose_penalty(prob, jac, r0, w):
 def _covariance(ev, train, cand, prob, base, w, other, jac_w, lam):
     """(J^T J + P)^-1 of all unknowns (base scaled as in the fit, then x), the weights'
     block penalised as in the fit and the weights held at zero pinned."""
-    from .fit import BASE_LOWER, base_factor
 
     nb = len(BASE_LOWER)
     factor = base_factor(base)
