@@ -26,7 +26,7 @@ only its public API is used) or, with ``--generator synthetic``, from the projec
     python benchmarks/diagnose_detection.py --markdown STUDY.json[.gz]
     python benchmarks/diagnose_detection.py --summary STUDY.json.gz,LOG.jsonl,... [--latest]
 
-The studies quoted in docs/DIAGNOSE.md are kept in benchmarks/detection/ (gzipped JSON).
+The studies quoted in docs/DIAGNOSE-detection.md are kept in benchmarks/detection/ (gzipped JSON).
 
 ``--rates``: samples per period (``100``) or one fixed sample rate for every frequency
 (``20000Hz``; labsim only). Every (case, rate, strength, noise) combination runs
@@ -251,7 +251,7 @@ def _rate_label(rate):
 
 
 def markdown_table(study) -> str:
-    """A saved study (``--json`` output) as the Markdown table of docs/DIAGNOSE.md: one
+    """A saved study (``--json`` output) as the Markdown table of docs/DIAGNOSE-detection.md: one
     row per hidden case, one column per sample clock."""
     rows = study["rows"]
     rates = list(dict.fromkeys(r["rate"] for r in rows))

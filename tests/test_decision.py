@@ -1,6 +1,6 @@
 """The decision's rules on fits with known scores (smeha.diagnose.rules, .decision).
 
-Reference: the rule of docs/DIAGNOSE.md ("Score and decision"): a model is named when it
+Reference: the rule of docs/DIAGNOSE-method.md ("Score and decision"): a model is named when it
 lowers the held-out BIC (Schwarz 1978) by more than MIN_BIC_DROP and removes at least
 MIN_EXPLAINED of the held-out excess chi^2 (chi^2 - n); a later cause's share counted in the
 channels it acts on; the ranking over all data guarded by the held-out score. The fits here

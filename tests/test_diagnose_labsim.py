@@ -206,7 +206,7 @@ def test_identify_recovers_table_2_on_clean_lab_data_and_flags_a_misfit():
 def test_a_sensor_chains_low_pass_is_answered_with_the_caution():
     # labsim's second formulation of the sensor: an order-2 Bessel chain (100 us group delay;
     # tests/labsim/README.md). y alone cannot tell it from a delay or from changed mechanics
-    # (docs/DIAGNOSE.md, Limits): whichever of those the answer names, it must say so
+    # (docs/DIAGNOSE-method.md, Limits): whichever of those the answer names, it must say so
     result = diagnose.diagnose(runs({"transport_delay": 1.0}, seed=SEED, sample_rate=20000.0,
                                     formulation="alt"))
     assert result.causes and set(result.causes) <= {"transport_delay", "mechanical_resonance"}

@@ -97,7 +97,7 @@ def test_mixed_runs_with_and_without_voltage():
 
 @pytest.mark.integration
 def test_mechanical_resonance_without_voltage_is_named_with_gain():
-    """Without B each run's B_m is its own unknown (fitted on the run's y, docs/DIAGNOSE.md,
+    """Without B each run's B_m is its own unknown (fitted on the run's y, docs/DIAGNOSE-method.md,
     Limits), so the paper's model matches the fundamental's size run by run; what tells the
     two masses is the fundamental's phase and the harmonics, against f. Named, with its gain
     (13 to 57 over seeds 0-5 and 11 when this was written; it was 1.2-1.6 with B_m taken

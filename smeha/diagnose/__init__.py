@@ -27,7 +27,7 @@ displacement y and, where measured, the sensing-coil voltage E), the workflow
 Default held-out runs: :func:`default_holdout`. The extended model is a
 :class:`gmt.ModelVariant` (:meth:`Diagnosis.variant`, or
 :func:`variant_from_diagnosis` of the JSON). SI inside; micrometres only in
-the report. The method and its limits: docs/DIAGNOSE.md.
+the report. How to read it: docs/DIAGNOSE.md; the method and its limits: docs/DIAGNOSE-method.md.
 """
 from ..measured import DataError
 from . import progress
