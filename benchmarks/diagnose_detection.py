@@ -1,4 +1,4 @@
-"""Detection study of ``smeha diagnose`` (issue 11, "done when").
+"""Detection study of ``smeha diagnose``.
 
 For clean data, each hidden cause alone and pairs of causes, over many seeds, at
 several sample rates, noise levels and strengths, run :func:`smeha.diagnose.diagnose`
@@ -26,7 +26,7 @@ only its public API is used) or, with ``--generator synthetic``, from the projec
     python benchmarks/diagnose_detection.py --markdown STUDY.json[.gz]
     python benchmarks/diagnose_detection.py --summary STUDY.json.gz,LOG.jsonl,... [--latest]
 
-The studies quoted in docs/DIAGNOSE.md are kept in benchmarks/detection/ (gzipped JSON).
+The studies quoted in docs/DIAGNOSE-detection.md are kept in benchmarks/detection/ (gzipped JSON).
 
 ``--rates``: samples per period (``100``) or one fixed sample rate for every frequency
 (``20000Hz``; labsim only). Every (case, rate, strength, noise) combination runs
@@ -251,7 +251,7 @@ def _rate_label(rate):
 
 
 def markdown_table(study) -> str:
-    """A saved study (``--json`` output) as the Markdown table of docs/DIAGNOSE.md: one
+    """A saved study (``--json`` output) as the Markdown table of docs/DIAGNOSE-detection.md: one
     row per hidden case, one column per sample clock."""
     rows = study["rows"]
     rates = list(dict.fromkeys(r["rate"] for r in rows))
@@ -342,7 +342,7 @@ def latest(results) -> list:
 
 
 def summary_table(results, outside) -> str:
-    """The issue's "done when" table of the results of several studies: per generator
+    """The detection targets' table of the results of several studies: per generator
     (labsim's formulations), sense voltage and kind of case, the share named at each
     sample clock, the misnamed ones counted, then every dataset not named."""
     def group(r):

@@ -238,7 +238,8 @@ def _run_diagnose(args) -> int:
         if not holdout:
             raise UsageError(f"--holdout {args.holdout!r} names no run")
     runs = measured.read_measurements(args.data)  # DataError (a ValueError): exit 2
-    result = diagnose.diagnose(runs, holdout=holdout, workers=args.workers)
+    with diagnose.progress.shown():  # a bar with the current step once it takes > 5 s
+        result = diagnose.diagnose(runs, holdout=holdout, workers=args.workers)
     written = diagnose.write_report(result, args.report) if args.report else []
     if args.json:
         report = {"file": str(args.data), **result.as_dict()}

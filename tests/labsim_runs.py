@@ -12,7 +12,7 @@ import labsim
 from smeha.measured import Run
 
 #: labsim's textbook forms of the paper's two effects (its README): the Preisach density of
-#: random relays and eddy diffusion, as the issue-18 studies and benchmarks use them.
+#: random relays and eddy diffusion, as the textbook-form studies and benchmarks use them.
 TEXTBOOK_FORMULATIONS = {"rate_independent_hysteresis": "preisach_random",
                          "eddy_current_diffusion": "diffusion_random"}
 

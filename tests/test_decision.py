@@ -1,6 +1,6 @@
 """The decision's rules on fits with known scores (smeha.diagnose.rules, .decision).
 
-Reference: the rule of docs/DIAGNOSE.md ("Score and decision"): a model is named when it
+Reference: the rule of docs/DIAGNOSE-method.md ("Score and decision"): a model is named when it
 lowers the held-out BIC (Schwarz 1978) by more than MIN_BIC_DROP and removes at least
 MIN_EXPLAINED of the held-out excess chi^2 (chi^2 - n); a later cause's share counted in the
 channels it acts on; the ranking over all data guarded by the held-out score. The fits here
@@ -368,15 +368,24 @@ def test_a_magnetic_cause_beside_the_density_must_beat_the_density_on_a_finer_gr
                            _cls("transport_delay"))
     assert fitted == []
     assert not check.passed_by(fit((density, eddy), b=95_544.0), eddy)
-    assert "on its finer grid predicts the held-out runs as well without it (score 2.46e+04 " \
-        "against 9.575e+04)" in check.refusal(fit((density, eddy), b=95_544.0), eddy)
+    assert check.refusal(fit((density, eddy), b=95_544.0), eddy).endswith(
+        "which does as well without it (score 2.46e+04 against 9.575e+04): also consistent "
+        "with a richer rate_independent_hysteresis")
     assert check.passed_by(fit((density, eddy), b=20_000.0), eddy)
     assert check.refusal(fit((density, eddy), b=20_000.0), eddy) == ""
     assert fitted == [Candidate((finer_density,))]
-    saturation = _cls("magnetization_saturation")
-    other = resolution.Refinement(None, None, None, fit((saturation,), b=195_609.0))
-    assert other.passed_by(fit((saturation, eddy), b=95_544.0), eddy)
+    # a model whose forms have no richer form needs no richer fit
+    one_mass = _cls("mechanical_resonance", "one_dof")
+    other = resolution.Refinement(None, None, None, fit((one_mass,), b=195_609.0))
+    assert other.passed_by(fit((eddy, one_mass), b=95_544.0), eddy)
     assert len(fitted) == 1
+    # a saturation law's richer form is the law with the next term of its susceptibility
+    saturation = _cls("magnetization_saturation")
+    law = resolution.Refinement(None, None, None, fit((saturation,), b=195_609.0))
+    assert not law.passed_by(fit((saturation, eddy), b=95_544.0), eddy)
+    assert fitted[1:] == [Candidate((saturation.finer,))]
+    assert "also consistent with a richer magnetization_saturation" in law.refusal(
+        fit((saturation, eddy), b=95_544.0), eddy)
 
 
 def _cells(nc, nu):
@@ -393,22 +402,22 @@ def test_the_finer_model_starts_from_the_fitted_values():
     # density's rate factor is carried as it is, its weights projected on the finer grid
     # (1.5 times the nodes along each axis: 16 x 28 = 448 weights for 11 x 19;
     # projected_weights, checked against relays switched in time in test_preisach); a
-    # single density starts there too (until 2026-11-29 from its own starts)
+    # single density starts there too
     from gmt.extensions.preisach import projected_weights
     from smeha.diagnose import resolution
     density = _cls("rate_independent_hysteresis", "preisach")
-    saturation = _cls("magnetization_saturation")
-    cand = Candidate((density, saturation))
+    other = _cls("transport_delay")  # a member without a richer form
+    cand = Candidate((density, other))
     weights = 100.0 * _cells(11, 19).ravel()
-    x = ((3.0, 2.5) + tuple(weights) + tuple(0.1 * (k + 1) for k in range(saturation.fit.size)))
-    pair = dataclasses.replace(fit((density, saturation)), candidate=cand, x=x)
+    x = ((3.0, 2.5) + tuple(weights) + tuple(0.1 * (k + 1) for k in range(other.fit.size)))
+    pair = dataclasses.replace(fit((density, other)), candidate=cand, x=x)
     finer_cand, base, starts = resolution.finer_job(pair)
-    assert finer_cand == Candidate((density.finer, saturation)) and base == pair.base
+    assert finer_cand == Candidate((density.finer, other)) and base == pair.base
     (start,) = starts
     own = dict(zip(finer_cand.members, finer_cand.split(start)))
     assert len(own[density.finer]) == 2 + 16 * 28
     assert own[density.finer][:2] == (3.0, 2.5)
-    assert own[saturation] == x[density.fit.size:]
+    assert own[other] == x[density.fit.size:]
     projected = projected_weights(weights, density.grid, density.finer.grid)
     assert np.array_equal(own[density.finer][2:], projected)
     alone = dataclasses.replace(fit((density,)), x=x[:density.fit.size])
@@ -566,11 +575,15 @@ def test_a_refused_cause_is_told_the_first_rule_it_fails_with_its_figures():
 
     # the rule in the channels it acts on: y 1000 -> 990 is 10 of a 1050 excess
     small = why(fit((hyst, delay), y=990.0, b=500.0, drift=50.0))
-    assert small == ("held-out BIC lower by 10 (it must fall by more than 25), 0.952 % of "
-                     "the excess in y, drift removed (at least 50 % must go)")
+    assert small == ("the held-out BIC falls by 10, not by more than 25 and it removes "
+                     "0.952 % of the excess in y, drift, less than the 50 % that must go")
     worse = why(fit((hyst, delay), y=1020.0, b=500.0, drift=50.0))
-    assert worse == ("held-out BIC higher by 20 (it must fall by more than 25), the excess "
-                     "in y, drift grown by 1.9 % (at least 50 % must go)")
+    assert worse == ("the held-out BIC rises by 20, where it must fall by more than 25 and "
+                     "the excess in y, drift grows by 1.9 %, where 50 % must go")
+    # a refusal that met one part of the rule says which part failed, then the part met
+    half = why(fit((hyst, delay), y=800.0, b=500.0, drift=50.0))
+    assert half == ("it removes 19 % of the excess in y, drift, less than the 50 % that "
+                    "must go (met: the held-out BIC falls by 200, more than 25)")
     # a delay while the magnetic part misses B more than y (B 3000 against y 1000)
     off_in_b = fit((hyst,), y=1000.0, b=3000.0, drift=50.0)
     assert "misses B more than y (held-out excess 3000 against 1000)" in why(

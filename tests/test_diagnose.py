@@ -304,3 +304,16 @@ def test_cli_bad_holdout(tmp_path, capsys):
                                            amplitudes=(0.5,), cycles=4))
     assert main(["diagnose", str(path), "--holdout", "f999_I0.5"]) == 2
     assert "not in the data" in capsys.readouterr().err
+
+
+def test_progress_is_shown_only_past_its_delay(monkeypatch):
+    # smeha.diagnose.progress: quiet outside shown() and for the first SHOW_AFTER seconds
+    from smeha.diagnose import progress
+    assert progress.bar_settings()[1]
+    clock = iter([100.0, 101.0, 100.0 + progress.SHOW_AFTER + 0.1])
+    monkeypatch.setattr(progress.time, "perf_counter", lambda: next(clock))
+    with progress.shown():
+        progress.step("single causes")
+        assert progress.bar_settings() == ("single causes", True)
+        assert progress.bar_settings() == ("single causes", False)
+    assert progress.bar_settings()[1]

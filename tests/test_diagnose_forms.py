@@ -243,7 +243,7 @@ def test_candidate_lists():
                             ext.lookup("eddy_current_diffusion", "slab"),
                             ext.lookup("eddy_current_diffusion", "lag"))
     pair = diagnose.Candidate((sat, slab))
-    assert pair.members == (slab, sat) and pair.n_params == 2
+    assert pair.members == (slab, sat) and pair.n_params == 1 + sat.fit.size
     assert pair.combinable(hyst) and not pair.combinable(lag)
     assert pair.label == "eddy_current_diffusion (slab) + magnetization_saturation"
 

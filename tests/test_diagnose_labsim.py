@@ -1,11 +1,11 @@
-"""The diagnosis on data it was not built from (issue 11): labsim, the independent generator.
+"""The diagnosis on data it was not built from: labsim, the independent generator.
 
 labsim (tests/labsim, its README) implements the paper's model and six effects in its own
 formulations, continuous in time, and records them as a lab does (one sample clock for
 every channel, an anti-alias filter, ADC, noise 0.05 um); only its public API is used. Each
 test hides an effect and requires it found, on seeds fixed before any result was seen
 (101 and 102, outside the detection study's 0-19). The rates, rules and tolerances are the
-issue's "done when": clean data -> "none"; one cause at strength 1 -> named, held-out gain
+detection targets: clean data -> "none"; one cause at strength 1 -> named, held-out gain
 at least 2; two causes -> both named; nothing else ever named.
 """
 from __future__ import annotations
@@ -134,7 +134,7 @@ def _butterworth4(x):
 
 
 def test_the_features_do_not_depend_on_the_sampling():
-    # issue 11: the same measurement at 50, 100, 800 or 4000 samples a period gives the same
+    # the same measurement at 50, 100, 800 or 4000 samples a period gives the same
     # features (noise-free: labsim's noise off, a 24-bit ADC). What remains is labsim's own
     # anti-alias filter (order 4, cut-off at 0.2 x the sample rate, on every channel, its
     # README): referred to the current's phase, its delay cancels and leaves the k-th
@@ -164,7 +164,7 @@ def test_the_features_do_not_depend_on_the_sampling():
 
 @pytest.mark.integration
 def test_unit_mistakes_are_refused_naming_the_column(tmp_path, capsys):
-    # issue 11: metres under displacement_um, mA under current_A: exit 2 before any fit,
+    # metres under displacement_um, mA under current_A: exit 2 before any fit,
     # the message names the column and the unit the numbers look like
     from smeha.measured import write_measurements
 
@@ -193,7 +193,7 @@ def test_identify_recovers_table_2_on_clean_lab_data_and_flags_a_misfit():
         assert abs(value - true) < 3.0 * err, (value, err, true)
     assert clean.flags == () and clean.physical
     # with an effect the paper's model lacks, the loss law cannot hold: flagged, pointing to
-    # smeha diagnose (issue 11: a residual variance of hundreds with an empty note before)
+    # smeha diagnose (a residual variance of hundreds must come with its note)
     result = identify(runs({"eddy_current_diffusion": 1.0}, seed=SEED, samples_per_cycle=200))
     assert not result.loss_fit.physical
     assert any("residual variance" in f for f in result.loss_fit.flags)
@@ -206,7 +206,7 @@ def test_identify_recovers_table_2_on_clean_lab_data_and_flags_a_misfit():
 def test_a_sensor_chains_low_pass_is_answered_with_the_caution():
     # labsim's second formulation of the sensor: an order-2 Bessel chain (100 us group delay;
     # tests/labsim/README.md). y alone cannot tell it from a delay or from changed mechanics
-    # (docs/DIAGNOSE.md, Limits): whichever of those the answer names, it must say so
+    # (docs/DIAGNOSE-method.md, Limits): whichever of those the answer names, it must say so
     result = diagnose.diagnose(runs({"transport_delay": 1.0}, seed=SEED, sample_rate=20000.0,
                                     formulation="alt"))
     assert result.causes and set(result.causes) <= {"transport_delay", "mechanical_resonance"}

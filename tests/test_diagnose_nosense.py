@@ -71,7 +71,7 @@ def test_clean_data_without_voltage_is_none():
 def test_names_saturation_without_voltage():
     runs = generate_runs("magnetization_saturation", seed=11, strength=1.0)
     result = diagnose.diagnose(_without_voltage(runs), holdout=HOLDOUT)
-    # the one cause it holds (issue 18, rule 3: no extra cause); this seed used to reach a
+    # the one cause it holds (no extra cause); this seed used to reach a
     # gain of 2 only with a one-mass mechanics on its bounds added (weak, now refused:
     # rules.firm_in); saturation alone removes 82 % of the held-out excess, gain 1.86
     assert result.causes == ["magnetization_saturation"], "\n".join(result.evidence)
@@ -97,7 +97,7 @@ def test_mixed_runs_with_and_without_voltage():
 
 @pytest.mark.integration
 def test_mechanical_resonance_without_voltage_is_named_with_gain():
-    """Without B each run's B_m is its own unknown (fitted on the run's y, docs/DIAGNOSE.md,
+    """Without B each run's B_m is its own unknown (fitted on the run's y, docs/DIAGNOSE-method.md,
     Limits), so the paper's model matches the fundamental's size run by run; what tells the
     two masses is the fundamental's phase and the harmonics, against f. Named, with its gain
     (13 to 57 over seeds 0-5 and 11 when this was written; it was 1.2-1.6 with B_m taken

@@ -1,11 +1,11 @@
-"""The diagnosis on the paper's own effects in textbook forms outside its candidates' (issue 18).
+"""The diagnosis on the paper's own effects in textbook forms outside its candidates'.
 
 The data come from labsim (tests/labsim, its README), written apart from the candidates:
 the classical Preisach model with general relay densities over (coercive, interaction)
 field (Mayergoyz 2003), eddy currents diffusing into laminations or a solid rod *acting on
 the magnetisation* (Stoll 1974), and effects outside the six causes (a joint's backlash).
 The candidates (gmt.extensions) were not shaped on these data: the seeds here (201-209)
-were fixed before any result was seen. The rules are the issue's "done when": each single
+were fixed before any result was seen. The rules are the detection targets: each single
 cause named; a pair named with both and nothing else; a known cause with an outside effect
 named, with the remainder reported; no extra cause without a sense voltage.
 """
@@ -113,7 +113,7 @@ def test_a_joints_backlash_beside_a_drift_is_not_read_as_a_delay():
 
 @pytest.mark.integration
 def test_no_extra_cause_without_a_sense_voltage():
-    # issue 18: saturation alone without B was answered saturation + mechanical_resonance
+    # saturation alone without B was answered saturation + mechanical_resonance
     # (+ thermal_drift)
     d = _diagnose({"magnetization_saturation": 1.0}, seed=209, sense_coil=False)
     assert d.causes == ["magnetization_saturation"], "\n".join(d.evidence)

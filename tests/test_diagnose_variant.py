@@ -1,4 +1,4 @@
-"""The extended model a diagnosis names, as a gmt.ModelVariant (issue 11, items 5 and 7).
+"""The extended model a diagnosis names, as a gmt.ModelVariant.
 
 Reading the diagnosis' JSON is smeha's (:func:`smeha.diagnose.variant_from_diagnosis`);
 gmt reads only the variant itself (a combination's stepping: tests/test_variants.py).

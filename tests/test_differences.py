@@ -111,7 +111,7 @@ def labsim_batch():
 
 
 @pytest.mark.parametrize("label", ["paper", "rate_independent_hysteresis (preisach)",
-                                   "rate_independent_hysteresis ()",
+                                   "rate_independent_hysteresis (play_operators)",
                                    "eddy_current_diffusion (cylinder_magnetization)",
                                    "thermal_drift", "mechanical_resonance (two_dof)"])
 def test_each_stacked_copy_is_its_own_evaluation(labsim_batch, label):

@@ -18,7 +18,8 @@ from test_labsim import C, K, K_LAMBDA, L, M, M_B, assert_loop_stays_open, funda
 import labsim
 from labsim import jiles_atherton as ja
 from labsim import lti, rod
-from labsim.alternatives import FroehlichKennelly, MagnetWarming
+from labsim.alternatives import (Arctangent, Brillouin, FroehlichKennelly, MagnetWarming,
+                                 MeanFieldLangevin)
 from labsim.constants import Transducer
 from labsim.effects import EffectSet
 from labsim.sizes import effect_size
@@ -227,6 +228,49 @@ def test_froehlich_kennelly_second_harmonic_of_b():
     assert gains[1] / gains[0] == pytest.approx(1.0, abs=2e-3)
 
 
+
+# --- magnetisation saturation: Brillouin, arctangent, mean-field Langevin -------------
+
+def test_brillouin_limits_are_tanh_and_langevin():
+    # B_{1/2}(x) = tanh x; B_J -> L as J -> inf (Kittel, ch. 11); unit slope at 0 here
+    m = np.linspace(-2e6, 2e6, 41)
+    half = Brillouin(0.8e6, 0.5).saturate(m, M_B)
+    assert np.allclose(half, 0.8e6 * np.tanh(m / 0.8e6), rtol=1e-12, atol=1e-6)
+    big = Brillouin(0.8e6, 1e5).saturate(m[m != 0], M_B)
+    x = 3 * m[m != 0] / 0.8e6
+    assert np.allclose(big, 0.8e6 * (1 / np.tanh(x) - 1 / x), rtol=1e-4)
+    # the series branch near 0 meets the closed form
+    law = Brillouin(0.8e6, 2.0)
+    assert float(law.saturate(0.79e3, M_B)) == pytest.approx(
+        float(law.saturate(0.81e3, M_B) + law.saturate(0.77e3, M_B)) / 2, rel=1e-6)
+
+
+def test_arctangent_keeps_the_tangent_at_the_bias():
+    law = Arctangent.at(1.0)
+    assert float(law.saturate(M_B, M_B)) == pytest.approx(M_B, rel=1e-12)
+    slope = (law.saturate(M_B + 1.0, M_B) - law.saturate(M_B - 1.0, M_B)) / 2.0
+    assert float(slope) == pytest.approx(1.0, rel=1e-8)
+    assert float(law.saturate(1e14, M_B)) == pytest.approx(law.saturation_magnetization,
+                                                            rel=1e-5)
+    weak = Arctangent.at(1e-9)
+    assert float(weak.saturate(M_B + 4e4, M_B)) == pytest.approx(M_B + 4e4, rel=1e-8)
+
+
+def test_mean_field_langevin_solves_its_equation():
+    # m = L(3 ((1 - a) x + a m)): checked by brentq on the scalar equation; a = 0 is L(3x)
+    x = np.array([-3.0, -0.4, 0.05, 0.7, 2.5])
+    law = MeanFieldLangevin(1.0, 0.6)
+    got = law.saturate(x, M_B)
+    for xi, mi in zip(x, got):
+        want = brentq(lambda m: 1 / np.tanh(3 * (0.4 * xi + 0.6 * m))
+                      - 1 / (3 * (0.4 * xi + 0.6 * m)) - m, -0.999999, 0.999999, xtol=1e-14)
+        assert mi == pytest.approx(want, abs=1e-12)
+    free = MeanFieldLangevin(1.0, 0.0).saturate(x, M_B)
+    assert np.allclose(free, 1 / np.tanh(3 * x) - 1 / (3 * x), rtol=1e-12)
+    # slope 1 at 0: small-signal identity
+    assert float(law.saturate(1e-6, M_B)) == pytest.approx(1e-6, rel=1e-6)
+
+
 # --- eddy currents: conducting housing ---------------------------------------------------
 
 def test_shorted_turn_is_a_lag_network():
@@ -405,3 +449,12 @@ def test_warming_magnet_lowers_gain_and_bias_strain():
     # 0.5 mV); the AC flux is the paper's
     aa = lti.butterworth(4, 800.0)
     assert np.max(np.abs(warm.sense_voltage(t, aa) - clean.sense_voltage(t, aa))) < 1e-4
+
+
+@pytest.mark.parametrize("law", ["brillouin", "arctangent", "mean_field_langevin"])
+def test_further_saturation_laws_are_clearly_visible_and_magnetic(law):
+    # the generator's specification: 0.5-3 um RMS change of y at 100 Hz, 1 A, B changed
+    size = effect_size({"magnetization_saturation": 1.0},
+                       formulations={"magnetization_saturation": law})
+    assert 0.5e-6 < size["displacement_rms"] < 3e-6
+    assert size["flux_rms"] > 1e-3 * size["flux_rms_clean"]

@@ -1,4 +1,4 @@
-"""Tests of labsim's textbook formulations added for issue 18: the classical Preisach model
+"""Tests of labsim's textbook formulations: the classical Preisach model
 with a general relay density (tests/labsim/preisach.py), eddy-current diffusion acting on the
 magnetisation (slab and cylinder), the sense coil's air flux and effects outside the six.
 

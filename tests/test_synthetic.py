@@ -1,6 +1,6 @@
 """Synthetic measured runs (smeha.synthetic): the ground truth of the diagnosis tests.
 
-Each hidden effect is checked against its physical signature (docs/DIAGNOSE.md, the
+Each hidden effect is checked against its physical signature (docs/DIAGNOSE-method.md, the
 candidate causes) with references computed here independently of the
 generator: analytic transfer functions (slab eddy currents, two-mass mechanics,
 pure delay) and an independent ODE integration (thermal model).

@@ -1,4 +1,4 @@
-"""The FMU's run-time path imports numpy only (issue 13, item 4): the extensions' part.
+"""The FMU's run-time path imports numpy only: the extensions' part.
 
 Every model variant the FMU can run (each extension of gmt.extensions.REGISTRY, and
 combinations) is built and stepped in a fresh interpreter in which scipy and python-control

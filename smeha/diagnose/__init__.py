@@ -27,9 +27,10 @@ displacement y and, where measured, the sensing-coil voltage E), the workflow
 Default held-out runs: :func:`default_holdout`. The extended model is a
 :class:`gmt.ModelVariant` (:meth:`Diagnosis.variant`, or
 :func:`variant_from_diagnosis` of the JSON). SI inside; micrometres only in
-the report. The method and its limits: docs/DIAGNOSE.md.
+the report. How to read it: docs/DIAGNOSE.md; the method and its limits: docs/DIAGNOSE-method.md.
 """
 from ..measured import DataError
+from . import progress
 from .candidates import CAUSES, FORMS, PAPER, Batch, Candidate, Evaluator, candidates
 from .decision import MAX_CAUSES
 from .rules import MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE
@@ -37,11 +38,13 @@ from .features import HARMONICS, MIN_CYCLES, RunFeatures, SkippedRun, run_featur
 from .fit import Fit
 from .report import characterise, format_diagnosis, write_report
 from .variant import read_variant, read_variant_json, variant_from_diagnosis
-from .workflow import (CONFUSABLE_WITHOUT_B, Diagnosis, default_holdout,
+from .rules import CONFUSABLE_WITHOUT_B
+from .workflow import (Diagnosis, default_holdout,
                        diagnose)
 
 __all__ = [
-    "DataError", "CAUSES", "FORMS", "PAPER", "Batch", "Candidate", "Evaluator", "candidates",
+    "DataError", "progress", "CAUSES", "FORMS", "PAPER", "Batch", "Candidate", "Evaluator",
+    "candidates",
     "MAX_CAUSES", "MIN_BIC_DROP", "MIN_EXPLAINED", "WITHIN_NOISE", "HARMONICS", "MIN_CYCLES",
     "RunFeatures", "SkippedRun", "run_features", "Fit", "characterise", "format_diagnosis",
     "write_report", "read_variant", "read_variant_json", "variant_from_diagnosis",

@@ -45,9 +45,16 @@ CAUSES = ext.CAUSES
 FORMS = ext.FORMS
 
 
+#: The display name of a cause's form that the registry leaves unnamed (its default form).
+DEFAULT_FORM_NAMES = {"rate_independent_hysteresis": "play_operators"}
+
+
 def label(cls) -> str:
-    """Display name of an extension: the cause, with its form when it has several."""
-    return cls.cause if cls.cause not in FORMS else f"{cls.cause} ({cls.form})"
+    """Display name of an extension: the cause, with its form when it has several (a
+    default form by :data:`DEFAULT_FORM_NAMES`)."""
+    if cls.cause not in FORMS:
+        return cls.cause
+    return f"{cls.cause} ({cls.form or DEFAULT_FORM_NAMES.get(cls.cause, 'default')})"
 
 
 @dataclass(frozen=True)

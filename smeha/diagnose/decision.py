@@ -37,9 +37,10 @@ The rules and their constants (:data:`WITHIN_NOISE`, :func:`passes`, ... below) 
   a magnetic one only when that one misses B no more than y
   (:func:`downstream_identifiable`), and no
   channel it acts on may be predicted worse (:func:`no_channel_worse`), and it must
-  predict better than the causes before it in any other form (:func:`beyond_forms`) and,
-  beside a discretised form (the Preisach density), than that form on a finer grid
-  (:mod:`smeha.diagnose.resolution`), and its unknowns must be off their bounds
+  predict better than the causes before it in any other form (:func:`beyond_forms`) and
+  than the model before it in its richer form (the Preisach density on a finer grid, the
+  saturation law with a further term: :mod:`smeha.diagnose.resolution`; else the data
+  are "also consistent with a richer" first cause), and its unknowns must be off their bounds
   (:func:`firm_in`: with a sense voltage the round's leader is chosen among the
   combinations whose added cause is firm, and when that one is not admitted the leader of
   all, if weak, may be, as a weak finding; without one a weak leader ends the selection);
@@ -81,6 +82,7 @@ from .fit import Fit, fit_all
 from .joins import (join_jobs, joined, ranked_forms, refit_job, screened_round,
                     start_vector)
 from .linearfit import linear_member
+from .progress import step
 from .resolution import Refinement
 from .rules import (MIN_BIC_DROP, added_member, admitted, evidence_channels, firm_in,
                     no_channel_worse, passes, passes_first, passes_in_own, refusal,
@@ -125,8 +127,20 @@ class Selection(NamedTuple):
 
 
 def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None) -> Selection:
-    """Forward selection (module docstring). ``sense``: whether the training runs have a
-    sense voltage (the rules for a later cause differ without B)."""
+    """Forward selection (module docstring), in its steps:
+
+    1. the single causes (fitted by the caller) that show their form's signature;
+    2. the first cause (:func:`_first`): the best single that passes the rule against the
+       paper's model, else a drift judged in its own channel, else two causes at once,
+       else, with B, a magnetic cause judged in B;
+    3. while the model is outside noise and holds fewer than :data:`MAX_CAUSES` causes,
+       one round (:func:`_next_cause`): join each further cause to the model (screened
+       first beside the density), choose the tries, admit the first that passes the rules
+       of a later cause and beats the first causes' richer form, then the exchange step;
+    4. stop: within noise, at :data:`MAX_CAUSES`, or with the rule the best try failed.
+
+    ``sense``: whether the training runs have a sense voltage (the rules for a later
+    cause differ without B)."""
     if within_noise(paper):
         return Selection("none", paper, [], [])
     # a form with a signature (a hysteresis: the loop's higher harmonics) that its single
@@ -134,127 +148,136 @@ def select(ev, train, held, paper: Fit, singles: list, sense=True, workers=None)
     # in (smeha.diagnose.rules.shows_signature); as a later cause the rounds ask it again
     singles = showing(paper, singles)
     # a drift judged in the drift terms must go with time, as heating does, not with the
-    # drive's cycles (smeha.diagnose.driftlaw; outside lab A's Preisach hysteresis: its
-    # gain fell 2e-4 a period, and a drift form with a 0.18 s time constant took it)
+    # drive's cycles (smeha.diagnose.driftlaw)
     timelike = goes_with_time(Batch(train.runs + held.runs), MIN_BIC_DROP)
-    best = simplest_lookalike(leader(singles), singles)
-    tried, order, first_in = [], [], ()
-    if not passes_first(paper, best):
-        best = _evident_first(paper, singles, timelike)
-        first_in = evidence_channels(best.candidate.members[0]) if best is not None else ()
-    if best is None:
-        best, order, tried = _pair_first(ev, train, held, paper, singles, sense, timelike,
-                                         workers)
-        if best is not None:
-            # the exchange step after the pair, as after every cause added below: the
-            # pairs hold the best-ranked causes only, and a lookalike ranked behind them
-            # (a delay behind a one-mass mechanics that imitates it) is tried there
-            # (labsim's eddy diffusion + delay, seed 12 at 100 a period: the pair with the
-            # one-mass mechanics, its masses and stiffness on bounds alone, held out
-            # 227.3, the delay in its place 218.1, ranked better too; answered eddy +
-            # mechanical_resonance)
-            best, order = exchange(ev, train, held, paper, best, order, singles, tried, sense,
-                                   workers, timelike)
-        else:
-            # with B, a magnetic cause judged in B, where an effect on y alone outside the
-            # candidates holds most of y's excess
-            best = _magnetic_first(paper, singles) if sense else None
-            if best is None:
-                return Selection("unexplained", paper, tried, [])
-            first_in = ("B",)
-    current, order = best, order or [best.cause]
-    stopped = ""
-    screened_only = []
+    current, order, tried, first_in = _first(ev, train, held, paper, singles, sense,
+                                             timelike, workers)
+    if current is None:
+        return Selection("unexplained", paper, tried, [])
+    stopped, screened_only = "", []
     while not within_noise(current):
         if len(current.causes) >= MAX_CAUSES:
             stopped = f"at most {MAX_CAUSES} causes are named"
             break
-        # the combinations are fitted from current's values by the same steps as current
-        # refitted from them, the reference each is judged against (:func:`_settled`)
-        if linear_member(current.candidate) is not None:
-            # beside the density the combinations are screened from the reference first,
-            # the few that fit best fitted in full (smeha.diagnose.joins.screened_round)
-            reference = _settled(current, fit_all(ev, train, held, [refit_job(current)],
-                                                  workers)[0])
-            finer = Refinement(ev, train, held, reference, workers)
-            fits, screened = screened_round(ev, train, held, current, reference, singles,
-                                            workers, finer)
-            screened_only += screened
-        else:
-            out = fit_all(ev, train, held, [refit_job(current)] + join_jobs(
-                ev, train, [(current, (), s) for s in singles]), workers)
-            reference = _settled(current, out[0])
-            fits = [f for f in out[1:] if isinstance(f, Fit)]
-            finer = Refinement(ev, train, held, reference, workers)
-        round_fits = _rescued(ev, train, held, current, reference, fits, workers)
-        tried += round_fits
-        if not round_fits:
-            stopped = "no further cause could be fitted beside the model"
-            current = _better(current, reference)
+        current, order, tried, stopped, screened = _next_cause(
+            ev, train, held, paper, singles, current, order, tried, sense, timelike, workers)
+        screened_only += screened
+        if stopped:
             break
-        # with a sense voltage the round's leader is chosen among the combinations whose
-        # added cause is firm: a weak form of a cause does not hide its firm form (labsim's
-        # saturation + resonance: the two-mass form, its mass ratio on a bound, ranked
-        # first; the one-mass form passed). Without one a weak leader ends the selection:
-        # from y alone it says what is left is the first cause's form (smeha.synthetic's
-        # saturation without B: a one-mass mechanics on a bound led, and a slab eddy form
-        # behind it passed every rule, 0.28 -> 0.14 um)
-        top = leader(round_fits)
-        if not sense and not firm_in(top, added_member(current, top).cause):
-            stopped = (f"{top.label}, the best-ranked with a further cause, has "
-                       f"{', '.join(top.at_bounds)} on a bound: without a sense voltage "
-                       "what it takes is read as the form of the causes before it")
-            current = _better(current, reference)
-            break
-        firm = [f for f in round_fits if firm_in(f, added_member(current, f).cause)]
-        # the causes named so far in their other forms (singles or earlier rounds' fits)
-        other_forms = [f for f in list(singles) + tried
-                       if set(f.causes) == set(current.causes) and f is not current]
-        # with B, when the firm leader is not admitted, the leader of all, weak, may be:
-        # named as a weak finding (the report says so). Labsim's Preisach hysteresis with a
-        # two-mass resonance (seed 0 at 800 a period) left 6 % of the excess in y's odd
-        # harmonics; the two-mass mechanics, its mass ratio on a bound, removed all but
-        # 0.01 % of what the density left, passing every other rule, while the firm leader
-        # (a delay) did not
-        tries = [leader(firm)] if firm else []
-        if sense and top.weak:
-            tries.append(top)
-        # a cause with an evidence channel of its own (the drift terms) is judged there,
-        # not ranked against the periodic causes: beside a magnetic form that leaves
-        # structure in B, an eddy form ranked first on taking a quarter of it (labsim's
-        # Preisach density with a rod 10 K warm, seed 100 at 800 a period) and the drift,
-        # which removed 83 % of the drift terms' excess, was never tried
-        evident = [f for f in firm if added_member(current, f).evidence]
-        evident_leader = leader(evident) if evident else None
-        if evident_leader is not None and all(evident_leader is not f for f in tries):
-            tries.append(evident_leader)
-        # and beside a discretised form (the density) a cause acting on its channels must
-        # beat that form on a finer grid (smeha.diagnose.resolution; `finer`, made with the
-        # round's reference, may hold it already)
-
-        def refused(f, reference):
-            return (refusal(paper, reference, f, other_forms, sense, timelike)
-                    or finer.refusal(f, added_member(reference, f)))
-
-        nxt = next((f for f in tries if not refused(f, reference)), None)
-        if nxt is None and any(_stops_short(f) for f in tries):
-            reference, continued = _continued(ev, train, held, reference, tries, workers)
-            tried = [continued.get(id(f), f) for f in tried]
-            tries = [continued.get(id(f), f) for f in tries]
-            nxt = next((f for f in tries if not refused(f, reference)), None)
-        if nxt is None:
-            stopped = f"{tries[0].label}: {refused(tries[0], reference)}"
-            current = _better(current, reference)
-            break
-        order += [c for c in nxt.causes if c not in order]
-        current = nxt
-        current, order = exchange(ev, train, held, paper, current, order, singles, tried,
-                                  sense, workers, timelike)
     # a screened combination fitted in full later (the exchange step) is not screened only
     full = {frozenset(f.candidate.members) for f in tried + [current]}
     screened_only = tuple(f for f in screened_only
                           if frozenset(f.candidate.members) not in full)
     return Selection(order[0], current, tried, order, stopped, first_in, screened_only)
+
+
+def _first(ev, train, held, paper: Fit, singles, sense: bool, timelike: bool,
+           workers=None) -> tuple:
+    """The first cause(s): (model, causes in order, combinations tried, the channels the
+    first cause was judged in where not over all); model None for ``unexplained``."""
+    best = simplest_lookalike(leader(singles), singles)
+    if passes_first(paper, best):
+        return best, [best.cause], [], ()
+    best = _evident_first(paper, singles, timelike)
+    if best is not None:
+        return best, [best.cause], [], evidence_channels(best.candidate.members[0])
+    step("two causes at once")
+    best, order, tried = _pair_first(ev, train, held, paper, singles, sense, timelike,
+                                     workers)
+    if best is not None:
+        # the exchange step after the pair, as after every cause added later: the pairs
+        # hold the best-ranked causes only, and a lookalike ranked behind them (a delay
+        # behind a one-mass mechanics that imitates it) is tried there
+        best, order = exchange(ev, train, held, paper, best, order, singles, tried, sense,
+                               workers, timelike)
+        return best, order, tried, ()
+    # with B, a magnetic cause judged in B, where an effect on y alone outside the
+    # candidates holds most of y's excess
+    best = _magnetic_first(paper, singles) if sense else None
+    return best, ([best.cause] if best is not None else []), tried, ("B",)
+
+
+def _round_fits(ev, train, held, current: Fit, singles, workers=None) -> tuple:
+    """One round's combinations of ``current`` with each further cause: (reference, fits,
+    the richer-form check, the combinations screened only). The reference is ``current``
+    refitted from its own values by the same steps (:func:`_settled`); beside the density
+    the combinations are screened from it first, the few that fit best fitted in full
+    (smeha.diagnose.joins.screened_round)."""
+    if linear_member(current.candidate) is not None:
+        reference = _settled(current, fit_all(ev, train, held, [refit_job(current)],
+                                              workers)[0])
+        finer = Refinement(ev, train, held, reference, workers)
+        fits, screened = screened_round(ev, train, held, current, reference, singles,
+                                        workers, finer)
+        return reference, fits, finer, screened
+    out = fit_all(ev, train, held, [refit_job(current)] + join_jobs(
+        ev, train, [(current, (), s) for s in singles]), workers)
+    reference = _settled(current, out[0])
+    fits = [f for f in out[1:] if isinstance(f, Fit)]
+    return reference, fits, Refinement(ev, train, held, reference, workers), []
+
+
+def _tries(current: Fit, round_fits, sense: bool) -> list:
+    """The round's tries, in order: the leader of the combinations whose added cause is
+    firm; with B the leader of all where it is weak (a weak finding, said so); and the
+    leader of those whose added cause has an evidence channel of its own (the drift
+    terms), judged there rather than ranked against the periodic causes."""
+    top = leader(round_fits)
+    firm = [f for f in round_fits if firm_in(f, added_member(current, f).cause)]
+    tries = [leader(firm)] if firm else []
+    if sense and top.weak:
+        tries.append(top)
+    evident = [f for f in firm if added_member(current, f).evidence]
+    evident_leader = leader(evident) if evident else None
+    if evident_leader is not None and all(evident_leader is not f for f in tries):
+        tries.append(evident_leader)
+    return tries
+
+
+def _next_cause(ev, train, held, paper: Fit, singles, current: Fit, order, tried,
+                sense: bool, timelike: bool, workers=None) -> tuple:
+    """One round of :func:`select`: (model, causes in order, combinations tried, why the
+    selection stops or "", the combinations screened only)."""
+    step(f"cause {len(current.causes) + 1} beside {current.label}")
+    reference, fits, finer, screened = _round_fits(ev, train, held, current, singles,
+                                                   workers)
+    round_fits = _rescued(ev, train, held, current, reference, fits, workers)
+    tried = tried + round_fits
+    if not round_fits:
+        return (_better(current, reference), order, tried,
+                "no further cause could be fitted beside the model", screened)
+    # without a sense voltage a weak leader ends the selection: from y alone what it
+    # takes is read as the form of the causes before it
+    top = leader(round_fits)
+    if not sense and not firm_in(top, added_member(current, top).cause):
+        return (_better(current, reference), order, tried,
+                f"{top.label}, the best-ranked with a further cause, has "
+                f"{', '.join(top.at_bounds)} on a bound: without a sense voltage what it "
+                "takes is read as the form of the causes before it", screened)
+    tries = _tries(current, round_fits, sense)
+    # the causes named so far in their other forms (singles or earlier rounds' fits)
+    other_forms = [f for f in list(singles) + tried
+                   if set(f.causes) == set(current.causes) and f is not current]
+
+    def refused(f, reference):
+        # the rules of a later cause, then the first causes' richer form
+        # (smeha.diagnose.resolution; `finer`, made with the round's reference)
+        return (refusal(paper, reference, f, other_forms, sense, timelike)
+                or finer.refusal(f, added_member(reference, f)))
+
+    nxt = next((f for f in tries if not refused(f, reference)), None)
+    if nxt is None and any(_stops_short(f) for f in tries):
+        reference, continued = _continued(ev, train, held, reference, tries, workers)
+        tried = [continued.get(id(f), f) for f in tried]
+        tries = [continued.get(id(f), f) for f in tries]
+        nxt = next((f for f in tries if not refused(f, reference)), None)
+    if nxt is None:
+        return (_better(current, reference), order, tried,
+                f"{tries[0].label}: {refused(tries[0], reference)}", screened)
+    order = order + [c for c in nxt.causes if c not in order]
+    current, order = exchange(ev, train, held, paper, nxt, order, singles, tried, sense,
+                              workers, timelike)
+    return current, order, tried, "", screened
 
 
 def showing(paper: Fit, singles) -> list:

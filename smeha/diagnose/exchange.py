@@ -12,6 +12,7 @@ from __future__ import annotations
 from .candidates import Candidate
 from .fit import Fit, fit_all
 from .joins import joined, ranked_forms, start_vector
+from .progress import step
 from .rules import MIN_BIC_DROP, added_member, channels, firm_in, passes_first, refusal
 
 __all__ = ["SWAP_CANDIDATES", "FORMS_TRIED", "lookalike_margin", "exchange", "pruned", "earned"]
@@ -56,6 +57,7 @@ def exchange(ev, train, held, paper: Fit, current: Fit, order, singles, tried, s
     otherwise kept for good. After an exchange, the causes added after the member that
     went out are asked again whether they earn their place (:func:`pruned`; ``timelike``
     as in :func:`smeha.diagnose.decision.select`)."""
+    step(f"exchange in {current.label}")
     if len(current.causes) < 2:
         return current, order
     # the exchange candidates: the best-ranked form of each cause outside the model whose

@@ -427,6 +427,16 @@ def _flux_density_from_y(run: Run, params, mask):
     return bm, se_b, complex(mu_r - 1.0, -mu_i)
 
 
+def _check_resolved(name, per, f, harmonics) -> None:
+    """SkippedRun where ``per`` samples a period at ``f`` [Hz] do not resolve the first
+    ``harmonics`` harmonics (the k-th needs k < per / 2, Nyquist)."""
+    if per <= 2 * harmonics:
+        raise SkippedRun(name, f"{per:.3g} samples a period at {f:g} Hz resolve the "
+                               f"harmonics up to the {math.ceil(per / 2) - 1}th; the "
+                               f"features are the first {harmonics}: more than "
+                               f"{2 * harmonics} samples a period are needed")
+
+
 def run_features(run: Run, params: gmt.TransducerParameters | None = None,
                  harmonics: int = HARMONICS, pooled_noise=None) -> RunFeatures:
     """Reduce a run to its features (module docstring).
@@ -452,11 +462,7 @@ def run_features(run: Run, params: gmt.TransducerParameters | None = None,
     w = 2.0 * math.pi * f
     t = np.asarray(run.time, dtype=float)
     h, per, _ = _samples_per_period(t, f)
-    if per <= 2 * harmonics:  # the k-th harmonic needs k < per / 2 (Nyquist)
-        raise SkippedRun(run.name, f"{per:.3g} samples a period at {f:g} Hz resolve the "
-                                   f"harmonics up to the {math.ceil(per / 2) - 1}th; the "
-                                   f"features are the first {harmonics}: more than "
-                                   f"{2 * harmonics} samples a period are needed")
+    _check_resolved(run.name, per, f, harmonics)
     t_start = float(t[0])
     pooled_y, pooled_e = pooled_noise or (None, None)
     cycles, dropped, checked = _periods_used(run, t, h, f, pooled_y, pooled_e)

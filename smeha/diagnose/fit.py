@@ -64,6 +64,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.optimize import least_squares
 
+from .baseunknowns import BASE_LOWER, BASE_UPPER, base_factor
 from .candidates import Batch, Candidate, Evaluator, harmonic_chi2, parts_of
 from .differences import jacobian, relative_steps, scipy_steps
 from .linearfit import fit_linear, linear_member
@@ -72,9 +73,6 @@ __all__ = ["BASE_LOWER", "BASE_UPPER", "HIGHER_FROM", "LEVEL_GAP", "MAX_EVALUATI
            "UNEVALUATED", "Fit", "base_factor", "drive_levels", "fit_candidate",
            "predictive_chi2", "score", "fit_and_score", "fit_all"]
 
-#: Bounds of the base unknowns (K_h, n, K_e, K_ex, s).
-BASE_LOWER = (0.0, 1.0, 0.0, 0.0, 0.2)
-BASE_UPPER = (np.inf, 3.0, np.inf, np.inf, 5.0)
 #: Most function evaluations of one start of a fit.
 MAX_EVALUATIONS = 300
 #: The held-out harmonics from this one up are counted apart (:attr:`Fit.heldout_chi2_higher`):
@@ -217,12 +215,6 @@ class Fit:
     def weak(self) -> bool:
         """True when an unknown sits on a bound the fit pressed on (a weak finding)."""
         return bool(self.at_bounds)
-
-
-def base_factor(base0):
-    """Scale factors of the base unknowns in the fit (n and s are not scaled)."""
-    return np.array([max(abs(base0[0]), 1.0), 1.0, max(abs(base0[2]), 1.0),
-                     max(abs(base0[3]), 1.0), 1.0])
 
 
 def _split(z, nb, base0, factor):
@@ -417,12 +409,14 @@ def fit_all(ev, train, held, jobs, workers=None, costs=None) -> list:
     a long fit handed out last; the result stays in job order.
     """
     from ..pool import default_workers, run_jobs
+    from .progress import bar_settings
 
     workers = default_workers() if workers is None else workers
     order = (list(range(len(jobs))) if costs is None
              else sorted(range(len(jobs)), key=lambda i: -costs[i]))
+    desc, quiet = bar_settings()
     done = run_jobs(_fit_or_reason, [(ev, train, held) + tuple(jobs[i]) for i in order],
-                    workers, desc="fits", unit="fit", quiet=True)
+                    workers, desc=desc, unit="fit", quiet=quiet)
     out = [None] * len(jobs)
     for i, result in zip(order, done):
         out[i] = result

@@ -36,6 +36,7 @@ import numpy as np
 from scipy.optimize import nnls
 
 from . import differences
+from .baseunknowns import BASE_LOWER, BASE_UPPER, base_factor
 from .boxsolve import bounded_least_squares
 from .candidates import Batch, Candidate, Evaluator
 
@@ -236,12 +237,10 @@ def _joint(prob, base, w, chi2, other, lam, rounds=None):
     moves along the valley where the weights and the base trade off (eq 16's loss against
     the density's loop area) a little a round.
 
-    Until 2026-11-27 the damping held only the nonlinear unknowns, with no floor: a rate
-    factor's corner frequency, unseen by the data while its exponent is 0, stepped to its
-    bound at every damping, the weights took their whole linearised step, and no step was
-    ever kept (labsim's Preisach hysteresis, seed 101: training chi^2 1.39e6 after the
-    alternation and after these steps; 3.2e5 with the damping on every unknown)."""
-    from .fit import BASE_LOWER, BASE_UPPER, base_factor
+    The damping holds every unknown, the weights included: a rate factor's corner frequency,
+    unseen by the data while its exponent is 0, would otherwise step to its bound at every
+    damping and no step would ever be kept
+    (tests/test_diagnose_labsim.py exercises it on labsim's Preisach hysteresis)."""
 
     rounds = JOINT_ROUNDS if rounds is None else rounds
     nb = len(BASE_LOWER)
@@ -270,40 +269,12 @@ def _joint(prob, base, w, chi2, other, lam, rounds=None):
         jz = _unknowns_jacobian(prob, base, w, other, factor[:nb], r0, upper=hi)
         a = np.hstack((jz, jw))
         nz = z.size
-        norms = np.sqrt(np.sum(a * a, axis=0))
-        norms = np.where(norms > 0, norms, 1.0)
-        floored = np.maximum(norms, DAMPING_FLOOR * norms[:nz].max()) if nz else norms
-        # the bounded problem is solved in columns scaled by their damped norms (floored),
-        # by bounded-variable least squares (Stark & Parker, Comput. Stat. 10 (1995)
-        # 129-141), an active-set method that ends with the exact minimiser. Scaled by its
-        # own norm, the column of a node whose relays barely switch in the data (norm
-        # ~1e-13 of the rest) had damping and penalty entries 1e13 times the others'
-        # (condition number 1.5e15), where scipy's trf line search halved its step to zero
-        # and looped for good (scipy issue #18908; labsim's saturation + drift, seed 5 at
-        # 800 a period: over 13 min in one call) and bvls stopped far from the minimum.
-        # Scaled by the floored norms every column's damping entry is sqrt(mu) (that
-        # problem's condition number: 113). On labsim's Preisach hysteresis (seed 100, 800
-        # a period), 183 such problems: trf in the columns scaled by their own norms ended
-        # on its 100-iteration cap in 34 of them, its cost up to 72 times bvls's (trf in
-        # the floored columns: the cap in 70, cost up to 4.5 times); bvls was never higher,
-        # in a third of trf's time. The same minimiser is now found in the problem's
-        # normal equations by :func:`smeha.diagnose.boxsolve.bounded_least_squares`, in a
-        # third to a quarter of bvls's time (its module docstring)
-        # ||a v - rhs|| reduced to its triangular factor (a QR decomposition): the same
-        # minimiser, with as many rows as unknowns
+        floored = _floored_norms(a, nz)
+        # ||a v - rhs|| reduced to its triangular factor (QR): the same minimiser, with as
+        # many rows as unknowns
         a, rhs = _reduced(a, jw @ w - r0)
         for _ in range(DAMPING_TRIES):  # raise the damping while the objective does not fall
-            # every unknown damped towards its value (the weights are absolute in the
-            # solution, the others steps): the weights' linearisation is as local as the
-            # others', and a step in them alone can overshoot
-            damp = np.diag(np.sqrt(mu) * floored)
-            big = np.vstack((a, np.hstack((np.zeros((pen.shape[0], nz)), pen)), damp))
-            rhs_big = np.concatenate((rhs, np.zeros(pen.shape[0] + nz),
-                                      np.sqrt(mu) * floored[nz:] * w))
-            lower = np.concatenate((lo - z, np.zeros(w.size))) * floored
-            upper = np.concatenate((hi - z, np.full(w.size, np.inf))) * floored
-            sol = bounded_least_squares(big / floored, rhs_big, np.minimum(lower, 0.0),
-                                        np.maximum(upper, 0.0)) / floored
+            sol = _damped_step(a, rhs, pen, floored, mu, w, lo - z, hi - z)
             z_new = np.clip(z + sol[:nz], lo, hi)
             w_new = np.maximum(sol[nz:], 0.0)
             b_new, o_new = unpack(z_new)
@@ -321,6 +292,37 @@ def _joint(prob, base, w, chi2, other, lam, rounds=None):
         if settled:
             break
     return base, w, float(r0 @ r0), other, lam
+
+
+def _floored_norms(a, nz):
+    """The columns' norms of ``a``, the first ``nz`` (the nonlinear unknowns') floored at
+    :data:`DAMPING_FLOOR` of their largest; a zero column counts as 1."""
+    norms = np.sqrt(np.sum(a * a, axis=0))
+    norms = np.where(norms > 0, norms, 1.0)
+    return np.maximum(norms, DAMPING_FLOOR * norms[:nz].max()) if nz else norms
+
+
+def _damped_step(a, rhs, pen, floored, mu, w, below, above):
+    """One bounded Marquardt step of :func:`_joint`: the steps of the nonlinear unknowns
+    (within ``below``/``above`` of them) and the new weights (>= 0), minimising
+    ``|a v - rhs|^2`` with the density's penalty ``pen`` on the weights and every unknown
+    damped towards its value by ``sqrt(mu)`` times its floored column norm.
+
+    Each column is scaled by its floored norm, so that every damping entry is
+    ``sqrt(mu)``: scaled by its own norm, the column of a node whose relays barely switch
+    in the data (norm ~1e-13 of the rest) would carry damping and penalty entries 1e13
+    times the others' and make the problem singular to working precision. The bounded
+    problem is solved exactly by an active-set method
+    (:func:`smeha.diagnose.boxsolve.bounded_least_squares`; Stark & Parker, Comput. Stat.
+    10 (1995) 129-141); benchmarks/bounded_solve.py compares it with scipy's solvers."""
+    nz = below.size
+    damp = np.diag(np.sqrt(mu) * floored)
+    big = np.vstack((a, np.hstack((np.zeros((pen.shape[0], nz)), pen)), damp))
+    rhs_big = np.concatenate((rhs, np.zeros(pen.shape[0] + nz), np.sqrt(mu) * floored[nz:] * w))
+    lower = np.concatenate((below, np.zeros(w.size))) * floored
+    upper = np.concatenate((above, np.full(w.size, np.inf))) * floored
+    return bounded_least_squares(big / floored, rhs_big, np.minimum(lower, 0.0),
+                                 np.maximum(upper, 0.0)) / floored
 
 
 def _unknowns_jacobian(prob, base, w, other, factor, r0, upper=None):
@@ -453,7 +455,6 @@ def _choose_penalty(prob, jac, r0, w):
 def _covariance(ev, train, cand, prob, base, w, other, jac_w, lam):
     """(J^T J + P)^-1 of all unknowns (base scaled as in the fit, then x), the weights'
     block penalised as in the fit and the weights held at zero pinned."""
-    from .fit import BASE_LOWER, base_factor
 
     nb = len(BASE_LOWER)
     factor = base_factor(base)

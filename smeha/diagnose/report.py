@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import textwrap
 
 import numpy as np
 
@@ -10,9 +11,8 @@ from gmt import extensions as ext
 from .candidates import CAUSES, FORMS, Batch, Evaluator, label
 from . import remainder
 from .decision import leader
-from .rules import (MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE, alike_at_levels, channels,
-                    explained, passes, shares_in_words, within_noise)
-from .workflow import CONFUSABLE_WITHOUT_B
+from .rules import (CONFUSABLE_WITHOUT_B, MIN_BIC_DROP, MIN_EXPLAINED, WITHIN_NOISE,
+                    alike_at_levels, channels, explained, passes, shares_in_words, within_noise)
 
 __all__ = ["SIGNALS", "SCALE_SPAN", "characterise", "cautions", "y_worse_caution",
            "scale_caution", "evidence",
@@ -348,7 +348,10 @@ def _named_lines(d) -> list[str]:
     p, e = d.paper, d.extended
     without = d.runs_without_sense_voltage
     out = []
-    first = leader([f for f in d.fits if f.causes == (d.cause,)])
+    # the named model itself where it holds the first cause alone (a refit of the single
+    # may have replaced it: the table's row and the headline are of that fit)
+    first = (e if e.causes == (d.cause,) else
+             leader([f for f in d.fits if f.causes == (d.cause,)]))
     out.append(f"named {first.label} (acts on {SIGNALS[d.cause]}): held-out BIC lower by "
                f"{p.score - first.score:.4g} (threshold {MIN_BIC_DROP:g}), "
                f"{100 * explained(p, first):.3g} % of the paper's excess chi^2 removed; "
@@ -380,10 +383,13 @@ def _named_lines(d) -> list[str]:
         added = [m for m in best.candidate.members if m not in first.candidate.members]
         chans = channels(added[0]) if added else None
         where = "" if chans is None else f" in {', '.join(first.measured_of(chans))}"
-        out.append(f"forward selection: the best second cause, {best.label}, lowers the "
-                   f"held-out BIC by {first.score - best.score:.4g} and removes "
+        out.append(f"forward selection: of the models with a further cause, {best.label} "
+                   f"predicts the held-out runs best (held-out BIC lower by "
+                   f"{first.score - best.score:.4g}, "
                    f"{100 * explained(first, best, chans):.3g} % of the remaining "
-                   f"excess{where}; no second cause named")
+                   f"excess{where} removed); no further cause is named"
+                   + (" (the rule the best-ranked try failed: next line)" if d.stopped
+                      else ""))
     if d.stopped:
         out.append(f"no further cause named: {d.stopped}")
     if d.screened:
@@ -480,17 +486,45 @@ def format_diagnosis(d, path: str = "") -> str:
                  f"{d.paper.heldout_rms * 1e6:.4g} um, extended "
                  f"{d.extended.heldout_rms * 1e6:.4g} um")
     lines.append("")
-    head = (f"{'candidate':<72} {'misfit [um]':>12} {'RMS [um]':>10} {'chi2/n':>10} "
-            f"{'score':>12} {'k':>5}")
-    lines += [head, "-" * len(head)]
-    for f in sorted([d.paper] + d.fits + d.combinations, key=lambda f: f.score):
-        lines.append(f"{('paper (none)' if f.cause == 'none' else f.label):<72.72} "
-                     f"{f.heldout_misfit * 1e6:>12.4g} {f.heldout_rms * 1e6:>10.4g} "
-                     f"{f.heldout_chi2 / f.heldout_n:>10.4g} {f.score:>12.5g} {f.k:>5.3g}")
+    lines += candidate_table(d)
     lines.append("")
     lines.append("evidence:")
     lines += [f"  - {e}" for e in d.evidence]
     return "\n".join(lines)
+
+
+def display_label(fit) -> str:
+    """The model's name in the report: its label, or "paper (none)"."""
+    return fit.label if fit.candidate.members else "paper (none)"
+
+
+def candidate_table(d) -> list[str]:
+    """The table of the text report: the named model first (its row is the headline's
+    figures), then the other models tried, each once (the best-scored fit of a model
+    fitted more than once), best held-out score first; labels whole; a note on k."""
+    rows, seen = [d.extended], {display_label(d.extended)}
+    for f in sorted([d.paper] + list(d.fits) + list(d.combinations), key=lambda f: f.score):
+        name = display_label(f)
+        if name not in seen:
+            seen.add(name)
+            rows.append(f)
+    named = d.cause not in ("none", "unexplained")
+    marks = ["named"] + [""] * (len(rows) - 1) if named else [""] * len(rows)
+    width = max(len(display_label(f)) for f in rows) + 2
+    head = (f"{'model':<{width}} {'':<6} {'misfit [um]':>12} {'RMS [um]':>10} "
+            f"{'chi2/n':>10} {'score':>12} {'k':>6}")
+    out = [head, "-" * len(head)]
+    for f, mark in zip(rows, marks):
+        out.append(f"{display_label(f):<{width}} {mark:<6} {f.heldout_misfit * 1e6:>12.4g} "
+                   f"{f.heldout_rms * 1e6:>10.4g} {f.heldout_chi2 / f.heldout_n:>10.4g} "
+                   f"{f.score:>12.5g} {f.k:>6.3g}")
+    out += textwrap.wrap(
+        "misfit, RMS, chi2/n and score on the held-out runs (score: held-out chi^2 + k ln n, "
+        "lower is better); k: the parameters the score charges, counted as effective degrees "
+        "of freedom where a model holds the Preisach density (its penalised nonnegative "
+        "weights count by the trace of the fit's hat matrix, so k need not be whole)",
+        width=len(head))
+    return out
 
 
 def _fit_dict(fit) -> dict:

@@ -1,29 +1,43 @@
-"""A later cause beside a discretised form: it must beat that form on a finer grid.
+"""A later cause must be its own: it must beat the first causes' richer form.
 
-The Preisach density (:mod:`gmt.extensions.preisach`) is fitted on a grid of nodes, and
-what falls between them (a population narrower than their spacing) is a misfit of the
-discretisation, not of the physics. A later cause that acts on the same channels can take
-that misfit up and pass every rule of :mod:`smeha.diagnose.decision`: labsim's Preisach
-hysteresis alone (seed 108 at 800 samples a period, one population 0.63 kA/m wide) held
-out 195 609 with the density on its grid and 95 544 with a slab eddy form beside it,
-which was named as a second cause; the density alone on a grid 1.5 times as fine scored
-24 605, a fourth of the pair's (2026-11-28).
+A form with a finite description leaves a misfit that is the description's, not the
+physics': the Preisach density (:mod:`gmt.extensions.preisach`) is fitted on a grid of
+nodes, and what falls between them (a population narrower than their spacing) is the
+grid's; the saturation law (:mod:`gmt.extensions.saturation`) holds the measured
+anhysteretic curve to its family, and what the family cannot hold is the law's. A later
+cause that acts on the same channels can take that misfit up and pass every rule of
+:mod:`smeha.diagnose.decision`, against the noise, without being there.
 
-So a cause that joins a model holding a discretised form, and acts on B and y as that
-form does, is admitted only where it predicts the held-out runs better than the model
-before it with that form on its finer grid (``Extension.finer``): the rule
-:func:`smeha.diagnose.rules.beyond_forms` applies to the causes' other forms, this one
-to their discretisation. On true hysteresis + eddy data the finer density alone stays
-behind the pair (seed 0: 318 382 against ~95 000; seed 1 on 13 x 23 nodes: 2.6e8 against
-7.0e4). The finer model is fitted only where a cause is about to be named beside the
-density, once per round.
+So a cause that joins a model holding such a form, and acts on B and y as that form does,
+is admitted only where it predicts the held-out runs better than the model before it with
+that form made richer (``Extension.finer``: the density on a grid 1.5 times as fine, the
+saturation law with the next even term of its susceptibility). Where it does not, the
+data are also consistent with a richer first cause, which is said, and the cause is not
+named. The rule :func:`smeha.diagnose.rules.beyond_forms` applies to the causes' other
+forms, this one to their richer form. The richer model is fitted only where a cause is
+about to be named beside such a form, once per round, from the fit it refines carried
+over; tests/test_resolution.py checks that each richer form so fitted describes the
+training runs at least as well as the form it refines (else the check would ask nothing).
+
+The causes acting on y alone (a sensor's delay, the mechanics) are not asked: with a
+sense voltage B pins the magnetic form, and the richer form cannot remove from y what B
+does not allow it to.
 """
 from __future__ import annotations
 
 from .candidates import Candidate
 from .fit import Fit, fit_all
+from .progress import step
 
-__all__ = ["finer_candidate", "finer_job", "Refinement"]
+__all__ = ["richer_form", "finer_candidate", "finer_job", "Refinement"]
+
+
+def richer_form(member) -> str:
+    """What ``member``'s richer form adds, in words."""
+    grid = getattr(member.finer, "grid", None)
+    if grid is not None:  # (coercive, interaction) axes as (low, high, nodes)
+        return f"{member.cause} on a grid of {grid[0][2]} x {grid[1][2]} nodes"
+    return f"{member.cause} with {', '.join(member.finer.fit.names[member.fit.size:])} added"
 
 
 def finer_candidate(cand: Candidate):
@@ -35,14 +49,13 @@ def finer_candidate(cand: Candidate):
 
 
 def finer_job(fit: Fit) -> tuple:
-    """The fit job (candidate, base0, starts) of ``fit``'s model on the finer grid: one
-    start, ``fit``'s values with each discretised member's carried to its finer form
-    (its ``finer_start``: the density's output held, :func:`gmt.extensions.preisach.
-    projected_weights`).
+    """The fit job (candidate, base0, starts) of ``fit``'s model in its richer form: one
+    start, ``fit``'s values with each member that has a richer form carried to it (its
+    ``finer_start``: the density's output held, :func:`gmt.extensions.preisach.
+    projected_weights`; the saturation law as it is, c = 0).
 
-    Until 2026-11-29 a single density was fitted on the finer grid from its own starts,
-    as every single is. That fit often ended worse than the coarse one, and then the
-    check asked nothing a cause did not already pass beside the coarse density (labsim's
+    Fitted from its own starts, as every single is, the richer fit may end worse than the
+    fit it refines, and the check then asks nothing a cause does not already pass (labsim's
     Preisach data at 800 samples a period, training chi^2 coarse / finer from its own
     starts / finer from the projected fit: seed 3 1 778 / 2 210 / 857, seed 103 503 /
     1 411 / 374, seed 108 58 718 / 1 500 / 643; with eddy diffusion beside, seed 3
@@ -55,7 +68,7 @@ def finer_job(fit: Fit) -> tuple:
 
 class Refinement:
     """The check of the module docstring for the causes that may join ``current``: the
-    finer model is fitted once, on the first call that needs it."""
+    richer model is fitted once, on the first call that needs it."""
 
     def __init__(self, ev, train, held, current: Fit, workers=None):
         self._args = (ev, train, held)
@@ -65,29 +78,30 @@ class Refinement:
 
     @property
     def pending(self) -> bool:
-        """True while the finer model is not fitted and ``current`` has one."""
+        """True while the richer model is not fitted and ``current`` has one."""
         return self._finer is None and finer_candidate(self.current.candidate) is not None
 
     def job(self) -> tuple:
-        """The finer model's fit job, for a caller that fits it beside others
+        """The richer model's fit job, for a caller that fits it beside others
         (:func:`smeha.diagnose.joins.screened_round`), then hands it over (:meth:`given`)."""
         return finer_job(self.current)
 
     def given(self, fit) -> None:
-        """The finer model's fit (or the reason it failed) of :meth:`job`, fitted elsewhere."""
+        """The richer model's fit (or the reason it failed) of :meth:`job`, fitted elsewhere."""
         self._finer = fit
 
     @property
     def finer(self):
-        """The finer model's fit (or the reason its fit failed), fitted on first use."""
+        """The richer model's fit (or the reason its fit failed), fitted on first use."""
         if self._finer is None:
+            step(f"richer form of {self.current.label}")
             self._finer = fit_all(*self._args, [self.job()], self.workers)[0]
         return self._finer
 
     def passed_by(self, new: Fit, added) -> bool:
         """True when ``added`` (the member ``new`` adds to ``current``) needs no check (it
-        acts on y only, or ``current`` holds no discretised form) or ``new`` predicts the
-        held-out runs better than the finer model (score lower)."""
+        acts on y only, or ``current`` holds no form with a richer one) or ``new`` predicts the
+        held-out runs better than the richer model (score lower)."""
         if added.signals != "B and y" or finer_candidate(self.current.candidate) is None:
             return True
         finer = self.finer
@@ -97,6 +111,9 @@ class Refinement:
         """"" when :meth:`passed_by`, else why not, in words with the scores."""
         if self.passed_by(new, added):
             return ""
-        return (f"{self.finer.label} on its finer grid predicts the held-out runs as well "
-                f"without it (score {self.finer.score:.4g} against {new.score:.4g}): what it "
-                "takes falls between the nodes of the density's grid")
+        richer = [m for m in self.current.candidate.members if m.finer]
+        return (f"it must predict the held-out runs better than the model before it in its "
+                f"richer form ({'; '.join(richer_form(m) for m in richer)}), which does "
+                f"as well without it (score {self.finer.score:.4g} against {new.score:.4g}): "
+                "also consistent with a richer "
+                + " + ".join(m.cause for m in richer))

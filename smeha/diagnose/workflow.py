@@ -13,21 +13,13 @@ from ..measured import DataError
 from ..plausibility import check_plausible
 from .candidates import CAUSES, PAPER, Batch, Evaluator, candidates
 from .decision import also_consistent, select
-from .rules import within_noise
+from .rules import CONFUSABLE_WITHOUT_B, within_noise
 from .features import extract
 from .fit import Fit, fit_all, fit_and_score
 
-__all__ = ["CONFUSABLE_WITHOUT_B", "Diagnosis", "default_holdout", "propagate_errors",
+__all__ = ["Diagnosis", "default_holdout", "propagate_errors",
            "diagnose"]
 
-#: Without B (no sense voltage) these causes are told apart only by the shape of y:
-#: each magnetic cause that changes B and y together against the causes that change y only
-#: and leave a similar trace in y's harmonics against f.
-CONFUSABLE_WITHOUT_B = (
-    ("eddy_current_diffusion", "mechanical_resonance"),
-    ("eddy_current_diffusion", "transport_delay"),
-    ("rate_independent_hysteresis", "magnetization_saturation"),
-)
 
 
 @dataclass
@@ -293,6 +285,7 @@ def _prepared(runs, holdout, params) -> tuple:
 
 def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
     """:func:`diagnose` on checked arguments."""
+    from .progress import step
     from .report import characterise, evidence
 
     check_plausible(runs, params)
@@ -306,6 +299,7 @@ def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
     # decision differ with B present (sense)
     sense = bool(train.has_b.any())
     paper = fit_and_score(ev, train, held, PAPER, base0)
+    step("single causes")
     # within noise the answer is "none" whatever the candidates give (decision.select's
     # first rule): they are not fitted
     tried = () if within_noise(paper) else candidates()[1:]

@@ -17,7 +17,8 @@ import numpy as np
 from . import jiles_atherton as ja
 from . import preisach
 from . import lti, rod
-from .anhysteretic import frohlich_kennelly, frohlich_kennelly_inverse
+from .anhysteretic import (arctangent, arctangent_inverse, brillouin, frohlich_kennelly,
+                          frohlich_kennelly_inverse, mean_field_langevin)
 from .constants import LabsimError
 
 
@@ -97,6 +98,67 @@ class FroehlichKennelly:
         x_b = frohlich_kennelly_inverse(bias / m_s)
         slope = 1.0 / (1.0 + abs(x_b)) ** 2
         return m_s * frohlich_kennelly(x_b + (np.asarray(m) - bias) / (m_s * slope))
+
+
+@dataclass(frozen=True)
+class Brillouin:
+    """Saturation by the Brillouin law of moments with angular momentum J (Kittel, ch. 11)
+    on the total magnetisation, unit slope at 0 as the first formulation's Langevin law:
+    M_tot = M_s B_J(3 J / (J + 1) (M_b + M) / M_s)."""
+
+    saturation_magnetization: float  # M_s = 0.8 MA/m / strength, [A/m]
+    angular_momentum: float = 2.0    # J, [-] (1/2: tanh; -> infinity: Langevin)
+
+    @staticmethod
+    def at(strength: float) -> "Brillouin":
+        return Brillouin(0.8e6 / strength)
+
+    def saturate(self, m, bias: float):
+        """M_tot for the paper's M_b + M (the bias does not enter the law), [A/m]."""
+        m_s, j = self.saturation_magnetization, self.angular_momentum
+        return m_s * brillouin(j, 3.0 * j / (j + 1.0) * np.asarray(m) / m_s)
+
+
+@dataclass(frozen=True)
+class Arctangent:
+    """Saturation by the arctangent law f(x) = (2 / pi) atan(pi x / 2), of which the
+    paper's linear M is the tangent at the bias, as the Froehlich-Kennelly formulation:
+    M_tot = M_b + M_s [f(x_b + M / (M_s f'(x_b))) - f(x_b)], f(x_b) = M_b / M_s."""
+
+    saturation_magnetization: float  # M_s: 0.45 MA/m at strength 1, -> inf as s -> 0, [A/m]
+
+    @staticmethod
+    def at(strength: float) -> "Arctangent":
+        return Arctangent(250e3 + (0.45e6 - 250e3) / strength)
+
+    def saturate(self, m, bias: float):
+        """Total magnetisation for the paper's M_b + M, [A/m]."""
+        m_s = self.saturation_magnetization
+        if not bias < m_s:
+            raise LabsimError(f"arctangent saturation: M_s = {m_s:.6g} A/m must exceed "
+                              f"the bias magnetisation {bias:.6g} A/m")
+        x_b = arctangent_inverse(bias / m_s)
+        slope = 1.0 / (1.0 + (0.5 * np.pi * x_b) ** 2)
+        return m_s * arctangent(x_b + (np.asarray(m) - bias) / (m_s * slope))
+
+
+@dataclass(frozen=True)
+class MeanFieldLangevin:
+    """Saturation by the Langevin law with the domains' mean field (Jiles and Atherton
+    1986): a knee sharper than any law of independent moments, unit slope at 0:
+    M_tot = M_s m, m = L(3 ((1 - alpha) (M_b + M) / M_s + alpha m))."""
+
+    saturation_magnetization: float  # M_s = 1.2 MA/m / strength, [A/m]
+    coupling: float = 0.6            # alpha, [-], in [0, 1)
+
+    @staticmethod
+    def at(strength: float) -> "MeanFieldLangevin":
+        return MeanFieldLangevin(1.2e6 / strength)
+
+    def saturate(self, m, bias: float):
+        """M_tot for the paper's M_b + M (the bias does not enter the law), [A/m]."""
+        m_s = self.saturation_magnetization
+        return m_s * mean_field_langevin(np.asarray(m) / m_s, self.coupling)
 
 
 @dataclass(frozen=True)

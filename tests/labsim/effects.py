@@ -182,7 +182,10 @@ FORMULATIONS = {
         "preisach_random": alternatives.GeneralPreisach.random,
     },
     "magnetization_saturation": {"langevin": Saturation.at,
-                                 "froehlich_kennelly": alternatives.FroehlichKennelly.at},
+                                 "froehlich_kennelly": alternatives.FroehlichKennelly.at,
+                                 "brillouin": alternatives.Brillouin.at,
+                                 "arctangent": alternatives.Arctangent.at,
+                                 "mean_field_langevin": alternatives.MeanFieldLangevin.at},
     "eddy_current_diffusion": {
         "solid_rod": EddyDiffusion.at,
         "conducting_housing": alternatives.ConductingHousing.at,
