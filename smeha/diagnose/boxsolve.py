@@ -19,11 +19,10 @@ to the bounds, so that the variables far inside stay free from the first iterati
 The same minimiser as scipy's bounded-variable least squares (``lsq_linear(...,
 method="bvls")``; Stark & Parker, Comput. Stat. 10 (1995) 129-141), which works on A
 itself and solves a least-squares problem by SVD at each of its iterations; on the
-joint steps of labsim's Preisach hysteresis (seed 103 at 800 samples a period, ten
-problems of 790 x 216) the objectives agree to 3e-13 and the solutions to 1.5e-8 of the
-largest value, and it takes a quarter of bvls's time (a third over 200 problems of the
-density with eddy diffusion, seed 3, where bvls stopped short by up to 1.5e-10 of the
-objective; ``benchmarks/bounded_solve.py``, 2026-11-28).
+joint steps of labsim's Preisach hysteresis (ten problems of 790 x 216) the objectives
+agree to 3e-13 and the solutions to 1.5e-8 of the largest value, and it takes a quarter
+of bvls's time (a third over 200 problems of the density with eddy diffusion, where bvls
+stops short by up to 1.5e-10 of the objective; ``benchmarks/bounded_solve.py``).
 Squaring A squares its condition number: the joint steps scale each column by its
 damped norm, floored, which holds it near 1e2 (:func:`smeha.diagnose.linearfit._joint`),
 1e4 for H. Where H is not positive definite to working precision, or the active set

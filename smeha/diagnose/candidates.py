@@ -247,7 +247,7 @@ LN_FLUX_STEP = 0.3
 #: Relative step of B_m for that step's derivative: well above the error left by the
 #: iteration that solves the paper's part for B_m (gmt.extensions.paperpart.
 #: paper_permeability), whose count depends on the other runs evaluated with it; at 1e-6
-#: the derivative of one run changed with the batch it was evaluated in.
+#: the derivative of one run changes with the batch it is evaluated in.
 FLUX_DIFFERENCE_STEP = 1e-4
 
 

@@ -290,10 +290,11 @@ def _evident_first(paper: Fit, singles, timelike: bool):
     """The first cause judged in its evidence channel where none passes the rule over all
     channels: the best-ranked firm single with an evidence channel that passes the rule
     there against the paper (:func:`passes_in_own`; for the drift terms, ``timelike``),
-    or None. A drift beside an effect outside the candidates (labsim's joint backlash or
-    mains hum with coil heating) removed most of the drift terms' excess and too little
-    of y's, which is the other effect's, to pass over all channels: it was answered
-    ``unexplained``, the drift unnamed."""
+    or None. A drift beside an effect outside the candidates (a joint's backlash, mains
+    hum) removes most of the drift terms' excess and too little of y's, which is the other
+    effect's, to pass over all channels; its own evidence is the drift terms (pinned by
+    tests/test_decision.py::
+    test_a_first_drift_is_judged_in_the_drift_terms_when_nothing_passes_over_all)."""
     if not timelike:
         return None
     evident = [f for f in singles if not f.weak and f.candidate.members[0].evidence
@@ -311,11 +312,12 @@ def _magnetic_first(paper: Fit, singles):
     mechanics, the sensor, or one outside the candidates: a joint's backlash) leave it as
     the paper's model predicts it. Where such an effect outside the candidates holds most
     of y's excess, a magnetic cause that removes most of B's cannot remove half of the
-    whole: labsim's eddy diffusion with a joint's backlash at a 20 kHz clock (seed 0): the
-    slab form on the magnetisation removed 85 % of B's held-out excess and 47 % of all,
-    and the answer was ``unexplained``. Named here, the rest is reported unexplained. The
-    effects outside the candidates alone (labsim's backlash, mains hum; 100, 800 and 20 kHz,
-    seeds 0-4) leave no magnetic form passing there: still ``unexplained``. Without B
+    whole; judged in B it is named, and the rest is reported unexplained (pinned by
+    tests/test_decision.py::
+    test_a_magnetic_cause_is_judged_in_b_where_an_effect_on_y_alone_holds_y; end to end
+    by tests/test_diagnose_textbook.py::
+    test_a_magnetic_cause_beside_an_effect_on_y_alone_is_judged_in_b). An effect outside
+    the candidates alone changes B not at all, so no magnetic form passes there. Without B
     features no cause passes the rule there (its drop in B is 0)."""
     ok = [f for f in singles if not f.weak and f.candidate.members[0].signals != "y only"
           and not f.candidate.members[0].evidence
@@ -332,17 +334,17 @@ def _pair_first(ev, train, held, paper: Fit, singles, sense: bool, timelike: boo
 
     Forward selection names one cause at a time, each first alone; two effects that act
     on different channels can each leave more than half of the paper's excess to the
-    other (labsim's eddy diffusion with a one-mass resonance, seed 1 at 800 a period: the
-    resonance removed 31 % of the excess, in y, and made B worse; the eddy form took B's
-    and left y's). Here the :data:`SWAP_CANDIDATES` best-ranked causes are paired with
-    each other (fitted together from their own values), and a pair is named when it
-    passes the rule against the paper over all channels and each of its causes passes the
-    rules of a later cause (:func:`admitted`) against the other alone: neither is there
-    only to make up for the other's form. Each cause comes in its :data:`FORMS_TRIED`
-    best-ranked forms, weak ones too (a form that is weak alone, making up for the other
-    effect, may be firm beside it): alone, the resonance's one-mass form ranked before the
-    two-mass one on labsim's two-mass mechanics, which sat on a bound; beside the eddy
-    form the one-mass form took its stiffness ratio to a bound."""
+    other (a resonance takes y's excess and makes B worse, an eddy form takes B's and
+    leaves y's; pinned by tests/test_diagnose_textbook.py::
+    test_two_effects_that_neither_explains_alone_are_named_together). Here the
+    :data:`SWAP_CANDIDATES` best-ranked causes are paired with each other (fitted
+    together from their own values), and a pair is named when it passes the rule against
+    the paper over all channels and each of its causes passes the rules of a later cause
+    (:func:`admitted`) against the other alone: neither is there only to make up for the
+    other's form. Each cause comes in its :data:`FORMS_TRIED` best-ranked forms, weak
+    ones too (a form that is weak alone, making up for the other effect, may be firm
+    beside it): alone, a two-mass mechanics may sit on a bound and rank behind its
+    one-mass form, which beside the other cause's form is the one pushed to a bound."""
     forms = ranked_forms(singles, FORMS_TRIED)
     causes = list(forms)[:SWAP_CANDIDATES]
     pairs = [(a, (), b) for i, c in enumerate(causes) for d in causes[i + 1:]
@@ -357,9 +359,9 @@ def _pair_first(ev, train, held, paper: Fit, singles, sense: bool, timelike: boo
         if all(admitted(paper, alone, fit, [], sense, timelike) for alone in members):
             named.append((fit, sorted(members, key=lambda f: f.total_score)))
     # a firm pair first; with B a weak one may be named, as a weak finding, as in the
-    # rounds of select (with B pinning the magnetic cause, the one-mass resonance beside
-    # the eddy form above took its stiffness ratio to a bound); without B, not. Beside a
-    # discretised form (the density) the other cause must beat that form on a finer grid
+    # rounds of select (with B pinning the magnetic cause, a form beside the other cause's
+    # may sit on a bound, as above); without B, not. Beside a discretised form (the
+    # density) the other cause must beat that form on a finer grid
     # (smeha.diagnose.resolution), asked from the best-ranked pair on: the finer model is
     # fitted only where a pair that holds the density would otherwise be named
     firm = [t for t in named if not t[0].weak]
@@ -378,12 +380,11 @@ def leader(fits) -> Fit:
     unless another predicts the held-out runs better by more than :data:`MIN_BIC_DROP`:
     then the best on the held-out runs. A flexible family (a Preisach density) can rank
     first on the strength of the training runs it fits and predict the runs it never saw
-    worse (labsim's saturation without a sense voltage: the density, its rate factor on
-    a bound, ranked first and scored 9e4 worse on the held-out runs than saturation).
-    A fit with an unknown on a bound (weak) overrides a firm leader no more than it may
-    enter in the exchange step: a two-mass mechanics on its bounds predicted outside lab
-    C's held-out runs better than its delayed sensor and described all the data 1.2e5
-    worse."""
+    worse (pinned by tests/test_decision.py::
+    test_the_best_ranked_model_gives_way_to_a_clearly_better_prediction). A fit with an
+    unknown on a bound (weak) overrides a firm leader no more than it may enter in the
+    exchange step: a form pushed to its bounds can predict the held-out runs better by
+    chance and describe all the data worse."""
     ranked = min(fits, key=lambda f: f.total_score)
     rivals = fits if ranked.weak else [f for f in fits if not f.weak]
     held = min(rivals, key=lambda f: f.score)
@@ -400,9 +401,8 @@ def simplest_lookalike(best: Fit, fits) -> Fit:
     Where the model is far outside noise its chi^2 differences are the misfit's, scaled by
     the dispersion (quasi-likelihood, McCullagh & Nelder 1989, sec. 9.2, as in
     :func:`no_channel_worse`), and two lookalikes the data do not separate on that scale
-    are told apart by parsimony. Labsim's delayed sensor under mains hum (seed 1 at 800 a
-    period): the one-mass mechanics (3 unknowns) scored 7119 held out, the delay (1) 7212,
-    with y's chi^2 per feature 41: answered mechanical_resonance."""
+    are told apart by parsimony (pinned by tests/test_decision.py::
+    test_lookalikes_the_data_do_not_separate_are_told_apart_by_parsimony)."""
     member = best.candidate.members[0] if len(best.candidate.members) == 1 else None
     if member is None or not member.lookalike:
         return best
@@ -420,10 +420,9 @@ def _settled(current: Fit, again) -> Fit:
 
     A combination is judged against the model it extends as far as the same steps take
     that model: where current's fit has not converged (a Preisach density's joint polish
-    ends on its round limit), the combination's gain is otherwise in part the refit's
-    (labsim's density with a rod 10 K warm, seed 100 at 800 a period: refitted alone from
-    its own values the density's training chi^2 fell 3.25e6 -> 2.55e6 and y's held-out
-    excess rose 9.1e5 -> 1.14e6, the same moves the drift combination made)."""
+    ends on its round limit), the combination's gain is otherwise in part the refit's:
+    the same steps move the model alone too (pinned by tests/test_decision.py::
+    test_a_combination_is_judged_against_the_model_refitted_by_the_same_steps)."""
     if isinstance(again, Fit) and again.train_chi2 < current.train_chi2:
         return again
     return current
@@ -437,11 +436,11 @@ def _rescued(ev, train, held, current: Fit, reference: Fit, fits, workers=None) 
 
     A combination holds the model it extends (its added cause at its neutral values), so
     at its optimum it fits the training runs no worse; where it does, its fit stopped
-    short, started from the added cause's values fitted alone beside the paper's model.
-    Labsim's Preisach hysteresis + saturation (seed 15 at 800 a period): from the
-    saturation's single value (M_b/M_s 0.317) the combination ended at training chi^2
-    3.97e7, the density alone refitted at 1.90e7, and saturation was not named; from
-    M_b/M_s 0.001, 0.1 or 0.2 it ended at 6.7e5 with M_b/M_s 0.406 each time."""
+    short, started from the added cause's values fitted alone beside the paper's model,
+    which imitate all the paper's model misses and may lie in another basin than the
+    cause's own part. From its neutral values the combination starts at the model it
+    extends (the neutral values leave the paper's model: tests/test_diagnose_forms.py::
+    test_neutral_values_leave_the_paper_model_as_nearly_as_the_bounds_allow)."""
     short = [i for i, f in enumerate(fits) if f.train_chi2 > reference.train_chi2
              and added_member(current, f).fit.neutral is not None]
     if not short:
@@ -475,13 +474,11 @@ def _continued(ev, train, held, reference: Fit, fits, workers=None) -> tuple:
 
     A density's combination fit ends on its round limit (2 rounds of the alternation, 10
     joint steps), which costs little where the added cause is plain in the data and stops
-    short where it is not. Labsim's Preisach hysteresis + eddy diffusion on the
-    magnetisation (seed 14 at 800 samples a period): the slab form beside the density
-    explained 47.7 % of what the density left (the rule asks half); refitted once from its
-    own values, 71.7 % (training chi^2 7.71e4 -> 6.03e4, the density alone refitted
-    1.223e5 -> 1.222e5). Only the combinations the selection would name, if admitted, are
-    continued, and only when none is: the extra fits are paid where the decision turns on
-    them."""
+    short where it is not: a cause near the rule's half may pass only once refitted from
+    its own values (pinned by tests/test_decision.py::
+    test_a_density_combination_that_stopped_short_is_continued_while_it_gains). Only the
+    combinations the selection would name, if admitted, are continued, and only when none
+    is: the extra fits are paid where the decision turns on them."""
     current = {id(f): f for f in fits if _stops_short(f)}
     for _ in range(CONTINUATIONS):
         keys = list(current)

@@ -73,10 +73,9 @@ def exchange(ev, train, held, paper: Fit, current: Fit, order, singles, tried, s
                            and s.candidate.members[0] not in current.candidate.members],
                           FORMS_TRIED - 1)
     # and each member's lookalikes (a delay for a one-mass mechanics), firm, whether or not
-    # they pass alone: beside another cause two lookalikes may part where alone they did
-    # not (labsim's eddy diffusion + delay, seed 11 at 800 a period: the one-mass
-    # mechanics ranked first alone, the delay, taking half of what the eddy left, passed
-    # no rule alone, and the answer was mechanical_resonance + eddy)
+    # they pass alone: beside another cause two lookalikes may part where alone they do
+    # not (pinned by tests/test_diagnose_textbook.py::
+    # test_a_lookalike_takes_the_place_of_the_first_cause_beside_a_second)
     alike = ranked_forms([s for s in singles if s.cause not in inside and not s.weak
                            and s.candidate.members[0].lookalike], 1)
     joins = []
@@ -101,9 +100,9 @@ def exchange(ev, train, held, paper: Fit, current: Fit, order, singles, tried, s
     # kept when it ranks better and predicts the held-out runs better too, and the cause
     # that comes in is not a weak finding (none of its unknowns on a bound the fit pressed);
     # with B, another form of a cause already named may be (named as a weak finding, as a
-    # round's weak leader may be): labsim's eddy diffusion + two-mass resonance, seed 4 at
-    # 800 a period, held-out score 1.9e5 with the one-mass form, 293 with the two-mass one,
-    # its mass ratio on a bound
+    # round's weak leader may be): a two-mass form with its mass ratio on a bound can
+    # predict far better than the firm one-mass form (pinned by
+    # tests/test_diagnose_textbook.py::test_a_cause_in_its_other_form_takes_no_extra_cause)
     if (fit.total_score >= current.total_score or fit.score >= current.score
             or not (firm_in(fit, came) or (sense and came == gone))):
         return current, order
@@ -121,10 +120,10 @@ def pruned(ev, train, held, paper: Fit, current: Fit, order, later, tried, sense
     Stepwise selection's backward step (Miller, *Subset Selection in Regression*, 2nd ed.,
     2002, sec. 3.4), asked of the causes added after a member the exchange step replaced
     (``later``): each was admitted beside the member that went out, and may have been
-    making up for that member's form. Labsim's eddy diffusion + two-mass resonance at a
-    20 kHz lab clock (seed 1): eddy, then the one-mass form, then a delay beside them
-    (1.5 % of the paper's excess); the exchange put the two-mass form in the one-mass
-    form's place, and the delay, there for the one-mass form's misfit, stayed."""
+    making up for that member's form (a delay beside a one-mass form, there for that
+    form's misfit, is asked again once the two-mass form takes its place; pinned by
+    tests/test_diagnose_textbook.py::
+    test_eddy_and_resonance_at_a_20_khz_clock_give_both_and_nothing_else)."""
     for cause in later:
         cand = Candidate(tuple(m for m in current.candidate.members if m.cause != cause))
         reduced = fit_all(ev, train, held,
@@ -145,13 +144,10 @@ def earned(current: Fit, new: Fit, gone, came) -> bool:
     parsimony of :func:`smeha.diagnose.decision.simplest_lookalike`, which chose the first
     cause, kept in the exchange step.
 
-    Labsim's delayed sensor with a coil warming the rod, at a 20 kHz lab clock (seeds 1-3):
-    the delay was named first and the drift joined it (held-out score 4056); the exchange
-    then put the one-mass mechanics (3 unknowns for the delay's 1) in the delay's place,
-    scoring 3647, lower by 409 where the dispersion of the delay's model in y and the drift
-    terms was 34 (a margin of 861), and the answer was mechanical_resonance + thermal_drift:
-    the delay misnamed. Most of the 409 came from the drift terms, not from y, where the
-    delay fitted better (excess 1317 against 1500)."""
+    Without it, a lookalike with more unknowns takes the simpler one's place on a gain
+    the data do not separate, much of it in channels the filter does not identify (the
+    drift terms beside a drift); pinned by tests/test_decision.py::
+    test_the_exchange_step_keeps_the_parsimony_between_lookalikes."""
     if not (gone.lookalike and came.lookalike == gone.lookalike
             and came.fit.size > gone.fit.size):
         return True

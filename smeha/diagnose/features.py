@@ -78,9 +78,8 @@ MAINS_TONES = (50.0, 150.0, 60.0, 180.0)
 #: Least distance [resolution bins, 1 / T] of a fitted mains tone from the offset and each
 #: harmonic. The fundamental's drift terms (tau cos, tau sin) spread it over a bin or two
 #: either side: on a 50 Hz run of 6 periods a tone 1 bin off shares 27 % of its columns'
-#: norm with them and widens the drift's standard error by a factor 1.58 (labsim's
-#: Preisach hysteresis + saturation, seed 101, then gained an eddy form); 3 bins off, 2 %
-#: and 1.05.
+#: norm with them and widens the drift's standard error by a factor 1.58, room for a
+#: further cause to take the scatter; 3 bins off, 2 % and 1.05.
 MAINS_SEPARATION = 3.0
 #: z-score of the first period's misfit to the later ones above which it is transient.
 TRANSIENT_Z = 4.0

@@ -31,9 +31,10 @@ SCREEN_KEEP = 3
 #: case in which the round may name a cause the finer grid must be asked about
 #: (:class:`smeha.diagnose.resolution.Refinement`). A guess at what the round will need,
 #: read for the time only: the finer fit is the same fit whichever call makes it. It pays
-#: where a cause is then admitted beside the density (labsim's Preisach + eddy, seed 3 at
-#: 800: 2.8 s sooner) and costs where the rules refuse every try before the finer grid is
-#: asked (the density alone, seed 3: a slab screen 3.5 % lower, refused; 2 s later).
+#: where a cause is then admitted beside the density (labsim's Preisach + eddy at 800
+#: samples a period, seed 3: 2.8 s of 23 s sooner) and costs where the rules refuse every
+#: try before the finer grid is asked (the density alone: a slab screen 3.5 % lower,
+#: refused; 2 s later).
 SPECULATE_FINER = 0.01
 
 
@@ -89,14 +90,11 @@ def join_start(ev, train, cand: Candidate, current: Fit, added, alone) -> tuple:
     form's start vectors: one evaluation each, no fit.
 
     A value fitted alone is the added cause's best imitation of everything the paper's
-    model misses, which beside another cause may be far from its own part: labsim's
-    Preisach hysteresis + eddy diffusion on M (seed 0 at 100 samples a period, tau 1.7 ms),
-    the magnetisation forms alone took the loop's opening with the paper's loss
-    coefficients (K_e 2458 -> 308-549) and, started from there beside the density, ended at
-    a held-out score of 2.9e5 against the density's 4.7e4, and the eddy was not named; the
-    cylinder form started from its form's start vector of least chi^2 reached 1.6e3 and the
-    pair was named (2026-11-28). The least chi^2 at the start does not promise the best
-    basin (the slab form's start stayed its value alone there), only a cheap better one."""
+    model misses, which beside another cause may be far from its own part (an eddy form
+    fitted alone takes the loop's opening with the paper's loss coefficients, and beside
+    a Preisach density that opening is the density's); pinned by tests/test_decision.py::
+    test_a_joined_cause_starts_where_the_training_chi2_is_least. The least chi^2 at the
+    start does not promise the best basin, only a cheap better one."""
     best, least = None, math.inf
     for values in (tuple(alone),) + tuple(tuple(v) for v in added.fit.starts):
         x = start_vector(cand, current, added, values)
@@ -134,19 +132,17 @@ def screened_round(ev, train, held, current: Fit, reference: Fit, singles,
     training chi^2, and the best-ranked cause with an evidence channel of its own (the
     drift, judged in its drift terms), are fitted in full from where their screens ended.
 
-    On labsim's Preisach hysteresis with eddy diffusion (seed 3 at 800 samples a period)
-    the first round's ten combinations were each fitted in full from their join starts
-    and eight again from their neutral values, having ended worse than the reference
-    (:func:`smeha.diagnose.decision._rescued`): 10 778 evaluations of the model (f0ce0db).
-    Screened, 2 110 for the ten screens and 3 102 for the four fitted in full (the two
-    eddy forms on the magnetisation, the lag form, the drift), and the same causes were
-    named (2026-11-28).
+    A screen costs one round of the alternation where a full fit costs its joint steps,
+    and a full fit from the join start that ends worse than the reference is fitted again
+    from the neutral values (:func:`smeha.diagnose.decision._rescued`): screening first
+    fits in full only the few a round may name (pinned by tests/test_decision.py::
+    test_beside_the_density_the_combinations_are_screened_and_the_best_fitted_in_full).
 
     ``refinement`` (a :class:`smeha.diagnose.resolution.Refinement` of ``reference``):
     where a kept combination's screen suggests a cause may be named
     (:data:`SPECULATE_FINER`), its finer model is fitted first in the same batch as the
-    full fits, side by side with them, and handed to it; alone, later, it kept one
-    worker idle (labsim's Preisach + eddy, seed 3 at 800: 2.8 s of the 23 s)."""
+    full fits, side by side with them, and handed to it; fitted alone, later, it keeps
+    one worker idle (:data:`SPECULATE_FINER`)."""
     screens = []
     for _, cand, added, single in _combinations([(reference, (), s) for s in singles]):
         start = (start_vector(cand, reference, added, added.fit.neutral)

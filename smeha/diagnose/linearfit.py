@@ -398,16 +398,14 @@ def _screened_members(prob, base0, x0):
     A combination starts from its members' fitted values (``x0``), the density's fitted
     alone. Where the added member changes what the density's relays see (an eddy field
     form: they switch on the lagging field inside), the density fitted alone has taken
-    up what the added member does, and the alternation from there stays by it: labsim's
-    Preisach hysteresis + eddy diffusion acting on the field (seed 1 at 800 samples a
-    period) ended at training chi^2 3.5e8 from the true time constant, while the density
-    fitted to the hysteresis alone with the true eddy form gives 3.1e5 on the same data
-    with no fit at all. So ``x0`` and, for each member that shields the field
-    (``shields_field``), ``x0`` with that member's unknowns at each of its own starts
-    (its ``FitSpec.starts``) are tried: at each, the
-    weights are re-solved once (the penalised NNLS of step 2 about ``x0``'s weights, the
-    penalty chosen as in step 2) and the chi^2 evaluated; the least starts the
-    alternation."""
+    up what the added member does, and the alternation from there stays by it (pinned by
+    tests/test_diagnose_textbook.py::
+    test_hysteresis_beside_eddy_currents_that_shield_the_field_gives_both). So ``x0``
+    and, for each member that shields the field (``shields_field``), ``x0`` with that
+    member's unknowns at each of its own starts (its ``FitSpec.starts``) are tried: at
+    each, the weights are re-solved once (the penalised NNLS of step 2 about ``x0``'s
+    weights, the penalty chosen as in step 2) and the chi^2 evaluated; the least starts
+    the alternation."""
     x0 = np.asarray(x0, float)
     if not any(m.shields_field for m in prob.cand.members):
         return x0

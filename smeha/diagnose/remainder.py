@@ -9,9 +9,10 @@ noise). E_k is the named model's (at most E_0); for j < k the model with the fir
 causes is the one of those fitted that predicts the held-out runs best, in whichever
 forms, and E_j is held between E_k and E_{j-1}, so that the shares and the remainder add
 up to 1. A cause's form in the named model may differ from the form it was first named
-in: read off the fit of the named model's form alone, labsim's output mass beside
-saturation without B (2026-11-28) explained 0 and saturation 114 %, the two-mass form's
-fit alone predicting the held-out runs worse than the paper's model. A remainder counts
+in: read off the fit of the named model's form alone, a mechanics whose two-mass form
+alone predicts the held-out runs worse than the paper's model would explain 0 and the
+cause beside it more than all (pinned by tests/test_decision.py::
+test_each_named_cause_is_credited_with_the_best_form_of_the_model_before_it). A remainder counts
 as unexplained only while the chosen model is outside noise
 (:func:`smeha.diagnose.rules.within_noise`).
 

@@ -312,8 +312,9 @@ def y_worse_caution(paper_misfit: float, extended_misfit: float,
 
     The rule names a model by its held-out score over y, B and the drift together, each
     feature over its error, so a model can be named for what it removes in B while it
-    predicts y worse (labsim's Preisach hysteresis with eddy diffusion, seed 1 at 800
-    samples a period: 85 % of the held-out excess explained, gain 0.68), or, without B, for
+    predicts y worse (labsim's Preisach hysteresis with eddy diffusion: 85 % of the
+    held-out excess explained, gain 0.68; tests/test_decision.py::
+    test_a_named_model_that_predicts_y_worse_is_cautioned), or, without B, for
     what it removes in y's harmonics, whose errors are small, while it misses y's
     fundamental by more microns (outside lab C without its sense voltage: 98 % explained,
     gain 0.89; over the held-out runs y's third harmonic 2.02 -> 0.20 um, its fundamental

@@ -24,8 +24,9 @@ from gmt.extensions import HIGHER_HARMONICS
 from .fit import Fit
 
 __all__ = ["CONFUSABLE_WITHOUT_B", "WITHIN_NOISE", "MIN_BIC_DROP", "MIN_EXPLAINED", "MIN_SHARE",
-           "MIN_SHARE_WITH_B", "channels", "evidence_channels", "share", "significant", "explained", "passes",
-           "passes_in_own", "passes_first", "alike_at_levels", "level_shares", "explained_at",
+           "MIN_SHARE_WITH_B", "channels", "evidence_channels", "share", "significant",
+           "explained", "passes", "passes_in_own", "passes_first", "alike_at_levels",
+           "level_shares", "explained_at",
            "shares_in_words", "shows_signature", "downstream_identifiable", "firm_in",
            "no_channel_worse", "beyond_forms", "within_noise", "refusal", "admitted",
            "added_member"]
@@ -49,24 +50,22 @@ MIN_EXPLAINED = 0.5
 #: of the paper's held-out excess in the channels it acts on (y and the drift for a cause
 #: that changes y only; y, B and the drift for a magnetic one). The candidates' forms are
 #: approximations; with B a magnetic cause's form is pinned by B, but from y alone the small
-#: misfit a first cause's form leaves is taken up by any flexible second cause (labsim's
-#: Langevin saturation without a sense voltage, fitted by the tanh law, was answered as
-#: saturation + re-identified mechanics + thermal drift): a second cause is identifiable
-#: from y alone only where it carries a share of y's discrepancy of its own.
+#: misfit a first cause's form leaves is taken up by any flexible second cause (a
+#: re-identified mechanics and a drift take up what a saturation law outside the tanh
+#: family leaves; pinned by tests/test_diagnose_textbook.py::
+#: test_no_extra_cause_without_a_sense_voltage): a second cause is identifiable from y
+#: alone only where it carries a share of y's discrepancy of its own.
 MIN_SHARE = 0.1
 #: With a sense voltage, a cause after the first must remove at least this fraction of the
 #: paper's held-out excess in the channels it acts on. B pins a magnetic cause's form, but
 #: not to zero: the first cause's form leaves a trace that a flexible second cause fits,
-#: and that trace is as large as the first form is coarse. With the Preisach density on 6
-#: coercive nodes (until 2026-11-27) the later causes that passed every other rule beside
-#: labsim's Preisach hysteresis alone removed 0.014-0.026 % (seeds 100-107), and the floor
-#: was 0.12 %; on 11 nodes the density leaves a trace some 50 times smaller, and beside it
-#: a true eddy diffusion on the magnetisation removes only 0.0036-0.0053 % (the rest of
-#: its signature is taken by the density and eq 16's loss terms). Measured with no floor
-#: on labsim seeds apart from the study's (2026-11-27, 800 samples a period: every single
-#: cause, seeds 100-107, 48 of 48; every pair, seeds 100-101, 29 of 30, the miss one cause
-#: short): no cause beyond the hidden ones passed the other rules, and the least true
-#: share was 3.6e-5 (hysteresis + eddy, seed 100). The floor sits a factor 3.6 below it.
+#: and that trace is as large as the first form is coarse: beside the Preisach density on
+#: 11 coercive nodes it is well below 1e-5 of the paper's excess, and a true eddy
+#: diffusion on the magnetisation beside the density removes only 3.6e-5 to 5.3e-5 (the
+#: rest of its signature is taken by the density and eq 16's loss terms). Calibration:
+#: the least true share, 3.6e-5 (labsim seed 100, 800 samples a period), sits a factor
+#: 3.6 above the floor (pinned by tests/test_decision.py::
+#: test_a_later_cause_with_b_needs_a_share_of_the_papers_excess).
 MIN_SHARE_WITH_B = 1e-5
 
 
@@ -82,10 +81,9 @@ def evidence_channels(member) -> tuple:
 
     A drift's gain also scales y's harmonics, but what identifies it is the drift of y's
     mean and fundamental within a run, which no periodic form produces; beside a
-    magnetic cause whose form leaves y's harmonics off, it could not remove half of y's
-    excess (labsim's Preisach density with a rod 10 K warm, seed 100 at 800 a period:
-    the drift removed 83 % of the drift terms' excess, 6382 -> 1056, and y's stayed the
-    density's)."""
+    magnetic cause whose form leaves y's harmonics off, it cannot remove half of y's
+    excess, which stays the magnetic form's (pinned by tests/test_decision.py::
+    test_a_drift_is_judged_in_the_drift_terms)."""
     return (member.evidence,) if member.evidence else channels(member)
 
 
@@ -126,11 +124,11 @@ def passes(base: Fit, new: Fit, chans=None) -> bool:
 def passes_first(paper: Fit, single: Fit) -> bool:
     """The rule for a cause named alone against the paper's model: :func:`passes` over all
     channels and, for a linear filter on y, at every drive level in its channels
-    (:func:`alike_at_levels`). Labsim's thermal drift + a joint's backlash (seed 11 at 100
-    samples a period): a delay alone removed 50.0 % of the paper's excess, 37.2 % of y's
-    at 0.6 A and 61.9 % at 1 A, and was named first; the true first filters (a resonance or
-    a delay beside eddy diffusion or a drift, and with each other, seeds 0-1 at the three
-    rates) removed 66.7-99.9 % at each level."""
+    (:func:`alike_at_levels`): a nonlinearity on y alone (a joint's backlash) can pass on
+    the levels' sum through a linear filter's average (pinned by tests/test_decision.py::
+    test_a_first_filter_on_y_must_remove_the_excess_at_every_drive_level; end to end by
+    tests/test_diagnose_textbook.py::
+    test_a_joints_backlash_beside_a_drift_is_not_read_as_a_delay)."""
     return passes(paper, single) and not alike_at_levels(paper, single,
                                                          single.candidate.members[0])
 
@@ -163,11 +161,11 @@ def alike_at_levels(current: Fit, new: Fit, added) -> list:
     removes the excess alike at each level, and the rule holds at each, not only on
     their sum. A nonlinearity acting on y alone (a joint's backlash: a dead band of fixed
     width, a larger share of a smaller stroke) is taken by a linear form as its average:
-    labsim's eddy diffusion or saturation with a joint's backlash (seeds 0-4 at 100 and
-    800 samples a period and a 20 kHz clock): a one-mass mechanics added removed 43-50 %
-    of y's excess, 32-40 % at 0.6 A and 54-64 % at 1 A (eddy, seed 3 at 800: 50.2 %, named);
-    beside the true causes (eddy, saturation, hysteresis or drift with a resonance or a
-    delay, seeds 0-1) the filters removed 90.7-100 % at each level.
+    less than half at the small drive, more at the large one, where a true filter removes
+    nearly all at each (pinned by tests/test_decision.py::
+    test_a_later_filter_on_y_must_remove_the_excess_at_every_drive_level; end to end by
+    tests/test_diagnose_textbook.py::
+    test_a_joints_backlash_beside_eddy_diffusion_is_not_read_as_a_mechanics).
     """
     if added.stage not in LINEAR_ON_Y:
         return []
@@ -208,9 +206,8 @@ def downstream_identifiable(current: Fit, added) -> bool:
     y follows from the magnetisation (eqs 25-28) and B is its direct measure: while the
     magnetic part of the model is further off in B than in y, y's misfit is the magnetic
     part's, propagated, and a filter on y (mechanics, a sensor's delay or lag) fitted to it
-    names a cause that is not there (labsim's Preisach hysteresis at 100 samples a period,
-    its form fitted by the Preisach family: B's excess 5.6 times y's, and a re-identified
-    mechanics took a third of y's)."""
+    names a cause that is not there (pinned by tests/test_decision.py::
+    test_a_cause_on_y_alone_waits_until_the_magnetic_part_fits_b)."""
     if added.evidence or added.signals != "y only" or all(
             m.signals == "y only" for m in current.candidate.members):
         return True
@@ -228,13 +225,11 @@ def shows_signature(current: Fit, new: Fit, added) -> bool:
     B and y. What changes the fundamentals alone is a linear lag of M, which a flexible
     family (a Preisach density, dozens of linear unknowns) can shape while keeping its
     harmonics at the data's, or adding its own: then the data do not tell it from the
-    lag. Beside other causes (labsim's eddy diffusion with a two-mass resonance, seed 15 at
-    800 samples a period: beside the eddy and two-mass forms the density lowered the
-    held-out score 844 -> 480 through the fundamentals, its harmonics from the third up
-    130 -> 154; answered with hysteresis as a third cause) and first (the same pair at a
-    20 kHz lab clock, seed 4: the paper's harmonics from the third up within noise, 145.7
-    for 144 features, the density's 1809; its fundamentals removed 57 % of the excess and
-    it was named first, before the resonance and the eddy diffusion)."""
+    lag. The rule is asked of a later cause (pinned by tests/test_decision.py::
+    test_a_later_hysteresis_must_explain_the_loops_higher_harmonics) and of the first,
+    against the paper's model (:func:`smeha.diagnose.decision.showing`; pinned by
+    tests/test_decision.py::
+    test_a_first_hysteresis_must_show_the_loops_higher_harmonics_against_the_paper)."""
     if added.signature != HIGHER_HARMONICS:
         return True
     return current.heldout_chi2_higher - new.heldout_chi2_higher > MIN_BIC_DROP
@@ -243,8 +238,9 @@ def shows_signature(current: Fit, new: Fit, added) -> bool:
 def firm_in(fit: Fit, cause: str) -> bool:
     """True when none of ``cause``'s unknowns in ``fit`` sits on a bound. A cause added
     after the first, or exchanged in, must be firm: the data pushing its unknowns out of
-    the physical range is a misfit it absorbs, not the cause (smeha.synthetic's saturation
-    without a sense voltage gained a one-mass mechanics with its mass on a bound)."""
+    the physical range is a misfit it absorbs, not the cause (pinned by
+    tests/test_decision.py::
+    test_a_later_cause_improves_every_channel_it_acts_on_and_is_firm)."""
     return not any(n.startswith(cause + ".") for n in fit.at_bounds)
 
 
@@ -256,16 +252,13 @@ def no_channel_worse(current: Fit, new: Fit, added) -> bool:
     Where the model before it is far outside noise in a channel its chi^2 there is its
     form's misfit, not noise, and moves by more than the margin between two fits of the
     same model: the margin is scaled by the dispersion, as quasi-likelihood scales a
-    deviance (McCullagh & Nelder, *Generalized Linear Models*, 2nd ed., 1989, sec. 9.2).
-    Labsim's Preisach density with a rod 10 K warm (seed 100, 800 a period): y's
-    held-out chi^2 per feature 1e4; the density refitted from its own values twice
-    differed there by 5e3 in chi^2, and the drift added to it raised y's by 4.5e3.
+    deviance (McCullagh & Nelder, *Generalized Linear Models*, 2nd ed., 1989, sec. 9.2;
+    pinned by tests/test_decision.py::test_a_drift_is_judged_in_the_drift_terms).
 
     A cause that is in the data explains structure in every channel it acts on; one that
     buys B's misfit with y's (or the reverse) is fitting what the model before it leaves
-    of its own form (labsim's correlated Preisach density, its narrow loop centres fitted
-    by the density's grid: a lag added to the magnetisation lowered B's excess and raised
-    y's misfit from 0.052 to 0.070 um)."""
+    of its own form (pinned by tests/test_decision.py::
+    test_a_later_cause_improves_every_channel_it_acts_on_and_is_firm)."""
     return not _worse_channels(current, new, added)
 
 
@@ -281,9 +274,8 @@ def beyond_forms(forms, new: Fit) -> bool:
     """True when no fit in ``forms`` (the model's causes in other forms, weak ones too)
     predicts the held-out runs as well as ``new`` (score no greater). A later cause that
     only does what another form of the causes already named does is making up for the form
-    it joined (labsim's saturation with a two-mass resonance: saturation and the firm
-    one-mass form then gained a delay, held-out score 4457, where the two-mass form, a mass
-    ratio on its bound, scored 553 without it)."""
+    it joined (pinned by tests/test_decision.py::
+    test_a_later_cause_must_do_more_than_another_form_of_the_causes_named)."""
     return all(f.score > new.score for f in forms)
 
 
