@@ -53,7 +53,7 @@ import numpy as np  # noqa: E402
 
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 
-#: The pairs of the study, fixed before any result was seen: the two the issue names
+#: The pairs of the study, fixed before any result was seen: the two required
 #: (eddy-current diffusion with hysteresis, a delay with saturation) and three more
 #: that mix a magnetic with a mechanical or sensor cause and a drift with a resonance.
 PAIRS = (("eddy_current_diffusion", "rate_independent_hysteresis"),

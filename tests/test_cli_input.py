@@ -169,8 +169,8 @@ def test_unwritable_output(command, option, action, tmp_path, calls, valid, caps
 @pytest.mark.parametrize("command, option, action", OUTPUTS, ids=_ids(OUTPUTS))
 def test_an_output_under_a_missing_folder_is_refused(command, option, action, tmp_path,
                                                       calls, valid, capsys):
-    # as cp refuses it: nothing is created outside the path named (the parser used to make
-    # the folders, with their parents, anywhere)
+    # as cp refuses it: nothing is created outside the path named (no folder, nor any of
+    # its parents, is made on the way)
     root = tmp_path / "outputs"
     root.mkdir()
     target = root / "new" / "deeper" / "out.png"
