@@ -65,7 +65,7 @@ def _ids(cases):
 INPUTS, OUTPUTS, NUMBERS = (list(_options(k)) for k in ("input", "output", "number"))
 
 
-def test_the_options_the_issue_names_are_driven():
+def test_the_derivation_finds_the_file_and_number_options():
     # the derivation above finds the options it should (a renamed type would empty a list):
     # those a user met first, at least; a command without a file or a number has no such case
     inputs = {(c, o) for c, o, _ in INPUTS}
