@@ -53,7 +53,7 @@ import numpy as np  # noqa: E402
 
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 
-#: The pairs of the study, fixed before any result was seen: the two the issue names
+#: The pairs of the study, fixed before any result was seen: the two required
 #: (eddy-current diffusion with hysteresis, a delay with saturation) and three more
 #: that mix a magnetic with a mechanical or sensor cause and a drift with a resonance.
 PAIRS = (("eddy_current_diffusion", "rate_independent_hysteresis"),
@@ -386,7 +386,8 @@ def summary_table(results, outside) -> str:
     return "\n".join(out)
 
 
-def main(argv=None):
+def _parser() -> argparse.ArgumentParser:
+    """The command line of this study."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--generator", choices=("labsim", "synthetic"), default="labsim")
     ap.add_argument("--seeds", type=int, default=20)
@@ -414,12 +415,16 @@ def main(argv=None):
     ap.add_argument("--markdown", metavar="STUDY.json",
                     help="print a saved study (--json output) as a Markdown table and exit")
     ap.add_argument("--summary", metavar="STUDY[,STUDY...]",
-                    help="print the done-when table of saved studies and --log files "
+                    help="print the summary table of saved studies and --log files "
                          "together, and every dataset not named, and exit")
     ap.add_argument("--latest", action="store_true",
                     help="with --summary: of a dataset run by several codes, only the "
                          "result of the newest commit")
-    args = ap.parse_args(argv)
+    return ap
+
+
+def main(argv=None):
+    args = _parser().parse_args(argv)
     if args.summary:
         sys.path.insert(0, str(TESTS))
         import labsim
@@ -457,16 +462,7 @@ def main(argv=None):
              for seed in range(args.first_seed, args.first_seed + args.seeds)]
     tasks = list(dict.fromkeys(tasks))
     t0 = time.perf_counter()
-    results = []
-    log = open(args.log, "a") if args.log else None
-    with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        for res in pool.map(_one, tasks, chunksize=1):
-            results.append(res)
-            if log is not None:  # one JSON line a dataset, as they finish
-                log.write(json.dumps(res) + "\n")
-                log.flush()
-    if log is not None:
-        log.close()
+    results = _run(tasks, args.workers, args.log)
     wall = time.perf_counter() - t0
     rows = summarise(results, outside)
     if args.json:
@@ -480,6 +476,22 @@ def main(argv=None):
     print(format_table(rows, args.generator, wall, sense=not args.no_sense,
                        options=options))
     return 0
+
+
+def _run(tasks, workers, log_path):
+    """Every task's result on ``workers`` processes, each also appended to ``log_path`` (one
+    JSON line a dataset) as it finishes."""
+    results = []
+    log = open(log_path, "a") if log_path else None
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        for res in pool.map(_one, tasks, chunksize=1):
+            results.append(res)
+            if log is not None:
+                log.write(json.dumps(res) + "\n")
+                log.flush()
+    if log is not None:
+        log.close()
+    return results
 
 
 if __name__ == "__main__":

@@ -5,7 +5,7 @@
 
 Each run is a new process that loads the FMU, steps the paper's 50 Hz drive and
 exits normally (through the FMU library's destructors and, in fmpy, Python's own
-finalisation), which is where pythonfmu's exit-time double release used to
+finalisation), which is where pythonfmu's exit-time double release can
 corrupt the heap (docs/FMU.md "Exit"):
 
 * ``c_host``: tests/fmu_c_host.c, compiled with the system compiler, loads the

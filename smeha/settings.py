@@ -1,6 +1,6 @@
 """One declaration per numeric setting: its name, unit, range and default.
 
-A :class:`Setting` is read by the three places that used to state a range each: the
+A :class:`Setting` is read by the three places that would otherwise each state a range: the
 command line's ``--help`` (:meth:`Setting.describe`), its parser
 (:func:`smeha.cliargs.setting_type`) and the study that enforces it
 (:meth:`Setting.check`, raising :class:`gmt.ParameterError`). A range changed here

@@ -1,10 +1,10 @@
 """The flow study's options off their defaults: one declaration per range, the likely
 mistake named, long runs announced, and no warning at the defaults.
 
-Each test here failed on the code before: ``simulate --frequency 0.001`` started
-80,000,000 steps without a word; ``--load nan`` said "outside the allowed range
-(-inf, inf)"; ``--cycles 2.5`` gave no reason; the main job said "not settled" on 6 of 8
-rows (8 of 8 at ``--cycles 40``).
+The defects the tests guard against: ``simulate --frequency 0.001`` starting
+80,000,000 steps without a word; ``--load nan`` reported as "outside the allowed range
+(-inf, inf)"; ``--cycles 2.5`` refused with no reason; the main job reporting "not settled"
+on 6 of 8 rows (8 of 8 at ``--cycles 40``).
 """
 from __future__ import annotations
 

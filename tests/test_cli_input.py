@@ -65,7 +65,7 @@ def _ids(cases):
 INPUTS, OUTPUTS, NUMBERS = (list(_options(k)) for k in ("input", "output", "number"))
 
 
-def test_the_options_the_issue_names_are_driven():
+def test_the_derivation_finds_the_file_and_number_options():
     # the derivation above finds the options it should (a renamed type would empty a list):
     # those a user met first, at least; a command without a file or a number has no such case
     inputs = {(c, o) for c, o, _ in INPUTS}
@@ -169,8 +169,8 @@ def test_unwritable_output(command, option, action, tmp_path, calls, valid, caps
 @pytest.mark.parametrize("command, option, action", OUTPUTS, ids=_ids(OUTPUTS))
 def test_an_output_under_a_missing_folder_is_refused(command, option, action, tmp_path,
                                                       calls, valid, capsys):
-    # as cp refuses it: nothing is created outside the path named (the parser used to make
-    # the folders, with their parents, anywhere)
+    # as cp refuses it: nothing is created outside the path named (no folder, nor any of
+    # its parents, is made on the way)
     root = tmp_path / "outputs"
     root.mkdir()
     target = root / "new" / "deeper" / "out.png"

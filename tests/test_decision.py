@@ -703,8 +703,8 @@ def _by_level(f, excess):
 def test_a_later_filter_on_y_must_remove_the_excess_at_every_drive_level():
     # y = F G H: a mechanics or a sensor's filter changes y alike at every amplitude. Near
     # labsim's eddy diffusion + a joint's backlash (seed 3 at 800 a period): a one-mass
-    # mechanics took 39.7 % of y's excess at 0.6 A and 63.1 % at 1 A, 50.2 % of the sum,
-    # and was named; it passes the rule on the sum, not at each level
+    # mechanics takes 39.7 % of y's excess at 0.6 A and 63.1 % at 1 A, 50.2 % of the sum:
+    # it passes the rule on the sum, not at each level
     sat, one = _cls("magnetization_saturation"), _cls("mechanical_resonance", "one_dof")
     before = _by_level(fit((sat,), y=2000.0, b=0.0), (1000.0, 1000.0))
     after = _by_level(fit((sat, one), y=972.0, b=0.0), (603.0, 369.0))
@@ -732,8 +732,8 @@ def test_a_later_filter_on_y_must_remove_the_excess_at_every_drive_level():
 
 def test_a_first_filter_on_y_must_remove_the_excess_at_every_drive_level():
     # near labsim's thermal drift + a joint's backlash (seed 11 at 100 a period): a delay alone
-    # removed 50.0 % of the paper's excess, 37.2 % of y's at 0.6 A and 61.9 % at 1 A, and
-    # was named first; a linear filter on y acts alike at every amplitude
+    # removes 50.0 % of the paper's excess, 37.2 % of y's at 0.6 A and 61.9 % at 1 A; a
+    # linear filter on y acts alike at every amplitude
     from types import SimpleNamespace
 
     from smeha.diagnose import report

@@ -1,4 +1,4 @@
-"""Diagnosis workflow (issue #5): name a hidden effect the workflow is not told about.
+"""Diagnosis workflow: name a hidden effect the workflow is not told about.
 
 The data come from :func:`smeha.synthetic.generate_runs` (seeded), whose truth
 formulations differ from the candidate extensions of :mod:`gmt.extensions`; the
@@ -22,9 +22,9 @@ from smeha.diagnose.rules import within_noise
 from smeha.measured import write_measurements
 from smeha.synthetic import EFFECTS, generate_runs
 
-#: Issue #5: the extended model must at least halve the held-out RMS error.
+#: The required bound: the extended model must at least halve the held-out RMS error.
 MIN_GAIN = 2.0
-#: Explicit held-out runs (the issue asks the test to pass them too): middle and
+#: Explicit held-out runs (the checks hold with them named too): middle and
 #: second-highest frequency of the generator's default grid, all amplitudes.
 HOLDOUT = ["f050_I0.5", "f050_I1.0", "f150_I0.5", "f150_I1.0"]
 #: The forms that describe the physics of these effects better than the first form of the

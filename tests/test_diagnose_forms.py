@@ -1,4 +1,4 @@
-"""The physically fuller candidate forms of the diagnosis (issue #5): limits and identities.
+"""The physically fuller candidate forms of the diagnosis: limits and identities.
 
 * eddy-current diffusion into a lamination (slab) or a solid rod (cylinder),
   :class:`gmt.extensions.EddyCurrentDiffusion`: the classical 1-D solutions

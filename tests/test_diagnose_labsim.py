@@ -23,7 +23,7 @@ from smeha.cli import main
 from smeha.diagnose import rules
 from smeha.diagnose.report import cautions
 
-#: Issue 11: the extended model at least halves the held-out misfit.
+#: The required bound: the extended model at least halves the held-out misfit.
 MIN_GAIN = 2.0
 SEED = 101
 
@@ -72,7 +72,7 @@ def test_a_drift_heating_before_the_record_is_within_noise():
     # switch-on towards 40 K I_m^2 with 30 s (labsim.effects.Thermal), so a warm start of
     # I_s = sqrt(10 / 40) = 0.5 A and a dose linear over the records. At the fixed 20 kHz
     # clock the 5 Hz runs' records weigh most; with the dose from the record's start the
-    # drift form fitted t_th = 0.7 s and left 27 % of the held-out excess (2026-11-28)
+    # drift form fits t_th = 0.7 s and leaves 27 % of the held-out excess
     d = diagnose.diagnose(runs({"thermal_drift": 1.0}, seed=0, noise_um=0.05,
                                sample_rate=20000.0))
     assert d.cause == "thermal_drift" and d.causes == ["thermal_drift"]
@@ -90,7 +90,7 @@ def test_a_drift_heating_before_the_record_is_within_noise():
                                   ("transport_delay", "magnetization_saturation")],
                          ids=["eddy+hysteresis", "delay+saturation"])
 def test_names_both_causes_of_a_pair(pair):
-    # the two pairs of the issue; both named, in "causes", and the extended model the FMU
+    # the two required pairs; both named, in "causes", and the extended model the FMU
     # and the flow study run is the combination
     result = diagnose.diagnose(runs({e: 1.0 for e in pair}, seed=SEED, samples_per_cycle=100))
     _check(result, pair)

@@ -21,7 +21,7 @@ from smeha.synthetic import generate_runs
 #: Each test diagnoses seeded runs end to end (2-10 s apiece): integration.
 pytestmark = pytest.mark.integration
 
-#: Issue #5: the extended model must at least halve the held-out RMS error.
+#: The required bound: the extended model must at least halve the held-out RMS error.
 MIN_GAIN = 2.0
 #: Middle and second-highest frequency of the generator's default grid (as test_diagnose).
 HOLDOUT = ["f050_I0.5", "f050_I1.0", "f150_I0.5", "f150_I1.0"]
@@ -71,9 +71,9 @@ def test_clean_data_without_voltage_is_none():
 def test_names_saturation_without_voltage():
     runs = generate_runs("magnetization_saturation", seed=11, strength=1.0)
     result = diagnose.diagnose(_without_voltage(runs), holdout=HOLDOUT)
-    # the one cause it holds (no extra cause); this seed used to reach a
-    # gain of 2 only with a one-mass mechanics on its bounds added (weak, now refused:
-    # rules.firm_in); saturation alone removes 82 % of the held-out excess, gain 1.86
+    # the one cause it holds (no extra cause): this seed reaches a gain of 2 only with a
+    # one-mass mechanics on its bounds added, which rules.firm_in refuses as weak;
+    # saturation alone removes 82 % of the held-out excess, gain 1.86
     assert result.causes == ["magnetization_saturation"], "\n".join(result.evidence)
     assert result.gain >= 1.5, "\n".join(result.evidence)
 

@@ -69,9 +69,9 @@ def test_labsim_preisach_leaves_no_drift(seed):
     # a rate-independent Preisach population in periodic steady state has no drift: the
     # drift features lie within noise under either law (44 degrees of freedom: 48 features,
     # 4 unknowns; bound z = 4, chi^2 < 44 + 4 sqrt(88)), measured 34-61, and neither law is
-    # preferred. (Until 2026-11-28 the features left y's harmonics above the 8th out of
-    # their fit; on a record of whole periods these leaked into the drift terms, chi^2
-    # 235-1665, and a drift was described where none was.)
+    # preferred. (The features fit y's harmonics above the 8th too: left out, on a record
+    # of whole periods they leak into the drift terms, chi^2 235-1665, and a drift is
+    # described where there is none.)
     batch = _labsim_batch({"rate_independent_hysteresis": 1.0}, seed)
     bound = 44.0 + 4.0 * np.sqrt(2.0 * 44.0)
     assert law_chi2(batch, per_cycle=False) < bound

@@ -143,8 +143,8 @@ def _cosine_run(params, f, per_cycle, cycles):
 @pytest.mark.parametrize("f", [50.0, 100.0])
 def test_simulate_reaches_discrete_steady_state(params, f):
     # The stepper's steady state under i = cos(w t_k) is the closed form evaluated
-    # through the ZOH-discretised mechanics (periodic_response(step=h)). The issue
-    # asks for 1e-6 relative; the two are the same linear algebra, so rounding
+    # through the ZOH-discretised mechanics (periodic_response(step=h)). The required
+    # bound is 1e-6 relative; the two are the same linear algebra, so rounding
     # (~1e-14) is what is measured. The first-cycle transient decays as
     # exp(-7000 t), gone long before the 15th cycle.
     per_cycle, cycles = 2000, 15

@@ -81,9 +81,9 @@ def test_a_load_past_the_down_stall_is_refused_with_it():
 
 
 def test_a_stalled_direction_is_refused_with_its_stall_load():
-    # at 0 N the identified lines give +6.44 mm/s at full drive up: the old design
-    # predicted a step that never settles and the run died on int(NaN); now the stall load
-    # up, 0 N - 6.44 / -0.177 = 36 N, is named
+    # at 0 N the identified lines give +6.44 mm/s at full drive up: a design for them
+    # predicts a step that never settles (a run would end on int(NaN)), so the stall load
+    # up, 0 N - 6.44 / -0.177 = 36 N, is named instead
     s = position.PositionSettings(load=0.0)
     with pytest.raises(position.OutsideEnvelope, match=r"above about 36 N"):
         position.check_plant(STALLED_UP, s)
@@ -92,7 +92,8 @@ def test_a_stalled_direction_is_refused_with_its_stall_load():
 
 def test_a_pump_that_runs_backwards_is_refused():
     # uncompensated at 200 Hz more drive "down" moves the piston up (the rod lags the
-    # valves by more than a quarter period): the old run died on an IndexError
+    # valves by more than a quarter period): refused before a run that would end on an
+    # IndexError
     backwards = PlantModel(frequency=200.0, v0_down=1e-3, g_down=-2e-3, v0_up=-1e-3,
                            g_up=-1e-3, droop_down=-1e-5, droop_up=-1e-5)
     with pytest.raises(position.OutsideEnvelope, match="runs backwards"):
@@ -104,9 +105,9 @@ def test_prediction_and_loop_agree_step_by_step_when_saturating():
     # the PI law once (pi_step): python-control's prediction (nlsys) and the controller
     # closed around the same lines (x(k+1) = x(k) + T v) give the same positions to
     # rounding, through the saturated ramp, the overshoot's correction and the band
-    # between the lines' offsets (-5.94 to -2.79 mm/s), where the old prediction clipped
-    # the velocity wanted and the old controller took the least amplitude down
-    gains = design(MOVING, -2e-3)  # up: the approach crosses the band (old: 6.5 um apart)
+    # between the lines' offsets (-5.94 to -2.79 mm/s), where a prediction that clips the
+    # velocity wanted and a controller that takes the least amplitude down differ
+    gains = design(MOVING, -2e-3)  # up: the approach crosses the band (those: 6.5 um apart)
     t, predicted = predict_step(MOVING, gains.kp, gains.ki, gains.period, -2e-3, 120)
     ctrl = Controller(MOVING, gains, 1.0, lambda t: -2e-3)
     x, loop, saturated = 0.0, [0.0], 0

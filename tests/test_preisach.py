@@ -94,8 +94,8 @@ def test_a_density_carried_to_the_finer_grid_is_the_same_population(spread):
     # finer grid's relays sit elsewhere, so a density that curves within one coarse cell
     # (0.35 in ln h_c) is matched, not reproduced. Measured: within 1.03 % of the H_max
     # loop's swing at 0.1-1 H_max (tolerance 1.5 %); of each loop's own swing 2.4 % at
-    # 0.4 H_max and 0.8 % at H_max (tolerance 3 %; bilinear interpolation of the density,
-    # the carrying before 2026-11-29, measured 3.1 % and 1.2 %). The total weight (the
+    # 0.4 H_max and 0.8 % at H_max (tolerance 3 %; bilinear interpolation of the density
+    # instead measures 3.1 % and 1.2 %). The total weight (the
     # saturation magnetisation) is not matched as such, only the outputs, and the relays
     # by the triangle's edge switch at H_max alone: within 1 % (0.02 % and 0.48 %)
     hc, hu = node_grid(1.0)

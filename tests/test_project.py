@@ -177,8 +177,8 @@ def test_docs_hold_no_notes_to_the_lead(doc):
 
 
 def test_the_fmu_tooling_does_not_import_the_command_line():
-    # the FMU tooling has its own package, smeha.fmu, and the old
-    # fmu_build <-> cli import circle is gone: the tooling imports without the commands
+    # the FMU tooling has its own package, smeha.fmu, with no import circle through the
+    # command line: the tooling imports without the commands
     code = ("import sys, smeha.fmu.build, smeha.fmu.ssp, smeha.fmu.systemrun, "
             "smeha.fmu.crosscheck, smeha.fmu.loader, smeha.fmu.native; "
             "print(sorted(m for m in sys.modules if m.startswith(('smeha.cli', 'smeha.studies', "

@@ -12,7 +12,7 @@ SIG = {"chi2_share": {"y": 0.6, "B": 0.4}, "harmonic_share": {"y": {"odd": 0.5}}
        "branch_asymmetry": 0.0, "frequency_exponent": None, "amplitude_exponent": None}
 
 
-def test_the_line_reads_as_the_issue_asks():
+def test_the_line_names_each_share_and_the_remainder():
     line = summary({"transport_delay": 0.78}, 0.22, SIG, True)
     assert line == ("transport_delay explains 78 % of the held-out excess; 22 % remains "
                     "unexplained (odd harmonics of y)")

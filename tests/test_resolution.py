@@ -36,9 +36,9 @@ def test_the_finer_density_fits_the_training_runs_at_least_as_well(seed):
     coarse = fit_and_score(ev, train, held, density, paper.base)
     finer = fit_and_score(ev, train, held, *resolution.finer_job(coarse))
     # no tolerance: the finer fit starts within 0.3 % of the coarse loops and only takes
-    # steps that lower its training chi^2; ending above the coarse fit is the old failure.
-    # Measured: seed 221 318.7 against 369.0, seed 222 398.7 against 1 307.2; from its own
-    # starts (the code before) seed 221 ended at 881.2, and this test failed
+    # steps that lower its training chi^2; ending above the coarse fit is the failure it guards
+    # against. Measured: seed 221 318.7 against 369.0, seed 222 398.7 against 1 307.2; from
+    # its own starts instead of the coarse loops seed 221 ends at 881.2 and fails here
     assert finer.train_chi2 <= coarse.train_chi2
 
 

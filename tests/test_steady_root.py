@@ -4,8 +4,8 @@
 for a = |mu_p|, mu'' from eq 16 and mu' from eq 20. Near the point where eq 16's mu''
 reaches |mu_p| (the cap) mu' collapses and a second, spurious root appears. The
 reference here is a brute-force scan of the same equation, eq 16 written out in this
-file, on a fine grid of a (no iteration), and the case is the one where the iteration used
-to stall by the cap: labsim's Preisach density with saturation, 200 Hz at 1 A (loss
+file, on a fine grid of a (no iteration), and the case is one where a secant from the
+closed form stalls by the cap: labsim's Preisach density with saturation, 200 Hz at 1 A (loss
 coefficients of that fit, the adder p the density gave there). Each case is solved twice:
 with the adder as a function of M_1 (the secant and regula falsi of a saturation's stage)
 and as the constant an operator of H gives (``constant``, Newton's method;
@@ -77,8 +77,8 @@ def test_the_case_has_a_trap_by_the_cap():
 @pytest.mark.parametrize("t", np.linspace(0.9, 1.1, 21))
 def test_least_root_is_taken(t, kind):
     # the adder as a function of M_1 (constant here, as the density's is); tolerance: the
-    # scan's grid step, 4.6e-5 in a. Before the fix half of these p (0.9-1.1 times the
-    # case's) came back at the cap, |mu_p| 2.55 for 2.12
+    # scan's grid step, 4.6e-5 in a. A secant from the closed form stalls by the cap on half
+    # of these p (0.9-1.1 times the case's), |mu_p| 2.55 for 2.12
     p = t * P
     mu = paper_permeability(LOSS, FREQ, HM, MODULUS, adder=_adder(p, kind))
     assert abs(mu) == pytest.approx(_roots_by_scan(p)[0], abs=5e-5)

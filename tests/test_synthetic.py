@@ -21,7 +21,7 @@ from smeha.measured import Run
 #: Noise-free, nominal (un-jittered) effect parameters: signature tests compare
 #: the effect with the clean paper model sample by sample.
 QUIET = dict(noise_um=0.0, voltage_noise=0.0, current_noise=0.0, jitter=0.0)
-#: The default data set (issue #5, item 8).
+#: The default data set.
 FREQUENCIES = (5.0, 20.0, 50.0, 100.0, 150.0, 200.0)
 SKIP = 256  # the first period holds the mechanics' start transient (gmt.simulate starts at rest)
 

@@ -91,7 +91,7 @@ def _run(shape, f, periods=4, sampled=False):
 @pytest.mark.parametrize("shape", ["raised_cosine", "trapezoid", "two_tone"])
 @pytest.mark.parametrize("f", [50.0, 100.0, 200.0])
 def test_forward_driven_by_the_inverse_reproduces_the_demand(shape, f):
-    # the criterion: within 1 % of the stroke, at every sample after the first
+    # the required bound: within 1 % of the stroke, at every sample after the first
     # period. Measured 0.06-0.75 %: the residue is the mechanics seeing the mean of the
     # step's end forces (second order in the step), largest at the trapezoid's blends.
     error, saturated = _run(shape, f)
@@ -103,7 +103,8 @@ def test_forward_driven_by_the_inverse_reproduces_the_demand(shape, f):
 @pytest.mark.parametrize("f", [50.0, 100.0])
 def test_sampled_compensator_tracks_smooth_demands(shape, f):
     # the compensator sees u up to now only: it extrapolates the demand one sample ahead by
-    # a quadratic, error ~ (w h)^3 of the stroke for a smooth demand (measured 0.03-0.31 % at 50-100 Hz)
+    # a quadratic, error ~ (w h)^3 of the stroke for a smooth demand (measured 0.03-0.31 %
+    # at 50-100 Hz)
     error, saturated = _run(shape, f, sampled=True)
     assert saturated == 0
     assert error < 0.01, error

@@ -28,7 +28,7 @@ K_H, N_EXP, K_E, K_EX = 85805.0, 1.8092, 2753.39, 895.80  # paper, Table 2
 def test_excess_constant_against_its_closed_form():
     # <|cos|^1.5> = Gamma(5/4) / (sqrt(pi) Gamma(7/4)) (A&S 6.2.1-6.2.2, the Beta integral),
     # evaluated with scipy's gamma, not the code's lgamma; and by scipy's quadrature of
-    # |cos|^1.5 over a period. C = (2 pi)^1.5 <|cos|^1.5> = 8.763 (the issue's figure, 4 digits).
+    # |cos|^1.5 over a period. C = (2 pi)^1.5 <|cos|^1.5> = 8.763 (to 4 digits).
     closed = (2 * math.pi) ** 1.5 * special.gamma(1.25) / (math.sqrt(math.pi)
                                                           * special.gamma(1.75))
     mean, _ = integrate.quad(lambda x: abs(math.cos(x)) ** 1.5, 0.0, 2 * math.pi, limit=200)
@@ -109,7 +109,7 @@ def test_energy_balance_loop_integral_equals_the_three_losses(shape, f, b_m):
     # hysteresis loss K_h B_m^n (eq 7 per cycle) plus the eddy and excess losses computed
     # from the waveform (k_e int (dB/dt)^2 dt, k_ex int |dB/dt|^1.5 dt: closed forms here).
     # The loop integral is the trapezoid rule over 20 000 samples a ramp; its error is
-    # ~1e-6, so 0.1 % (the issue's tolerance) is a margin of ~1000.
+    # ~1e-6, so 0.1 % (the required bound) is a margin of ~1000.
     mag = TimeDomainMagnetics()
     if shape == "sine":
         t, b, rate = _sine_wave(b_m, f, 40000)
@@ -131,8 +131,8 @@ def test_energy_balance_loop_integral_equals_the_three_losses(shape, f, b_m):
 def test_each_term_under_sinusoidal_b_equals_eqs_7_9_11(f, b_m):
     # Paper eq 7: P_h / (f V) = K_h B_m^n; eq 9: P_eddy / (f V) = K_e B_m^2 f; eq 11:
     # P_ex / (f V) = K_ex B_m^1.5 f^0.5, each the loss per cycle and volume under a sinusoidal
-    # B. The time-domain terms' loop integrals must give each within 0.5 % (the issue's
-    # tolerance; the quadrature's own error is ~1e-6).
+    # B. The time-domain terms' loop integrals must give each within 0.5 % (the required
+    # bound; the quadrature's own error is ~1e-6).
     mag = TimeDomainMagnetics()
     t, b, rate = _sine_wave(b_m, f, 40000)
     got = _loop_terms(b, rate, mag)

@@ -137,8 +137,8 @@ def test_gains_command_time_domain_inverse_strokes_the_demand():
     assert own["measured_gain"] == pytest.approx(35.2 / 26.6)
 
 
-def test_sweep_table_from_before_issue_21_keeps_its_finished_points(tmp_path):
-    # a sweep table written before the magnetics/inverse/waveform/amplitude columns existed
+def test_sweep_table_without_the_magnetics_columns_keeps_its_finished_points(tmp_path):
+    # a sweep table without the magnetics/inverse/waveform/amplitude columns
     # ran the paper's magnetics and sinusoid: its rows must match today's default points
     import csv
 

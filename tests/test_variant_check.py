@@ -27,7 +27,7 @@ from system_models.rod import RodParameters
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: The issue's case, written by hand in ModelVariant.as_dict()'s format: a mechanical
+#: A case written by hand in ModelVariant.as_dict()'s format: a mechanical
 #: resonance diagnosed as two_dof with the rod's mass on its bound (m2/M = 0.98 of Table 2's
 #: 0.02 kg: 0.4 g rod, 19.6 g output), a 1.8e5 N/m joint, its damping ratio 0.1.
 HAND_TWO_DOF = {"cause": "mechanical_resonance", "form": "two_dof",

@@ -1,4 +1,4 @@
-"""Model variants (issue #5, item 6): the extended model time-stepped in gmt.Transducer.
+"""Model variants: the extended model time-stepped in gmt.Transducer.
 
 The stepped forms are checked against the periodic forms the diagnosis evaluates
 (:func:`gmt.extensions.steady.steady_state`, a separate code path: harmonic balance on a

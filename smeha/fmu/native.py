@@ -35,6 +35,8 @@ from pathlib import Path
 
 from gmt.errors import RunError
 
+from .tables import table
+
 __all__ = ["NativeError", "find_libpython", "environment_record", "patchelf",
            "link_libpython"]
 
@@ -52,9 +54,7 @@ def find_libpython() -> Path:
     NativeError
         When this interpreter has no shared libpython.
     """
-    from . import build  # the FMU sources' loader (build imports this module at its top)
-
-    found = build.table("smeha_fmu_probe").shared_libpython()
+    found = table("smeha_fmu_probe").shared_libpython()
     if found is None:
         raise NativeError(
             f"no shared libpython for {sys.executable} (LIBDIR/INSTSONAME, or the multiarch "

@@ -1,6 +1,6 @@
 """Seeded synthetic measured runs: the paper's model plus one hidden effect.
 
-The diagnosis workflow (issue #5) must name the cause of a misfit from data
+The diagnosis workflow must name the cause of a misfit from data
 alone. This package makes its test data: measured-like :class:`~smeha.measured.Run`
 objects at several frequencies and current amplitudes, from the paper's model
 (eq 30: the magnetics of :mod:`gmt` at the samples, the mechanics of eq 27

@@ -96,7 +96,7 @@ def _stamp_caches() -> None:
     locator's source stamp); this gives each the stamp of the whole set
     instead, through numba's cache object (numba 0.5x-0.6x). Should numba's
     cache no longer have that shape, its own keying stays (stale code after
-    editing another file is then possible, as before).
+    editing another file is then possible).
     """
     digest = hashlib.sha256()
     try:

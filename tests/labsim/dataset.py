@@ -119,8 +119,7 @@ def make_dataset(
     seed : int
         Controls everything random: drive phases, record starts, sensor offset, noise, jitter.
     samples_per_cycle, sample_rate : int, float
-        Either per-run samples per drive period, or one fixed sample rate [Hz]; neither:
-        800 samples per cycle.
+        Samples per drive period, or one fixed sample rate [Hz].
     cycles, low_frequency_cycles : float
         Record length in drive periods; runs below 10 Hz hold ``low_frequency_cycles``.
     start_in_transient : bool
@@ -131,15 +130,14 @@ def make_dataset(
     sense_coil : bool
         Record the sensing-coil voltage (eq 21).
     sense_air_flux : bool
-        The sensing coil, wound around the excitation coil, links the air flux between rod
-        and coil too: E = -N_c d/dt [A_r B + (A_c - A_r) mu_0 H] (False: eq 21 with A_c).
+        The coil links the air flux around the rod too, E = -N_c d/dt [A_r B + (A_c - A_r)
+        mu_0 H] (False: eq 21 with A_c).
     adc_bits, full_scale : int, dict
         ADC resolution and per-channel full scale (SI; missing channels auto-range).
     anti_alias_order, anti_alias_cutoff : int, float
         Butterworth order and cutoff [Hz] (default 0.2 x the sample rate).
     jitter : float
-        Relative standard deviation of per-seed jitter of K_lambda, M_b, m, c, K and of the
-        B_m law's scale (0 = nominal Table 2 values).
+        Relative std of the per-seed jitter of K_lambda, M_b, m, c, K, B_m's scale (0: none).
     formulation : {"default", "alt"}
         Formulation of every effect: the first one, or the second one from other literature
         (``labsim.FORMULATIONS``; README.md).
@@ -149,7 +147,7 @@ def make_dataset(
         "alt".
     """
     effect_set = EffectSet.from_strengths(effects, formulation, formulations, seed)
-    if samples_per_cycle is None and sample_rate is None:
+    if samples_per_cycle is None and sample_rate is None:  # the default: 800 a period
         samples_per_cycle = 800
     settings = Acquisition(
         samples_per_cycle=samples_per_cycle, sample_rate=sample_rate, cycles=cycles,
@@ -159,6 +157,18 @@ def make_dataset(
         noise_current=noise_current_A, noise_voltage=noise_voltage_V, sense_coil=sense_coil,
         sense_air_flux=bool(sense_air_flux),
     )
+    runs, offset, factors, device = _draw_runs(effect_set, settings, frequencies, amplitudes,
+                                               seed, jitter, transducer)
+    truth = {"seed": seed, "effects": effect_set.truth(),
+             "strengths": {name: s for name, s in effect_set.strengths},
+             "formulations": dict(effect_set.formulations), "sensor_offset_m": offset,
+             "jitter_factors": factors, "transducer": device, "acquisition": settings}
+    return Dataset(runs, truth)
+
+
+def _draw_runs(effect_set, settings, frequencies, amplitudes, seed, jitter, transducer):
+    """The runs of :func:`make_dataset` and what every run shares, drawn from ``seed``:
+    (runs, the sensor's offset [m], the jitter factors, the jittered transducer)."""
     grid = _grid(frequencies, amplitudes)
     if not (math.isfinite(jitter) and 0.0 <= jitter <= 0.2):
         raise LabsimError(f"jitter = {jitter!r}: must be from 0 to 0.2")
@@ -177,17 +187,7 @@ def make_dataset(
              factors["bm_scale"], hum)
         for (f, amp), s, hum in zip(grid, seeds[1:], hum_phases)
     ]
-    truth = {
-        "seed": seed,
-        "effects": effect_set.truth(),
-        "strengths": {name: s for name, s in effect_set.strengths},
-        "formulations": dict(effect_set.formulations),
-        "sensor_offset_m": offset,
-        "jitter_factors": factors,
-        "transducer": device,
-        "acquisition": settings,
-    }
-    return Dataset(runs, truth)
+    return runs, offset, factors, device
 
 
 def _grid(frequencies, amplitudes):

@@ -63,7 +63,7 @@ EXTENSIONS = (HysteresisForm, PreisachForm, SaturationForm, EddyLagForm, SlabDif
 #: (cause, form) -> extension class; the one registry (module docstring).
 REGISTRY: dict = {(e.cause, e.form): e for e in EXTENSIONS}
 
-#: The causes, in the order of the issue that introduced them.
+#: The causes, in the order of their first extension in EXTENSIONS.
 CAUSES = tuple(dict.fromkeys(e.cause for e in EXTENSIONS))
 
 #: The forms of the causes that have several (the first is the default).

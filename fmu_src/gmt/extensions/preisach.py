@@ -40,7 +40,7 @@ part of it, so M_P = 0 at rest. Counted from all relays down (or from their sum)
 asymmetric density (loop centres off h_u = 0) would move the operating point of eq 25
 by a constant its weights fix, changing y's harmonics against B's with nothing to set
 it (on labsim's Preisach data, loop centres 0.5 kA/m off: y's held-out excess 575 on
-96 features, 84 measured from the demagnetised state, 2026-11-28), and the time-stepped
+96 features, 84 measured from the demagnetised state), and the time-stepped
 form would start away from M_b. A relay that cannot switch up (a > H_m) ends down,
 one that cannot switch down (b < -H_m) ends up, one that does neither keeps its
 demagnetised state: each of them is in its rest state, and adds nothing. The node
@@ -81,11 +81,11 @@ from .magnetic import MagnetizationStage
 #: Coercive nodes: (first, last, count), geometric, in units of H_max. 11 nodes space them
 #: a factor 1.42 apart (0.35 in ln h_c), the log-spread of a single population of
 #: Terfenol-D's coercive fields as labsim draws them (0.2-0.45). At 6 nodes (a factor 2.0,
-#: 0.70 in ln h_c) a narrow population came out as the hat of one node: on labsim's
+#: 0.70 in ln h_c) a narrow population comes out as the hat of one node: on labsim's
 #: bimodal density (seed 100 at 800 samples a period, log-spreads 0.20 and 0.29) the
-#: density's held-out excess chi^2 stayed 1.2e6 in y and 3.9e6 in B; at 11 nodes 6.2e3 and
-#: 7.9e4, and an eddy form beside it then removed 64 % of what the density left where
-#: at 6 nodes it had bought B with y (2026-11-27).
+#: density's held-out excess chi^2 is 1.2e6 in y and 3.9e6 in B; at 11 nodes 6.2e3 and
+#: 7.9e4, and an eddy form beside it then removes 64 % of what the density leaves where
+#: at 6 nodes it buys B with y.
 COERCIVE_GRID = (0.03, 1.0, 11)
 #: Interaction nodes: (first, last, count), uniform, in units of H_max. 19 nodes space them
 #: H_max/9 apart, 1.6 kA/m at the 14.8 kA/m of a 1 A drive: the order of Terfenol-D's
@@ -137,10 +137,10 @@ def projected_weights(weights, grid, finer_grid):
     :data:`PROJECTION_AMPLITUDES` field amplitudes from H_max/24 to H_max. The same loops
     at every drive level the data hold, a start for the finer fit, not a fit.
 
-    Interpolating the density bilinearly instead, as until 2026-11-29, missed its loops by
-    up to 3 % of their swing (a density that curves within one coarse cell), and the
-    diagnosis' training chi^2 rose from 1.8e3 to 6.2e7 (labsim's Preisach data, seed 3 at
-    800 samples a period); projected, to 2.3e4, the output within 0.3 %.
+    Interpolating the density bilinearly instead misses its loops by up to 3 % of their
+    swing (a density that curves within one coarse cell), and the diagnosis' training
+    chi^2 rises from 1.8e3 to 6.2e7 (labsim's Preisach data, seed 3 at 800 samples a
+    period); projected, to 2.3e4, the output within 0.3 %.
     """
     from scipy.optimize import nnls  # the diagnosis' only: the FMU's path imports numpy alone
 
