@@ -127,3 +127,14 @@ def test_calibration_rule_thins_to_its_share(n87):
     other = ~data.family("sine")
     assert 0 < (cal & other).sum() <= study.CALIBRATION_SHARE * other.sum()
     assert set(np.unique(data.duty[cal & other, 0])) == {0.5}
+
+
+def test_a_plot_of_another_format_is_refused_before_the_work(capsys, tmp_path):
+    # matplotlib decides the format by the suffix; a .txt plot was a ValueError traceback
+    # after the whole study had run
+    from smeha import cli
+
+    assert cli.main(["losses", "3F4", "--plot", str(tmp_path / "maps.txt")]) == 2
+    err = capsys.readouterr().err
+    assert "--plot" in err and "'.txt'" in err and len(err.strip().splitlines()) == 1
+    assert not list(tmp_path.iterdir())

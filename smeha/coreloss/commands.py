@@ -10,7 +10,7 @@ import json
 import sys
 from pathlib import Path
 
-from ..cliargs import output_file
+from ..cliargs import plot_file
 from . import MATERIALS as _MATERIALS
 
 __all__ = ["add_losses", "material_or_file"]
@@ -42,7 +42,7 @@ def add_losses(subparsers):
                    help='print only {"materials": {NAME: {"sine": S, "triangle": S, '
                         '"trapezoid": S, "igse": {...}}}}, S = {rows, median_abs_error, '
                         'p95_abs_error}')
-    p.add_argument("--plot", metavar="FILE", type=output_file,
+    p.add_argument("--plot", metavar="FILE", type=plot_file,
                    help="write the error maps (PNG): signed error of iGSE and of the extended "
                         "law over duty, frequency and flux density, per waveform")
     p.add_argument("--holdout", action="store_true",

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..outputs import save_figure
+
 __all__ = ["plot_error_maps"]
 
 _F_EDGES = np.array([45e3, 80e3, 120e3, 180e3, 260e3, 380e3, 510e3])  # [Hz]
@@ -75,5 +77,4 @@ def plot_error_maps(results, path) -> None:
             ax.set_title(f"{title}: {label}", fontsize=10)
     if image is not None:
         fig.colorbar(image, ax=axes, shrink=0.6, label="median error [%]")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)
