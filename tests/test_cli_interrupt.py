@@ -44,32 +44,22 @@ SELF_SIGNAL = pytest.mark.skipif(sys.version_info >= (3, 13), reason=(
     "open: under Python 3.13 a SIGINT sent to the test process escapes the handler's context"))
 
 
-@pytest.fixture(autouse=True)
-def _no_stray_sigint():
-    """After each test, a SIGINT still on its way (a redelivery the handler scheduled 20 ms
-    before its context ended) is absorbed, not raised in the test runner's worker."""
-    yield
-    if threading.current_thread() is not threading.main_thread():
-        return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        time.sleep(10 * interrupt.REDELIVER_AFTER)
-    finally:
-        signal.signal(signal.SIGINT, previous)
+def _module(path, source):
+    """``source`` written to ``path`` (its folder made) and imported from there."""
+    import importlib.util
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(source)
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 @pytest.fixture
 def fake_fmu(tmp_path):
     """The ``do_step`` of a slave module loaded from an extracted FMU's resources folder."""
-    import importlib.util
     (tmp_path / "modelDescription.xml").write_text("<fmiModelDescription/>")
-    resources = tmp_path / "resources"
-    resources.mkdir()
-    (resources / "fake_slave.py").write_text(SLAVE)
-    spec = importlib.util.spec_from_file_location("fake_slave", resources / "fake_slave.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module.do_step
+    return _module(tmp_path / "resources" / "fake_slave.py", SLAVE).do_step
 
 
 def _sigint_after(seconds):
@@ -119,13 +109,7 @@ def fmu_callback(tmp_path):
     """fmpy's logger as an FMU calls it: a Python function of the fmpy package entered from
     C through a ctypes callback (an exception there is printed and dropped by ctypes)."""
     import ctypes
-    import importlib.util
-    folder = tmp_path / "fmpy"
-    folder.mkdir()
-    (folder / "fake_logger.py").write_text(LOGGER)
-    spec = importlib.util.spec_from_file_location("fake_logger", folder / "fake_logger.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = _module(tmp_path / "fmpy" / "fake_logger.py", LOGGER)
     kind = ctypes.CFUNCTYPE(None, ctypes.c_char_p)
     callback = kind(module.log)
     through_c = kind(ctypes.cast(callback, ctypes.c_void_p).value)  # called from C
