@@ -13,6 +13,7 @@ import signal
 import sys
 import threading
 import time
+from pathlib import Path
 
 import pytest
 
@@ -23,25 +24,24 @@ import os
 import signal
 import time
 
+status = None  # the last step's status
+ended = None  # when it ended, time.perf_counter() [s]
+
 def do_step(seconds):
     """Step for ``seconds`` of busy work, a Ctrl-C arriving at its start; any exception is
     a fatal status (pythonfmu)."""
+    global status, ended
     try:
         os.kill(os.getpid(), signal.SIGINT)
         end = time.perf_counter() + seconds
         while time.perf_counter() < end:
             pass
-        return "ok"
+        status = "ok"
     except BaseException:
-        return "fatal"
+        status = "fatal"
+    ended = time.perf_counter()
+    return status
 '''
-
-
-#: The tests that send SIGINT into the test process itself. Open problem: under Python 3.13
-#: such a SIGINT is raised past the handler's context (it ends the test runner's worker)
-#: instead of waiting for the step; they run on 3.11 and 3.12 (CHANGELOG, known problems).
-SELF_SIGNAL = pytest.mark.skipif(sys.version_info >= (3, 13), reason=(
-    "open: under Python 3.13 a SIGINT sent to the test process escapes the handler's context"))
 
 
 def _module(path, source):
@@ -55,93 +55,148 @@ def _module(path, source):
     return module
 
 
-@pytest.fixture
-def fake_fmu(tmp_path):
-    """The ``do_step`` of a slave module loaded from an extracted FMU's resources folder."""
-    (tmp_path / "modelDescription.xml").write_text("<fmiModelDescription/>")
-    return _module(tmp_path / "resources" / "fake_slave.py", SLAVE).do_step
-
-
-def _sigint_after(seconds):
-    timer = threading.Timer(seconds, os.kill, (os.getpid(), signal.SIGINT))
-    timer.start()
-    return timer
-
-
-@SELF_SIGNAL
-def test_sigint_inside_the_fmu_waits_for_the_step(fake_fmu):
-    statuses = []
-    with interrupt.fmu_safe_interrupts(), pytest.raises(KeyboardInterrupt):
-        statuses.append(fake_fmu(0.3))  # the signal lands inside the step
-        start = time.perf_counter()
-        while time.perf_counter() - start < 10.0:  # the host's loop, between steps
-            pass
-    assert statuses == ["ok"]  # the step finished: no fatal status
-    assert time.perf_counter() - start < 5.0  # and the interrupt came after it, not never
-
-
-@SELF_SIGNAL
-def test_without_the_handler_the_step_turns_fatal(fake_fmu):
-    # the failure the handler prevents, shown with Python's own handler
-    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
-    try:
-        assert fake_fmu(0.3) == "fatal"
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
 LOGGER = '''
 import os
 import signal
 import time
 
+ended = None  # when the last call ended, time.perf_counter() [s]
+
 def log(message):
     """The host's logger, called back by an FMU through ctypes; a Ctrl-C arrives in it."""
+    global ended
     os.kill(os.getpid(), signal.SIGINT)
     end = time.perf_counter() + 0.2
     while time.perf_counter() < end:
         pass
+    ended = time.perf_counter()
 '''
 
 
-@pytest.fixture
-def fmu_callback(tmp_path):
+def _scenario(tmp_path, name):
+    """Scenario ``name`` of this module run by a fresh Python of its own: its result.
+
+    The scenarios send SIGINT into their own process. In a process of its own each runs on
+    the interpreter's main thread with no test runner around it; in the test process a
+    SIGINT that reaches the runner instead (pytest-xdist's worker under Python 3.13, where
+    ``os.kill`` to the own process checks for signals at once) ends that worker rather than
+    failing the test."""
+    import json
+    import subprocess
+    code = (f"import json, sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
+            f"import test_cli_interrupt as t; from pathlib import Path; "
+            f"print(json.dumps(t.{name}(Path({str(tmp_path)!r}))))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout.splitlines()[-1])
+
+
+def _fake_fmu(folder):
+    """A slave module loaded from an extracted FMU's resources folder."""
+    (folder / "modelDescription.xml").write_text("<fmiModelDescription/>")
+    return _module(folder / "resources" / "fake_slave.py", SLAVE)
+
+
+def _fmu_callback(folder):
     """fmpy's logger as an FMU calls it: a Python function of the fmpy package entered from
-    C through a ctypes callback (an exception there is printed and dropped by ctypes)."""
+    C through a ctypes callback (an exception there is printed and dropped by ctypes). The
+    callback object (it must live while it is called) and the logger's module come with
+    it."""
     import ctypes
-    module = _module(tmp_path / "fmpy" / "fake_logger.py", LOGGER)
+    module = _module(folder / "fmpy" / "fake_logger.py", LOGGER)
     kind = ctypes.CFUNCTYPE(None, ctypes.c_char_p)
     callback = kind(module.log)
     through_c = kind(ctypes.cast(callback, ctypes.c_void_p).value)  # called from C
-    return lambda: through_c(b"message"), callback
+    return lambda: through_c(b"message"), callback, module
 
 
-@SELF_SIGNAL
-def test_sigint_in_a_callback_from_the_fmu_is_not_lost(fmu_callback, monkeypatch):
-    import sys
-    call, _keep = fmu_callback
+def _busy(seconds):
+    """The host's loop between steps: busy for ``seconds``."""
+    start = time.perf_counter()
+    while time.perf_counter() - start < seconds:
+        pass
+
+
+def step_under_the_handler(folder):
+    """A SIGINT lands inside a step under the handler, the host then busy for 10 s: the
+    step's status, and the seconds after its end the interrupt came (None: never)."""
+    slave = _fake_fmu(folder)
+    with interrupt.fmu_safe_interrupts():
+        try:
+            slave.do_step(0.3)
+            _busy(10.0)
+        except KeyboardInterrupt:
+            came = time.perf_counter()
+            ended = slave.ended
+            return {"status": slave.status, "after": None if ended is None else came - ended}
+    return {"status": slave.status, "after": None}
+
+
+def step_under_pythons_handler(folder):
+    """The same step with Python's own handler: its status."""
+    slave = _fake_fmu(folder)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    return {"status": slave.do_step(0.3)}
+
+
+def callback_under_the_handler(folder):
+    """A SIGINT lands in a callback from the FMU, under the handler and then under Python's
+    own: the seconds after the callback the interrupt came, the exceptions ctypes dropped
+    under each."""
+    call, _keep, logger = _fmu_callback(folder)
     dropped = []
-    monkeypatch.setattr(sys, "unraisablehook", lambda u: dropped.append(u.exc_type))
-    with interrupt.fmu_safe_interrupts(), pytest.raises(KeyboardInterrupt):
-        call()
-        start = time.perf_counter()
-        while time.perf_counter() - start < 10.0:
-            pass
-    assert dropped == []
+    sys.unraisablehook = lambda u: dropped.append(u.exc_type.__name__)
+    after = None
+    with interrupt.fmu_safe_interrupts():
+        try:
+            call()
+            _busy(10.0)
+        except KeyboardInterrupt:
+            came = time.perf_counter()
+            after = None if logger.ended is None else came - logger.ended
+    under_handler = list(dropped)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    call()
+    return {"after": after, "dropped": under_handler,
+            "dropped_after": dropped[len(under_handler):]}
+
+
+def sigint_outside_an_fmu(folder):
+    """A SIGINT 20 ms into a one-second sleep under the handler: the seconds slept."""
+    start = time.perf_counter()
+    with interrupt.fmu_safe_interrupts():
+        threading.Timer(0.02, os.kill, (os.getpid(), signal.SIGINT)).start()
+        try:
+            time.sleep(1.0)
+        except KeyboardInterrupt:
+            return {"slept": time.perf_counter() - start}
+    return {"slept": None}
+
+
+def test_sigint_inside_the_fmu_waits_for_the_step(tmp_path):
+    result = _scenario(tmp_path, "step_under_the_handler")
+    assert result["status"] == "ok"  # the step finished: no fatal status
+    # and the interrupt came after it (redelivered every 20 ms), not never
+    assert result["after"] is not None and result["after"] < 5.0
+
+
+def test_without_the_handler_the_step_turns_fatal(tmp_path):
+    # the failure the handler prevents, shown with Python's own handler
+    assert _scenario(tmp_path, "step_under_pythons_handler") == {"status": "fatal"}
+
+
+def test_sigint_in_a_callback_from_the_fmu_is_not_lost(tmp_path):
+    result = _scenario(tmp_path, "callback_under_the_handler")
+    assert result["after"] is not None and result["after"] < 5.0
+    assert result["dropped"] == []
     # with Python's own handler the interrupt is dropped by ctypes, and the host goes on
-    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
-    try:
-        call()
-    finally:
-        signal.signal(signal.SIGINT, previous)
-    assert dropped == [KeyboardInterrupt]
+    assert result["dropped_after"] == ["KeyboardInterrupt"]
 
 
-@SELF_SIGNAL
-def test_sigint_outside_an_fmu_interrupts_at_once():
-    with interrupt.fmu_safe_interrupts(), pytest.raises(KeyboardInterrupt):
-        _sigint_after(0.02)
-        time.sleep(1.0)
+def test_sigint_outside_an_fmu_interrupts_at_once(tmp_path):
+    slept = _scenario(tmp_path, "sigint_outside_an_fmu")["slept"]
+    assert slept is not None and slept < 0.5
 
 
 def test_main_reports_an_interrupt_on_one_line(monkeypatch, capsys):
