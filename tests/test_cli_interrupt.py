@@ -78,9 +78,8 @@ def _scenario(tmp_path, name):
 
     The scenarios send SIGINT into their own process. In a process of its own each runs on
     the interpreter's main thread with no test runner around it; in the test process a
-    SIGINT that reaches the runner instead (pytest-xdist's worker under Python 3.13, where
-    ``os.kill`` to the own process checks for signals at once) ends that worker rather than
-    failing the test."""
+    SIGINT could reach the runner instead and end it rather than fail the test (seen with
+    pytest-xdist's workers under Python 3.13; its cause there is not known)."""
     import json
     import subprocess
     code = (f"import json, sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
