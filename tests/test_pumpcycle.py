@@ -26,7 +26,7 @@ def test_without_a_drive_the_piston_gives_way_as_a_damped_oscillator_from_rest()
     # Y = 0: at the switch the load, held by P_s on the closed cavity, pushes the piston
     # back on the chamber's compliance: the step response of a damped one-degree system,
     # u = u_s (1 - exp(-z w t) (cos w_d t + z / sqrt(1 - z^2) sin w_d t)), u_s = C P_s / A_L
-    # (Inman, Engineering Vibration, 4th ed. 2014, sec. 3.2), at the valves' closing t = T/2.
+    # (Inman, Engineering Vibration, 4th ed. 2014, ch. 3), at the valves' closing t = T/2.
     # The closed cavity is nearly rigid (1e-3 C) and its ringing dies in the expansion
     # (exp(-b T / 4 m) = 6e-4), so 0.2 % holds the cavity's share of the pressure.
     m = model(stroke=0.0)

@@ -16,7 +16,7 @@ The model (SI): u the piston's travel that shrinks L, w = du/dt, P = p_L - p_A, 
 rod's elastic deflection beyond its rest at p_A. In compression (L joined to the chamber;
 the other cavity and the chamber's other side at p_A):
 
-    m w' = A_L (P_s - P) - b w                        (the piston; Merritt sec. 5.2)
+    m w' = A_L (P_s - P) - b w                        (the piston; Merritt ch. 5)
     c E' = -(K E + A_d P)                             (the rod, eq 27 without its mass)
     C_o P' = A_d (y_f' + E') + A_L w,   C_o = (V_c + V_L) / beta
                                                       (continuity; Merritt sec. 2.5)
@@ -31,17 +31,17 @@ closed, the chamber at p_A):
 At the switch into compression the cavity's oil shares its pressure with the chamber's,
 P -> C_L P / C_o, and the rod starts relaxed (E = 0: it relaxes in c / K = 0.15 ms). Each
 phase is linear with constant coefficients, so its flow over half a period is a matrix
-exponential (the drive's sine and cosine and the constant carried as states: Ogata,
-*Modern Control Engineering*, 5th ed. 2010, sec. 9-6, the state-transition matrix; a
-piecewise-linear periodic system's steady state from its monodromy matrix: Farkas,
-*Periodic Motions*, Springer 1994, sec. 2.2). The steady cycle is the fixed point of the
-period's map in (w, P, E); the piston's travel over it, du, is affine in P_s, and the
-pump stalls where du = 0. With m -> 0 and c -> 0 it is the quasi-static limit,
+exponential (the drive's sine and cosine and the constant carried as states; the
+state-transition matrix of a time-invariant linear system: Ogata, *Modern Control
+Engineering*, 5th ed. 2010, ch. 9). The period's map is the product of the two phases'
+(the monodromy matrix of Floquet theory) and the steady cycle its fixed point in
+(w, P, E); the piston's travel over it, du, is affine in P_s, and the pump stalls where
+du = 0. With m -> 0 and c -> 0 it is the quasi-static limit,
 du = (C P_s - A_d Y cos phi) / A_L with C = A_d^2 / K + V_c / beta (the cavity's oil
 returns each cycle what it takes).
 
-What it leaves out: the orifices' resistance (kPa at these flows), the rod's and the
-cylinder's cavity masses, the accumulator's pressure swing (50 cm^3 of gas: ~2 kPa),
+What it leaves out: the orifices' resistance (kPa at these flows), the rod's mass (its
+own mode is over-damped at ~5 kHz), the accumulator's pressure swing (50 cm^3 of gas: ~2 kPa),
 the oil's pressure-dependent modulus (beta at p_A), and harmonics of the free rod.
 """
 from __future__ import annotations
