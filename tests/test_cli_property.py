@@ -29,6 +29,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from smeha import cli, cliargs
+from smeha.coreloss.commands import material_or_file
 
 #: Command lines tried per command (SMEHA_CLI_EXAMPLES raises it for a deeper local search).
 EXAMPLES = int(os.environ.get("SMEHA_CLI_EXAMPLES", "50"))
@@ -44,7 +45,7 @@ def _trip(*args, **kwargs):
 
 #: The commands whose long work :data:`WORK` lists; another command's body is not run.
 COMMANDS_WITH_WORK_LISTED = {"paper", "simulate", "flow", "sweep", "position", "timedomain",
-                             "identify", "diagnose", "build"}
+                             "identify", "diagnose", "build", "losses"}
 #: The long work of every command: (module, function) replaced by the tripwire.
 WORK = [("smeha.studies.flow", "run_case"), ("smeha.studies.flow", "run_cases"),
         ("smeha.studies.flow", "ensure_fmu"), ("smeha.studies.sweep", "run_sweep"),
@@ -54,6 +55,7 @@ WORK = [("smeha.studies.flow", "run_case"), ("smeha.studies.flow", "run_cases"),
         ("smeha.studies.timedomain", "waveform_rows"),
         ("smeha.studies.timedomain", "gain_rows"), ("smeha.studies.position", "run_study"),
         ("smeha.studies.position", "flow_table_velocity"),
+        ("smeha.coreloss.study", "run"), ("smeha.coreloss.measurements", "read_magnet"),
         ("system_models.kernel", "ensure_compiled")]
 
 
@@ -99,6 +101,8 @@ def _subparsers(parser=None):
 COMMANDS = sorted(_subparsers())
 
 _INPUTS = {getattr(cliargs, n, None) for n in ("input_file", "fmu_file")} - {None}
+#: ``smeha losses``' MATERIAL|FILE: a material name or a core-loss file.
+_MATERIAL_OR_FILE = material_or_file
 _OUTPUTS = {getattr(cliargs, n, None) for n in ("output_file", "plot_file", "output_dir")} \
     - {None}
 
@@ -112,6 +116,10 @@ TEXTS = ["tcp://127.0.0.1:8786", "bogus", "", "auto", "run1", "run1,,run2", "50,
 PATHS = ["data.csv", "spec.toml", "model.fmu", "variant.json", "notes.txt", "folder",
          "missing.csv", "nowhere/out.png", "out.png", "out.txt", "out.csv", "newdir",
          "notes.txt/out.png", "", "folder/out.png"]
+#: Core-loss sources: a material, a name of none, files that are no core-loss CSV (binary,
+#: not gzip, a bad outlier column) and the paths above. Reading the shipped MagNet files
+#: counts as work (:data:`WORK`); a user's file is read for real.
+CORE_LOSS_SOURCES = ["3E6", "N99", "model.csv", "bad.csv.gz", "outlier.csv", *PATHS]
 
 
 def _make_paths(root: Path) -> None:
@@ -125,10 +133,16 @@ def _make_paths(root: Path) -> None:
     (root / "variant.json").write_text('{"cause": "none"}')
     (root / "notes.txt").write_text("not data\n")
     (root / "folder").mkdir()
+    (root / "model.csv").write_bytes((root / "model.fmu").read_bytes())
+    (root / "bad.csv.gz").write_text("frequency_Hz,loss_W_m3\n")
+    (root / "outlier.csv").write_text("frequency_Hz,loss_W_m3,flux_samples_T,"
+                                      "outlier_factor_pct\n100,1,0.1,abc\n")
 
 
 def _values(action):
     """A strategy for one option's value, by its kind."""
+    if action.type is _MATERIAL_OR_FILE:
+        return st.sampled_from(CORE_LOSS_SOURCES)
     if action.type in _INPUTS or action.type in _OUTPUTS:
         return st.sampled_from(PATHS)
     if action.choices:

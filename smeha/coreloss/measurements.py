@@ -170,8 +170,13 @@ def read_core_losses(path, name: str | None = None) -> CoreLossData:
     path = Path(path)
     where = str(path)
     opener = gzip.open if path.suffix == ".gz" else open
-    with opener(path, "rt", newline="") as fh:
-        lines = [ln for ln in fh if not ln.startswith("#")]
+    try:
+        with opener(path, "rt", newline="") as fh:
+            lines = [ln for ln in fh if not ln.startswith("#")]
+    except (UnicodeDecodeError, OSError, EOFError) as exc:  # binary, not gzip, unreadable
+        raise DataError(f"{where}: not a core-loss text file ({type(exc).__name__}: "
+                        f"{str(exc).splitlines()[0] if str(exc) else 'unreadable'}; "
+                        "docs/LOSSES.md)") from None
     reader = csv.DictReader(lines)
     columns = set(reader.fieldnames or ())
     for need in ("frequency_Hz", "loss_W_m3"):
@@ -182,9 +187,9 @@ def read_core_losses(path, name: str | None = None) -> CoreLossData:
     if not duties and "flux_samples_T" not in columns:
         raise DataError(f"{where}: give the waveform as flux_density_T with duty_1..duty_4, or "
                         "as flux_samples_T (docs/LOSSES.md)")
-    rows = [r for r in reader if not ("outlier_factor_pct" in columns and (
-        r.get("outlier_factor_pct") or "").strip() and abs(float(r["outlier_factor_pct"]))
-        >= OUTLIER_LIMIT)]
+    rows = [r for k, r in enumerate(reader) if not (
+        "outlier_factor_pct" in columns and (r.get("outlier_factor_pct") or "").strip()
+        and abs(_number(where, k, r, "outlier_factor_pct")) >= OUTLIER_LIMIT)]
     if not rows:
         raise DataError(f"{where}: no data rows")
     f = np.array([_number(where, k, r, "frequency_Hz", 0.0) for k, r in enumerate(rows)])

@@ -6,8 +6,15 @@ co-simulation the position study identifies its lines from,
 period mean after the chamber's first fill. The stall loads are where the velocity each
 way crosses zero, interpolated linearly between the loads that bracket it (the velocity
 is linear in the load, :mod:`smeha.studies.positionlimits`). Beside them: the hand
-calculation's quasi-static line and stall loads, and the flow table's point (``smeha
-flow``, direction down: its flow over the big cavity's area).
+calculation's line and stall loads (the pump cycle with the piston's swing,
+:mod:`smeha.studies.pumpcycle`), its quasi-static stall loads, and the flow table's point
+(``smeha flow``, direction down: its flow over the big cavity's area).
+
+The stall loads are judged in pressure against the pump's pressure limit p_lim = A_d Y / C
+(the rod's whole free stroke against the chamber's compliance): a stall load agrees when it
+is within :data:`AGREEMENT` p_lim A_L of the hand's (A_L the loaded cavity's area). The
+stall pressure itself is a small difference where the rod lags the valves (uncompensated,
+200 Hz: 0.03 MPa of 0.45), so a fraction of it would ask for a fraction of a newton.
 """
 from __future__ import annotations
 
@@ -21,14 +28,17 @@ import gmt
 from .positionlimits import PumpLimits, pump_limits
 
 __all__ = ["EnvelopePoint", "Envelope", "envelope_loads", "run_envelope", "format_envelope",
-           "estimate_wall_time", "LOADS"]
+           "estimate_wall_time", "LOADS", "AGREEMENT", "tolerance"]
 
 #: Wall time a run costs besides its simulated time (the transducer opened, the flow
 #: check), [s]: 6 curves at 100 Hz took 3-4 min on the shared 2-core machine.
 RUN_OVERHEAD = 1.0
-#: Loads a curve is run at: spread over the hand calculation's stall-to-stall range and a
-#: quarter of it beyond each end, so both stalls are bracketed.
+#: Loads a curve is run at: spread over the range of the hand calculation's stall loads
+#: (the pump cycle's and the quasi-static ones) and a quarter of it beyond each end, so both
+#: stalls are bracketed.
 LOADS = 7
+#: A stall load agrees with the hand's within this fraction of p_lim A_L (module docstring).
+AGREEMENT = 0.1
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -38,7 +48,7 @@ class EnvelopePoint:
     load: float  #: [N], opposing down
     direction: str
     velocity: float  #: co-simulation, full drive, [m/s] (NaN: the run stopped, see note)
-    hand_velocity: float  #: the hand calculation's, [m/s]
+    hand_velocity: float  #: the hand calculation's (the pump cycle's), [m/s]
     flow_table_velocity: float  #: smeha flow's flow over A_B, down only, [m/s] (NaN up)
     note: str = ""
 
@@ -59,15 +69,28 @@ class Envelope:
         return {"mode": self.mode, "circuit": self.circuit, "frequency_Hz": self.frequency,
                 "stall_load_down_N": self.stall_load_down,
                 "stall_load_up_N": self.stall_load_up,
-                "hand_stall_load_down_N": self.hand.stall_load_down,
-                "hand_stall_load_up_N": self.hand.stall_load_up,
+                "hand_stall_load_down_N": self.hand.cycle_stall_load_down,
+                "hand_stall_load_up_N": self.hand.cycle_stall_load_up,
+                "quasi_static_stall_load_down_N": self.hand.stall_load_down,
+                "quasi_static_stall_load_up_N": self.hand.stall_load_up,
+                "tolerance_down_N": tolerance(self.hand, "down"),
+                "tolerance_up_N": tolerance(self.hand, "up"),
                 "hand": self.hand.as_dict(), "points": [asdict(p) for p in self.points]}
 
 
+def tolerance(hand: PumpLimits, direction: str) -> float:
+    """:data:`AGREEMENT` p_lim A_L: how far a stall load may be from the hand's, [N]."""
+    area = hand.big_area if direction == "down" else hand.small_area
+    return AGREEMENT * abs(hand.pressure_limit) * area
+
+
 def envelope_loads(hand: PumpLimits, count: int = LOADS) -> np.ndarray:
-    """``count`` loads from a quarter of the hand range below its up stall to a quarter
-    above its down stall, [N]."""
-    low, high = hand.stall_load_up, hand.stall_load_down
+    """``count`` loads over the hand's stall loads (the pump cycle's and the quasi-static
+    ones) and a quarter of their range beyond each end, [N]."""
+    stalls = [x for x in (hand.stall_load_up, hand.stall_load_down,
+                          hand.cycle_stall_load_up, hand.cycle_stall_load_down)
+              if math.isfinite(x)]
+    low, high = min(stalls), max(stalls)
     span = max(high - low, 1.0)
     return np.linspace(low - 0.25 * span, high + 0.25 * span, count)
 
@@ -115,7 +138,8 @@ def run_envelope(mode: str, circuit: str, frequency: float, backend: str = "fmu"
             except gmt.errors.RunError as exc:
                 note = str(exc).split(":")[0]
             points.append(EnvelopePoint(load=float(load), direction=direction, velocity=v,
-                                        hand_velocity=hand.velocity(float(load), direction),
+                                        hand_velocity=hand.cycle_velocity(float(load),
+                                                                         direction),
                                         flow_table_velocity=q, note=note))
     stall = {d: _stall(loads, [p.velocity for p in points if p.direction == d], d)
              for d in ("down", "up")}
@@ -140,28 +164,35 @@ def _n(x, fmt):
     return "-" if x is None or not math.isfinite(x) else format(x, fmt)
 
 
-def _diff(a, b) -> str:
-    """a - b, [N]."""
-    return "-" if not (math.isfinite(a) and math.isfinite(b)) else f"{a - b:+.0f} N"
+def _diff(a, b, tol) -> str:
+    """a - b against the tolerance, [N]: "+3/24" (within it) or "+30/24 !" (outside)."""
+    if not (math.isfinite(a) and math.isfinite(b)):
+        return "-"
+    return f"{a - b:+.0f}/{tol:.0f}" + (" !" if abs(a - b) > tol else "")
 
 
 def format_envelope(curves) -> str:
-    """The table: per curve the stall loads (co-simulation, hand), then per load the
-    full-drive speed each way beside the hand calculation and the flow table."""
+    """The table: per curve the stall loads (co-simulation; the hand calculation, its
+    quasi-static limit; the difference and its tolerance), then per load the full-drive
+    speed each way beside the hand calculation and the flow table."""
     lines = ["Speed-load envelope: the largest steady piston speed each way at full drive "
              "(co-simulation, the paper's magnetics, sinusoidal drive; period means), "
              "positive down; load opposing down",
-             f"{'circuit':<12}  {'mode':<13}  {'f [Hz]':>6}  {'stall down [N]':>14}  "
-             f"{'(hand)':>7}  {'diff':>6}  {'stall up [N]':>12}  {'(hand)':>7}  {'diff':>6}  "
-             f"{'p_stall hand [MPa]':>18}"]
+             "stall loads [N]: co-simulation (hand: the pump cycle) (quasi-static) "
+             f"co-sim - hand / tolerance {AGREEMENT:g} p_lim A_L; p_lim = A_d Y / C",
+             f"{'circuit':<12}  {'mode':<13}  {'f [Hz]':>6}  {'down':>7}  {'(hand)':>7}  "
+             f"{'(q-s)':>7}  {'diff/tol':>9}  {'up':>7}  {'(hand)':>7}  {'(q-s)':>7}  "
+             f"{'diff/tol':>9}  {'p_lim [MPa]':>11}"]
     for c in curves:
         h = c.hand
-        lines.append(f"{c.circuit:<12}  {c.mode:<13}  {c.frequency:>6g}  "
-                     f"{_n(c.stall_load_down, '.1f'):>14}  {h.stall_load_down:>7.1f}  "
-                     f"{_diff(c.stall_load_down, h.stall_load_down):>6}  "
-                     f"{_n(c.stall_load_up, '.1f'):>12}  {h.stall_load_up:>7.1f}  "
-                     f"{_diff(c.stall_load_up, h.stall_load_up):>6}  "
-                     f"{h.stall_pressure / 1e6:>18.3f}")
+        row = f"{c.circuit:<12}  {c.mode:<13}  {c.frequency:>6g}  "
+        for sim, hand, quasi, d in ((c.stall_load_down, h.cycle_stall_load_down,
+                                     h.stall_load_down, "down"),
+                                    (c.stall_load_up, h.cycle_stall_load_up,
+                                     h.stall_load_up, "up")):
+            row += (f"{_n(sim, '.1f'):>7}  {hand:>7.1f}  {quasi:>7.1f}  "
+                    f"{_diff(sim, hand, tolerance(h, d)):>9}  ")
+        lines.append(row + f"{h.pressure_limit / 1e6:>11.3f}")
     for c in curves:
         lines += ["", f"{c.circuit}, {c.mode}, {c.frequency:g} Hz: velocity [mm/s] at full drive",
                   f"{'load [N]':>9}  {'down':>8}  {'(hand)':>7}  {'(flow table)':>12}  "

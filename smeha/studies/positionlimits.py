@@ -24,9 +24,11 @@ fills the small one: dp = (p_A A_B - F) / A_S - p_A. The stall loads (F opposing
 
 A differential cylinder at p_A is pushed down by p_A times the rod's area, which shifts
 both. The piston moves down for F < F_down and up for F > F_up; a position loop needs both.
-This is quasi-static: it leaves out the piston's mass ringing on the oil (the co-simulation
-has it), so it is a bound to check the co-simulation against, and decides before a run
-which loads are far outside what the pump moves.
+This is quasi-static: the cylinder's piston follows the oil at every instant. It decides
+before a run which loads are far outside what the pump moves. Above ~50 Hz the piston's
+mass swings on the pump's compliance at each switch and the valves catch it mid-swing:
+:mod:`smeha.studies.pumpcycle` gives the stall pressures of that cycle (``cycle_*``), which
+the speed-load envelope is checked against.
 """
 from __future__ import annotations
 
@@ -36,6 +38,8 @@ from dataclasses import asdict, dataclass
 from system_models import presets
 from system_models.circuit import initial_state
 from system_models.fluid import effective_bulk_modulus
+
+from .pumpcycle import cycle_model
 
 __all__ = ["PumpLimits", "pump_limits"]
 
@@ -54,6 +58,14 @@ class PumpLimits:
     accumulator_pressure: float  #: p_A, [Pa]
     big_area: float  #: A_B, [m^2]
     small_area: float  #: A_S, [m^2]
+    #: the pump cycle's (:mod:`~smeha.studies.pumpcycle`) stall pressure rise P_s down and
+    #: up, [Pa], the piston's travel per Pa of P_s each way, [m/Pa], and the pressure limit
+    #: A_d Y / C of the free rod's whole stroke, [Pa] (NaN: not computed)
+    cycle_stall_pressure_down: float = math.nan
+    cycle_stall_pressure_up: float = math.nan
+    cycle_slope_down: float = math.nan
+    cycle_slope_up: float = math.nan
+    pressure_limit: float = math.nan
 
     @property
     def blocked_force(self) -> float:
@@ -87,6 +99,34 @@ class PumpLimits:
             return (load + p * self.small_area) / self.big_area - p
         return (p * self.big_area - load) / self.small_area - p
 
+    def load_at(self, pressure_rise: float, direction: str) -> float:
+        """The load [N] that the pressure rise ``pressure_rise`` [Pa] holds
+        (:meth:`pressure_rise` inverted)."""
+        p = self.accumulator_pressure
+        if direction == "down":
+            return (pressure_rise + p) * self.big_area - p * self.small_area
+        return p * self.big_area - (pressure_rise + p) * self.small_area
+
+    @property
+    def cycle_stall_load_down(self) -> float:
+        """The pump cycle's stall load down, [N]."""
+        return self.load_at(self.cycle_stall_pressure_down, "down")
+
+    @property
+    def cycle_stall_load_up(self) -> float:
+        """The pump cycle's stall load up, [N]."""
+        return self.load_at(self.cycle_stall_pressure_up, "up")
+
+    def cycle_velocity(self, load: float, direction: str) -> float:
+        """The pump cycle's mean piston velocity at full drive, [m/s] (x grows down): its
+        travel per cycle, affine in the pressure rise, times f; past the stall the load
+        pushes the piston back through the pump."""
+        down = direction == "down"
+        stall = self.cycle_stall_pressure_down if down else self.cycle_stall_pressure_up
+        slope = self.cycle_slope_down if down else self.cycle_slope_up
+        travel = slope * (stall - self.pressure_rise(load, direction))
+        return self.frequency * travel if down else -self.frequency * travel
+
     def velocity(self, load: float, direction: str) -> float:
         """The quasi-static piston velocity at full drive, [m/s] (x grows down): the cycle's
         volume f (A_d dy - C dp) over the filled cavity's area, 0 past the stall."""
@@ -100,7 +140,9 @@ class PumpLimits:
         d = asdict(self)
         d.update(stall_pressure=self.stall_pressure, blocked_force=self.blocked_force,
                  rod_force=self.rod_force, stall_load_down=self.stall_load_down,
-                 stall_load_up=self.stall_load_up)
+                 stall_load_up=self.stall_load_up,
+                 cycle_stall_load_down=self.cycle_stall_load_down,
+                 cycle_stall_load_up=self.cycle_stall_load_up)
         return d
 
 
@@ -122,7 +164,14 @@ def pump_limits(frequency: float, mode: str, circuit: str = "realistic") -> Pump
     dy = flow.free_dy(frequency, mode)
     if not math.isfinite(dy):
         dy = 0.0
+    cycle = {}
+    for direction in ("down", "up"):
+        model = cycle_model(frequency, mode, circuit, direction)
+        stall, slope = model.travel_line()
+        cycle[f"cycle_stall_pressure_{direction}"] = stall
+        cycle[f"cycle_slope_{direction}"] = slope
+        cycle["pressure_limit"] = model.pressure_limit
     return PumpLimits(frequency=float(frequency), mode=mode, circuit=circuit, free_stroke=dy,
                       stiffness=float(rod.stiffness), piston_area=area,
                       compliance=compliance, accumulator_pressure=p_a,
-                      big_area=cyl.big_area, small_area=cyl.small_area)
+                      big_area=cyl.big_area, small_area=cyl.small_area, **cycle)
