@@ -13,6 +13,11 @@ the standard library (``ctypes`` when an FMI 2.0 step fails, after the run-time 
 """
 from __future__ import annotations
 
+import re
+
+#: A "%" and the blanks before it, written " percent" in every message (:meth:`SlaveBase._report`).
+_NO_PERCENT = re.compile(r"\s*%")
+
 
 class SlaveBase:
     """The callbacks every slave of this project shares: a mixin before the pythonfmu(3) base.
@@ -28,7 +33,6 @@ class SlaveBase:
     GET_STATE = "fmi2GetFMUstate"
     SET_STATE = "fmi2SetFMUstate"
     IMPORT_PROBLEM = None  # why the slave's physics could not be imported, if it could not
-    LOG_IS_FORMAT = True  # the logger callback formats the message (FMI 2.0: printf)
     TABLE = None  # the variable table module: VARIABLES, BY_NAME
 
     def _init_base(self):
@@ -61,12 +65,13 @@ class SlaveBase:
         raise NotImplementedError
 
     def _report(self, message: str, status=None):
-        # an FMI 2.0 host's logger takes the message as a printf format (fmi2CallbackLogger):
-        # a bare "%" is a conversion there (libcosim printed "5 1n frequency" for "5 % in
-        # frequency"), so it is written "%%"; FMI 3.0's logMessage takes plain text
-        if self.LOG_IS_FORMAT:
-            message = message.replace("%", "%%")
-        self.log(message, self.STATUS_ERROR if status is None else status)
+        # an FMI 2.0 host's logger takes the message as a printf format (fmi2CallbackLogger),
+        # where a bare "%" is a conversion (libcosim printed "5 1n frequency" for "5 % in
+        # frequency"), and a chain of hosts may format it more than once (fmpy's container
+        # FMU formats its inner FMU's message and passes the result on as a format); FMI
+        # 3.0's logMessage takes plain text. A message without "%" reads the same in all
+        self.log(_NO_PERCENT.sub(" percent", message),
+                 self.STATUS_ERROR if status is None else status)
 
     def _parameter_setter(self, name):
         def setter(value):

@@ -67,7 +67,6 @@ class SmehaGmt3(slave.TransducerSlave, Fmi3Slave):
     STATUS_ERROR, STATUS_WARNING, STATUS_DISCARD = (Fmi3Status.error, Fmi3Status.warning,
                                                     Fmi3Status.discard)
     EXIT_INITIALIZATION = "fmi3ExitInitializationMode"
-    LOG_IS_FORMAT = False  # fmi3LogMessageCallback takes plain text
     GET_STATE, SET_STATE = "fmi3GetFMUState", "fmi3SetFMUState"
     PHYSICS, IMPORT_PROBLEM = gmt, _IMPORT_PROBLEM
 

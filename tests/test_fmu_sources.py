@@ -190,3 +190,34 @@ def test_the_loader_checks_every_function_a_cosimulation_fmu_needs():
     assert "if (!T_fmi2DoStep && ++count)" in text
     assert "if (!T_fmi2SetTime" not in text and "T_fmi2SetTime = " in text
     assert "if (!T_fmi3DoStep && ++count)" in loader.forwarders("3")
+
+
+# -- the FMU's messages (fmu_src/smeha_fmu_base.py) ----------------------------------------------
+def test_a_message_reaches_the_host_as_written_however_often_it_is_formatted():
+    # An FMI 2.0 logger takes the message as a printf format, and a chain of hosts may format
+    # it more than once: fmpy 0.3.32's container FMU formats its inner FMU's message and hands
+    # the result on to its own host as the format. The FMU Compliance Checker printed "5%% in
+    # frequency" from the transducer inside it as "5 16843008n frequency" (docs/FMU.md, "C and
+    # C++ hosts"). FMI 3.0's logger takes plain text. Text without "%" is the same whether it
+    # is formatted zero, one or two times, so the FMU writes "percent".
+    from smeha.fmu.tables import _load_from_fmu_src
+
+    base = _load_from_fmu_src("smeha_fmu_base")
+
+    class Slave(base.SlaveBase):
+        STATUS_ERROR, STATUS_WARNING = "error", "warning"
+
+        def __init__(self):
+            self.logged = []
+
+        def log(self, message, status):
+            self.logged.append((message, status))
+
+    slave = Slave()
+    slave._report("off its design point (tolerances 5% in frequency, 1 % in amplitude)",
+                  slave.STATUS_WARNING)
+    slave._report("rate 100%")
+    assert slave.logged == [
+        ("off its design point (tolerances 5 percent in frequency, 1 percent in amplitude)",
+         "warning"),
+        ("rate 100 percent", "error")]

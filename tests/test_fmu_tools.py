@@ -10,7 +10,8 @@ Each host runs in a clean environment (``env -i PATH=/usr/bin:/bin``) that names
 the FMU runs in (``SMEHA_FMU_PYTHON``, this venv's) on the paper's 50 Hz drive, and its
 outputs must be fmpy's (tests/fmu_runner.py ``drive``): fmusim's to the last printed digit
 (16 significant digits: 1e-12 relative bounds the printing, not the model), fmuCheck's to
-its clock's rounding (see the test).
+its clock's rounding (see the test). fmuCheck also checks the EHA system's FMUs: the drive's,
+the plant's and fmpy's container FMU of the three.
 """
 from __future__ import annotations
 
@@ -24,8 +25,10 @@ import pytest
 
 try:
     from fmu_fixtures import HOST_ENV, fmu_dist, run_runner, runner_dir  # noqa: F401
+    from test_system_fmu import system_dist  # noqa: F401  (fixture)
 except ImportError:  # tests/ imported as a package
     from tests.fmu_fixtures import HOST_ENV, fmu_dist, run_runner, runner_dir  # noqa: F401
+    from tests.test_system_fmu import system_dist  # noqa: F401
 
 pytestmark = pytest.mark.integration
 
@@ -114,6 +117,35 @@ def test_fmucheck_finds_no_problem_and_runs_the_fmu_as_fmpy_does(fmu_dist, drive
     assert rows >= STEPS - 1
     assert _close(got[1:rows + 1, 1:], ref[:rows, 1:]) <= 1e-7
 
+
+
+#: What the checker says, at its last step, of an FMU that declares
+#: canHandleVariableCommunicationStepSize="false" (fmi2_cs_sim.c: it keeps the step and runs
+#: past the stop time): the container FMU declares so because it steps its units at the
+#: system's 10 us and refuses a step that is not a whole number of them
+FIXED_STEP_NOTICE = ("[WARNING][FMUCHK] FMU does not support variable communication stepsize. "
+                     "Stepsize may not be altered to reach stopTime exactly.")
+
+
+@pytest.mark.parametrize("name", ["SmehaDrive", "SmehaPlant", "SmehaEha"])
+def test_fmucheck_finds_no_problem_in_the_systems_fmus(name, system_dist, tmp_path):
+    # the drive's and the plant's FMUs, and the three as one (fmpy's container FMU), at the
+    # start values for 0.02 s in steps of 0.1 ms; the container's transducer, at 100 Hz
+    # compensated, reports its design-point warning, which must reach the checker's log as
+    # the FMU wrote it (the container formats it once before passing it on as a format)
+    fmucheck = _tool("FMUCHECK", "fmuCheck.linux64", "fmuCheck")
+    proc = subprocess.run([fmucheck, "-k", "cs", "-l", "3", "-h", "1e-4", "-s", "0.02", "-o",
+                           str(tmp_path / "out.csv"), str(system_dist[0] / f"{name}.fmu")],
+                          capture_output=True, text=True, env=HOST_ENV, timeout=300)
+    text = proc.stdout + proc.stderr
+    assert proc.returncode == 0, text
+    assert "\t0 Error(s)" in text and "[ERROR]" not in text and "[FATAL]" not in text, text
+    notices = [line for line in text.splitlines() if line.startswith("[WARNING]")]
+    assert set(notices) <= ({FIXED_STEP_NOTICE} if name == "SmehaEha" else set()), text
+    assert f"\t{len(notices)} Warning(s)" in text, text
+    for line in text.splitlines():
+        if "[FMU]" in line and "tolerances" in line:
+            assert "(tolerances 5 percent in frequency, 1 percent in amplitude)" in line, line
 
 
 # -- OpenModelica's OMSimulator ---------------------------------------------------------------
