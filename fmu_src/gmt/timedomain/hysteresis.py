@@ -91,13 +91,16 @@ def cycle_loss_per_coefficient(amplitude, n, knee=math.inf, high_exponent=2.0):
     continuous with a^n and with its slope at r_b. Vectorised; r_0 < a <= r_max assumed
     (module docstring), as in :meth:`BranchFunction.cycle_loss`.
     """
-    a = np.asarray(amplitude, dtype=float)
-    if not math.isfinite(knee):
-        return a ** n
-    r, m = float(knee), float(high_exponent)
-    upper = a * (a ** (m - 1.0) - r ** (m - 1.0)) / (m - 1.0) - (a ** m - r ** m) / m
-    above = n * (n - 1.0) * (a * r ** (n - 1.0) / (n - 1.0) - r ** n / n + r ** (n - m) * upper)
-    return np.where(a <= r, a ** n, above)
+    a = np.atleast_1d(np.asarray(amplitude, dtype=float))
+    loss = a ** n
+    over = a > knee
+    if not np.any(over):
+        return loss if np.ndim(amplitude) else loss[0]
+    r, m, b = float(knee), float(high_exponent), a[over]
+    upper = b * (b ** (m - 1.0) - r ** (m - 1.0)) / (m - 1.0) - (b ** m - r ** m) / m
+    loss[over] = n * (n - 1.0) * (b * r ** (n - 1.0) / (n - 1.0) - r ** n / n
+                                  + r ** (n - m) * upper)
+    return loss if np.ndim(amplitude) else loss[0]
 
 
 class BranchFunction:
