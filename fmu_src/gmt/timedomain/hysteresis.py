@@ -18,8 +18,8 @@ is therefore rho(r) = c r^(n - 3) with c = K_h n (n - 1) / 4. Two limits make
 it a physical operator:
 
 * **Above r_max** (``steinmetz_upper``) there are no stops: the Steinmetz law
-  holds for every cycle of half-swing a <= r_max, above it the loss grows
-  linearly in a. r_max is the largest amplitude the law is asked to cover.
+  holds for every cycle of half-swing a <= r_max (and a <= r_b, below), above
+  it the loss grows linearly in a. r_max is the largest amplitude the law is asked to cover.
 * **Above r_b** (``steinmetz_break``, optional) the density turns to
   c r_b^(n - m) r^(m - 3): the loss per cycle grows as a^n below r_b and its
   exponent turns towards m = ``steinmetz_exponent_high`` above. A ferrite's
@@ -32,7 +32,7 @@ it a physical operator:
   just after a turn). The stops below r_0 are replaced by one stop at
   r_1 = r_0 (n - 1)/n of weight w = c r_0^(n - 2) n/(n - 1)^2, which has the
   same first and second moments over [0, r_0]; W(a) = K_h a^n then holds
-  exactly for r_0 <= a <= r_max, and below r_0 (cycles of a few mT, a
+  exactly for r_0 <= a <= min(r_b, r_max), and below r_0 (cycles of a few mT, a
   negligible share of the energy) the loss is that of the single stop.
 
 After a reversal at (B_k, H_k) the branch is H = H_k + s G(|B - B_k|), s the
@@ -52,8 +52,8 @@ References
    Springer, 1996, ch. 2 (play and stop operators, the Prandtl-Ishlinskii model).
 .. [2] I. D. Mayergoyz, *Mathematical Models of Hysteresis and Their
    Applications*, Elsevier, 2003, ch. 1-2 (Preisach model, wiping out).
-.. [3] G. Bertotti, *Hysteresis in Magnetism*, Academic Press, 1998, ch. 12-13
-   (Steinmetz law and loss separation).
+.. [3] G. Bertotti, *Hysteresis in Magnetism*, Academic Press, 1998, ch. 7
+   (Rayleigh's law) and ch. 12-13 (Steinmetz law and loss separation).
 """
 from __future__ import annotations
 
