@@ -219,6 +219,10 @@ VARIABLES: tuple[Variable, ...] = (
          "second stop density, hysteresis loss per cycle K_h B^n + K_h2 B^n2 (0: off)", 0.0),
     _par(_TD, "second_steinmetz_exponent", "1", "Time-domain magnetics: n2 of the second "
          "stop density", 3.5),
+    _par(_TD, "steinmetz_break", "T", "Time-domain magnetics: half-swing above which the "
+         "hysteresis loss per cycle grows as B^steinmetz_exponent_high (2: no break)", 2.0),
+    _par(_TD, "steinmetz_exponent_high", "1", "Time-domain magnetics: the hysteresis "
+         "exponent above steinmetz_break", 2.0),
     # -- calculated parameters: the mechanics the force drives, for a host that
     #    integrates the rod with its load (e.g. a pump chamber fed the output `force`)
     _calc("equivalent_mass", "kg", "Mass m of eq 27 in effect: Table 2's mass, the "

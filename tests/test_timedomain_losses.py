@@ -14,7 +14,7 @@ import pytest
 import gmt
 from gmt.timedomain import magnetics as td_magnetics
 from gmt.timedomain.dynamic import relaxation_lag, segment_losses, sine_losses
-from gmt.timedomain.hysteresis import BranchFunction, BranchSum
+from gmt.timedomain.hysteresis import BranchFunction, BranchSum, cycle_loss_per_coefficient
 from gmt.timedomain.magnetics import TimeDomainMagnetics
 from gmt.timedomain.parameters import TimeDomainParameters
 from smeha.coreloss.measurements import read_magnet
@@ -30,6 +30,11 @@ LAW = ExtendedLaw(hysteresis_coefficient=279.0, steinmetz_exponent=2.52,
 #: The same with a second, steeper hysteresis density (its size fitted to N49).
 TWO_SLOPE = ExtendedLaw(**{**LAW.as_dict(), "second_hysteresis_coefficient": 900.0,
                            "second_steinmetz_exponent": 3.4})
+#: A Rayleigh-like exponent 3 below a break at 28 mT and 2 above, both densities broken
+#: (the size fitted to N87 by smeha losses).
+BROKEN = ExtendedLaw(**{**TWO_SLOPE.as_dict(), "hysteresis_coefficient": 1500.0,
+                        "steinmetz_exponent": 2.98, "steinmetz_break": 0.028,
+                        "steinmetz_exponent_high": 2.0})
 
 
 def _magnetics(law):
@@ -69,9 +74,10 @@ def _stepped_cycle_loss(mag, durations, swings, start, steps_per_segment=400):
 
 
 @pytest.mark.parametrize("family, law", [("triangle", LAW), ("trapezoid", LAW),
-                                         ("triangle", TWO_SLOPE), ("trapezoid", TWO_SLOPE)],
+                                         ("triangle", TWO_SLOPE), ("trapezoid", TWO_SLOPE),
+                                         ("trapezoid", BROKEN)],
                          ids=["triangle", "trapezoid", "triangle-two-slope",
-                              "trapezoid-two-slope"])
+                              "trapezoid-two-slope", "trapezoid-broken-exponent"])
 def test_stepped_magnetics_match_closed_form_on_real_rows(family, law):
     # reference: the closed forms (eddy, excess, rate field, Maxwell element's periodic
     # state) and the operator's K_h B^n; tolerance 0.5 %: backward Euler takes H_irr
@@ -100,6 +106,46 @@ def test_second_density_adds_its_loss_per_cycle():
         assert both.value_and_slope(a) == pytest.approx((both.value(a), both.slope(a)))
     with pytest.raises(gmt.ParameterError, match="steinmetz_exponent"):
         BranchFunction(900.0, 4.5, 2e-3, 0.5)
+
+
+@pytest.mark.parametrize("m", [1.05, 1.6, 2.0, 3.5])
+def test_broken_density_loss_per_cycle(m):
+    # reference: W(a) = integral rho(r) 4 r (a - r) dr by adaptive quadrature (scipy's
+    # quad, sharing nothing with the closed forms) over the density c r^(n-3) below r_b and
+    # c r_b^(n-m) r^(m-3) above, c = K_h n (n-1)/4; the operator's stops below r_0 are
+    # its one-stop replacement with the same W for a >= r_0 (module docstring), so the
+    # quadrature runs from 0. rel 1e-9: quad's tolerance
+    from scipy.integrate import quad
+
+    k_h, n, knee = 1500.0, 2.98, 0.028
+    c = k_h * n * (n - 1.0) / 4.0
+
+    def rho(r):
+        return c * r ** (n - 3.0) if r <= knee else c * knee ** (n - m) * r ** (m - 3.0)
+
+    branch = BranchFunction(k_h, n, 2e-3, 0.5, knee, m)
+    for a in (0.01, 0.028, 0.05, 0.3):
+        exact = quad(lambda r: rho(r) * 4.0 * r * (a - r), 0.0, a,
+                     points=[knee] if knee < a else None, epsabs=0.0, epsrel=1e-12)[0]
+        assert branch.cycle_loss(a) == pytest.approx(exact, rel=1e-9)
+        assert k_h * cycle_loss_per_coefficient(a, n, knee, m) == pytest.approx(exact, rel=1e-9)
+        # G' is G's derivative across the break (central difference, step 1e-7 T)
+        x = 2.0 * a
+        numeric = (branch.value(x + 1e-7) - branch.value(x - 1e-7)) / 2e-7
+        assert branch.slope(x) == pytest.approx(numeric, rel=1e-6)
+        assert branch.value_and_slope(x) == pytest.approx((branch.value(x), branch.slope(x)))
+    # no break within r_max: the single density, unchanged
+    plain, high = BranchFunction(k_h, n, 2e-3, 0.5), BranchFunction(k_h, n, 2e-3, 0.5, 0.6, m)
+    assert plain.value_and_slope(0.3) == high.value_and_slope(0.3)
+
+
+def test_break_parameters_checked():
+    with pytest.raises(gmt.ParameterError, match="steinmetz_break"):
+        TimeDomainParameters(steinmetz_break=1e-3)
+    with pytest.raises(gmt.ParameterError, match="steinmetz_exponent_high"):
+        TimeDomainParameters(steinmetz_exponent_high=4.5)
+    with pytest.raises(gmt.ParameterError, match="steinmetz_break"):
+        BranchFunction(1.0, 2.5, 2e-3, 0.5, 1e-3)
 
 
 def test_relaxation_loss_never_negative():

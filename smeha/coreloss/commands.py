@@ -31,7 +31,8 @@ def add_losses(subparsers):
     p = subparsers.add_parser(
         "losses", help="the loss laws against measured core losses (MagNet or your CSV)",
         description="Calibrate the paper's loss separation, Steinmetz/iGSE and the extended "
-                    "loss law (rate field and relaxation, gmt.timedomain.dynamic) on the "
+                    "loss law (rate field, relaxation, a second hysteresis density and a break "
+                    "of the hysteresis exponent; gmt.timedomain) on the "
                     "sinusoidal rows plus one duty setting per waveform family, predict every "
                     "row from its flux waveform, and score them per waveform family "
                     "(docs/LOSSES.md). Without MATERIAL: all ten MagNet ferrites.")

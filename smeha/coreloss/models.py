@@ -7,7 +7,8 @@ Three laws, each a frozen dataclass with ``predict(data)`` -> loss per volume [W
   the hysteresis operator's loss per cycle K_h B_pk^n and Bertotti's eddy and
   excess fields integrated over the row's flux waveform.
 * :class:`ExtendedLaw`: the same field separation with the rate field and the
-  relaxation of :mod:`gmt.timedomain.dynamic` (parameters of
+  relaxation of :mod:`gmt.timedomain.dynamic`, a second hysteresis density and a
+  break of the hysteresis exponent (:mod:`gmt.timedomain.hysteresis`; parameters of
   :class:`gmt.TimeDomainParameters`).
 * :class:`SteinmetzLaw`: P = k f^alpha B^beta on sinusoids and, on any other
   waveform, the improved generalised Steinmetz equation (iGSE, Venkatachalam
@@ -31,6 +32,7 @@ import numpy as np
 from scipy.optimize import least_squares, nnls
 
 from gmt.timedomain.dynamic import segment_losses, sine_losses
+from gmt.timedomain.hysteresis import cycle_loss_per_coefficient
 from gmt.timedomain.separation import cos_power_mean
 
 from .measurements import CoreLossData
@@ -38,19 +40,24 @@ from .measurements import CoreLossData
 __all__ = ["SeparationLaw", "ExtendedLaw", "SteinmetzLaw", "fit_separation", "fit_steinmetz",
            "fit_extended", "EXPONENT_BOUNDS"]
 
-#: Search ranges of the exponents: n, q, beta, n2 (-) and log10 of tau (s).
+#: Search ranges of the exponents n, q, beta, n2, m (-), log10 of tau (s) and of r_b (T).
 EXPONENT_BOUNDS = {"steinmetz_exponent": (1.05, 3.0), "rate_exponent": (1.0, 4.0),
                    "swing_exponent": (1.0, 4.0), "log10_relaxation_time": (-8.0, -4.0),
-                   "second_steinmetz_exponent": (1.05, 4.0)}
+                   "second_steinmetz_exponent": (1.05, 4.0),
+                   "log10_steinmetz_break": (-1.7, 0.3),
+                   "steinmetz_exponent_high": (1.05, 4.0)}
 
 
-def _terms(data: CoreLossData, n, q=2.0, beta=2.0, tau=1e-6, extended=False, n2=3.5):
+def _terms(data: CoreLossData, n, q=2.0, beta=2.0, tau=1e-6, extended=False, n2=3.5,
+           knee=math.inf, m=2.0):
     """Loss per cycle per unit coefficient of each term, columns (rows, terms), [J/m^3].
 
-    Hysteresis B_pk^n (the operator's loss, eq 7, for r_0 <= B_pk <= r_max),
-    eddy, excess, and with ``extended`` the rate field, the relaxation
-    (:mod:`gmt.timedomain.dynamic`) and the second hysteresis density's B_pk^n2
-    (:class:`gmt.timedomain.hysteresis.BranchSum`), each with unit coefficient. The eddy and
+    Hysteresis B_pk^n (the operator's loss, eq 7, for r_0 <= B_pk <= r_max; above
+    the break ``knee`` its exponent turns to ``m``,
+    :func:`gmt.timedomain.hysteresis.cycle_loss_per_coefficient`), eddy, excess, and
+    with ``extended`` the rate field, the relaxation (:mod:`gmt.timedomain.dynamic`)
+    and the second hysteresis density's B_pk^n2 (same break;
+    :class:`gmt.timedomain.hysteresis.BranchSum`), each with unit coefficient. The eddy and
     excess columns are per unit K_e and K_ex of eqs 9 and 11 (k_e = K_e/(2 pi^2),
     k_ex = K_ex/C, :mod:`gmt.timedomain.separation`).
     """
@@ -59,7 +66,7 @@ def _terms(data: CoreLossData, n, q=2.0, beta=2.0, tau=1e-6, extended=False, n2=
     sine = data.family("sine")
     bm = data.flux_density
     k_e, k_ex = 1.0 / (2.0 * math.pi ** 2), 1.0 / EXCESS_CONSTANT
-    cols = [bm ** n]
+    cols = [cycle_loss_per_coefficient(bm, n, knee, m)]
     out = np.zeros((len(data), 4 if extended else 2))
     if sine.any():
         terms = sine_losses(data.frequency[sine], bm[sine], k_e, k_ex, 1.0 if extended else 0.0,
@@ -72,7 +79,7 @@ def _terms(data: CoreLossData, n, q=2.0, beta=2.0, tau=1e-6, extended=False, n2=
                                1.0 if extended else 0.0, tau)
         out[other] = np.column_stack(terms[:out.shape[1]])
     if extended:
-        out = np.column_stack([out, bm ** n2])
+        out = np.column_stack([out, cycle_loss_per_coefficient(bm, n2, knee, m)])
     return np.column_stack(cols + [out])
 
 
@@ -126,6 +133,8 @@ class ExtendedLaw:
     relaxation_time: float
     second_hysteresis_coefficient: float = 0.0
     second_steinmetz_exponent: float = 3.5
+    steinmetz_break: float = 2.0
+    steinmetz_exponent_high: float = 2.0
 
     def coefficients(self):
         return np.array([self.hysteresis_coefficient, self.eddy_coefficient,
@@ -135,7 +144,8 @@ class ExtendedLaw:
     def predict(self, data: CoreLossData) -> np.ndarray:
         """Loss per volume of every row, [W/m^3]."""
         cols = _terms(data, self.steinmetz_exponent, self.rate_exponent, self.swing_exponent,
-                      self.relaxation_time, True, self.second_steinmetz_exponent)
+                      self.relaxation_time, True, self.second_steinmetz_exponent,
+                      self.steinmetz_break, self.steinmetz_exponent_high)
         return data.frequency * (cols @ self.coefficients())
 
     def time_domain_parameters(self):
@@ -217,32 +227,33 @@ def fit_separation(data: CoreLossData) -> SeparationLaw:
 
 
 def fit_extended(data: CoreLossData, start: SeparationLaw | None = None) -> ExtendedLaw:
-    """The eleven parameters of :class:`ExtendedLaw` on ``data`` (the calibration rows).
+    """The thirteen parameters of :class:`ExtendedLaw` on ``data`` (the calibration rows).
 
-    The exponents n, q, beta, log10 tau and n2 are searched within
-    :data:`EXPONENT_BOUNDS` from a few starts (n from ``start``; q 2 and 3; tau
-    1 us; n2 3.5), the six coefficients solved nonnegative for each.
+    The exponents n, q, beta, log10 tau, n2, log10 r_b and m are searched within
+    :data:`EXPONENT_BOUNDS` from two starts (n from ``start``; q 2 and 3; tau
+    1 us; n2 3.5; r_b 50 mT; m 1.5), the six coefficients solved nonnegative for each.
     Each waveform family weighs as much as the sinusoids (:func:`_group_weights`).
     """
     w = _group_weights(data)
     names = ("steinmetz_exponent", "rate_exponent", "swing_exponent", "log10_relaxation_time",
-             "second_steinmetz_exponent")
+             "second_steinmetz_exponent", "log10_steinmetz_break", "steinmetz_exponent_high")
     lo = [EXPONENT_BOUNDS[k][0] for k in names]
     hi = [EXPONENT_BOUNDS[k][1] for k in names]
 
     def solve(x):
-        cols = _terms(data, x[0], x[1], x[2], 10.0 ** x[3], True, x[4])
+        cols = _terms(data, x[0], x[1], x[2], 10.0 ** x[3], True, x[4], 10.0 ** x[5], x[6])
         return _relative_nnls(cols, data.frequency, data.loss, w)
 
     n0 = start.steinmetz_exponent if start else 2.5
     best = None
     for q0 in (2.0, 3.0):
-        x0 = np.clip([n0, q0, 2.5, -6.0, 3.5], np.add(lo, 1e-6), np.subtract(hi, 1e-6))
+        x0 = np.clip([n0, q0, 2.5, -6.0, 3.5, -1.3, 1.5], np.add(lo, 1e-6), np.subtract(hi, 1e-6))
         sol = least_squares(lambda x: solve(x)[1], x0, bounds=(lo, hi), diff_step=1e-4,
                             max_nfev=200)
         if best is None or sol.cost < best.cost:
             best = sol
     coef = solve(best.x)[0]
-    n, q, beta, log_tau, n2 = (float(v) for v in best.x)
+    n, q, beta, log_tau, n2, log_knee, m = (float(v) for v in best.x)
     return ExtendedLaw(float(coef[0]), n, float(coef[1]), float(coef[2]), float(coef[3]), q,
-                       beta, float(coef[4]), 10.0 ** log_tau, float(coef[5]), n2)
+                       beta, float(coef[4]), 10.0 ** log_tau, float(coef[5]), n2,
+                       10.0 ** log_knee, m)

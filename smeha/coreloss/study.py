@@ -181,7 +181,8 @@ def format_results(results, holdouts=None) -> str:
                      f"{e.rate_exponent:.3f}, beta {e.swing_exponent:.3f}, k_r "
                      f"{e.relaxation_coefficient:.4g}, tau {e.relaxation_time:.3g} s, K_h2 "
                      f"{e.second_hysteresis_coefficient:.4g}, n2 "
-                     f"{e.second_steinmetz_exponent:.3f}")
+                     f"{e.second_steinmetz_exponent:.3f}, r_b {e.steinmetz_break:.3g} T, m "
+                     f"{e.steinmetz_exponent_high:.3f}")
     if holdouts:
         lines += ["", "held out (extension refitted without the scored rows): iGSE -> extended",
                   f"{'material':9s} {'by':9s} {'family':10s} {'rows':>6s}  {'iGSE':>13s}  "

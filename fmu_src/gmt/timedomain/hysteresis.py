@@ -18,15 +18,21 @@ is therefore rho(r) = c r^(n - 3) with c = K_h n (n - 1) / 4. Two limits make
 it a physical operator:
 
 * **Above r_max** (``steinmetz_upper``) there are no stops: the Steinmetz law
-  holds for every cycle of half-swing a <= r_max, above it the loss grows
-  linearly in a. r_max is the largest amplitude the law is asked to cover.
+  holds for every cycle of half-swing a <= r_max (and a <= r_b, below), above
+  it the loss grows linearly in a. r_max is the largest amplitude the law is asked to cover.
+* **Above r_b** (``steinmetz_break``, optional) the density turns to
+  c r_b^(n - m) r^(m - 3): the loss per cycle grows as a^n below r_b and its
+  exponent turns towards m = ``steinmetz_exponent_high`` above. A ferrite's
+  hysteresis loss rises as B^3 in its Rayleigh region (Rayleigh's law, [3]_
+  ch. 7) and more slowly once the domain walls leave it (Snelling, *Soft
+  Ferrites*, 1988, ch. 4). r_b >= r_max leaves one density.
 * **Below r_0** (``steinmetz_lower``) the density r^(n - 3), infinite at
   r -> 0 for n < 3, would make dH/dB infinite at every reversal (the loop's
   tips horizontal in the B-H plane, so M = B/mu_0 - H would run backwards
   just after a turn). The stops below r_0 are replaced by one stop at
   r_1 = r_0 (n - 1)/n of weight w = c r_0^(n - 2) n/(n - 1)^2, which has the
   same first and second moments over [0, r_0]; W(a) = K_h a^n then holds
-  exactly for r_0 <= a <= r_max, and below r_0 (cycles of a few mT, a
+  exactly for r_0 <= a <= min(r_b, r_max), and below r_0 (cycles of a few mT, a
   negligible share of the energy) the loss is that of the single stop.
 
 After a reversal at (B_k, H_k) the branch is H = H_k + s G(|B - B_k|), s the
@@ -46,16 +52,19 @@ References
    Springer, 1996, ch. 2 (play and stop operators, the Prandtl-Ishlinskii model).
 .. [2] I. D. Mayergoyz, *Mathematical Models of Hysteresis and Their
    Applications*, Elsevier, 2003, ch. 1-2 (Preisach model, wiping out).
-.. [3] G. Bertotti, *Hysteresis in Magnetism*, Academic Press, 1998, ch. 12-13
-   (Steinmetz law and loss separation).
+.. [3] G. Bertotti, *Hysteresis in Magnetism*, Academic Press, 1998, ch. 7
+   (Rayleigh's law) and ch. 12-13 (Steinmetz law and loss separation).
 """
 from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ..errors import ParameterError
 
-__all__ = ["BranchFunction", "BranchSum", "SteinmetzHysteresis", "MAX_EXPONENT"]
+__all__ = ["BranchFunction", "BranchSum", "SteinmetzHysteresis", "MAX_EXPONENT",
+           "cycle_loss_per_coefficient"]
 
 #: Largest exponent of a stop density r^(n - 3) the operator accepts, [-]: n > 3 is a
 #: density growing with r (still nonnegative); the paper's n itself stays in (1, 3]
@@ -70,6 +79,30 @@ def _power_integral(a, b, p):
     return (b ** (p + 1.0) - a ** (p + 1.0)) / (p + 1.0)
 
 
+def cycle_loss_per_coefficient(amplitude, n, knee=math.inf, high_exponent=2.0):
+    """Loss per cycle of the stop density per unit K_h for half-swings ``amplitude`` [T].
+
+    a^n up to the break r_b = ``knee`` [T]; above it (density c r_b^(n - m) r^(m - 3),
+    c = n (n - 1)/4, m = ``high_exponent`` in (1, 4]) integral rho 4 r (a - r) dr gives
+
+        n (n - 1) [a r_b^(n-1)/(n-1) - r_b^n/n + r_b^(n-m) (a (a^(m-1) - r_b^(m-1))/(m-1)
+                   - (a^m - r_b^m)/m)],
+
+    continuous with a^n and with its slope at r_b. Vectorised; r_0 < a <= r_max assumed
+    (module docstring), as in :meth:`BranchFunction.cycle_loss`.
+    """
+    a = np.atleast_1d(np.asarray(amplitude, dtype=float))
+    loss = a ** n
+    over = a > knee
+    if not np.any(over):
+        return loss if np.ndim(amplitude) else loss[0]
+    r, m, b = float(knee), float(high_exponent), a[over]
+    upper = b * (b ** (m - 1.0) - r ** (m - 1.0)) / (m - 1.0) - (b ** m - r ** m) / m
+    loss[over] = n * (n - 1.0) * (b * r ** (n - 1.0) / (n - 1.0) - r ** n / n
+                                  + r ** (n - m) * upper)
+    return loss if np.ndim(amplitude) else loss[0]
+
+
 class BranchFunction:
     """G(x) and G'(x) of the stop density (see the module docstring).
 
@@ -81,6 +114,9 @@ class BranchFunction:
         n of eq 7, [-], in (1, :data:`MAX_EXPONENT`].
     lower, upper : float
         r_0 and r_max, [T], 0 < r_0 < r_max.
+    knee, high_exponent : float
+        r_b, [T], > r_0, and m, [-], in (1, :data:`MAX_EXPONENT`]: the density's exponent
+        turns from n - 3 to m - 3 at r_b (module docstring); r_b >= r_max: one density.
 
     Examples
     --------
@@ -91,17 +127,23 @@ class BranchFunction:
     1.0
     """
 
-    def __init__(self, hysteresis_coefficient, steinmetz_exponent, lower, upper):
+    def __init__(self, hysteresis_coefficient, steinmetz_exponent, lower, upper,
+                 knee=math.inf, high_exponent=2.0):
         n = float(steinmetz_exponent)
-        if not 1.0 < n <= MAX_EXPONENT:
-            raise ParameterError(
-                f"steinmetz_exponent = {n:g} is outside the allowed range (1, {MAX_EXPONENT:g}] "
-                "of the time-domain hysteresis operator (its stop density K_h n (n-1) "
-                "r^(n-3)/4)")
+        for name, value in (("steinmetz_exponent", n),
+                            ("steinmetz_exponent_high", float(high_exponent))):
+            if not 1.0 < value <= MAX_EXPONENT:
+                raise ParameterError(
+                    f"{name} = {value:g} is outside the allowed range (1, {MAX_EXPONENT:g}] "
+                    "of the time-domain hysteresis operator (its stop density K_h n (n-1) "
+                    "r^(n-3)/4)")
         if not (0.0 < lower < upper and math.isfinite(upper)):
             raise ParameterError(
                 f"steinmetz_lower = {lower:g} T and steinmetz_upper = {upper:g} T must "
                 "satisfy 0 < steinmetz_lower < steinmetz_upper")
+        if not knee > lower:
+            raise ParameterError(
+                f"steinmetz_break = {knee:g} T must exceed steinmetz_lower = {lower:g} T")
         self.k_h = float(hysteresis_coefficient)
         self.n = n
         self.r0 = float(lower)
@@ -109,9 +151,30 @@ class BranchFunction:
         self.c = self.k_h * n * (n - 1.0) / 4.0
         self.r1 = self.r0 * (n - 1.0) / n
         self.w = self.c * self.r0 ** (n - 2.0) * n / (n - 1.0) ** 2
-        # the continuous part: its elastic slope below 2 r_0 and its value above 2 r_max
-        self._tail = self.c * _power_integral(self.r0, self.rmax, n - 3.0)
-        self._top = 2.0 * self.c * _power_integral(self.r0, self.rmax, n - 2.0)
+        # the continuous part, pieces (from, to, coefficient, power) of the density
+        self._pieces = [(self.r0, min(knee, self.rmax), self.c, n - 3.0)]
+        if knee < self.rmax:
+            m = float(high_exponent)
+            self._pieces.append((knee, self.rmax, self.c * knee ** (n - m), m - 3.0))
+        # its elastic slope below 2 r_0 and its value above 2 r_max
+        self._tail = sum(k * _power_integral(a, b, p) for a, b, k, p in self._pieces)
+        self._top = 2.0 * sum(k * _power_integral(a, b, p + 1.0) for a, b, k, p in self._pieces)
+
+    def _continuous(self, half):
+        """(G, G') of the continuous part for r_0 < ``half`` < r_max (two pieces)."""
+        g = gs = 0.0
+        x = 2.0 * half
+        for a, b, k, p in self._pieces:
+            if half >= b:
+                g += 2.0 * k * _power_integral(a, b, p + 1.0)
+            elif half <= a:
+                above = k * _power_integral(a, b, p)
+                g, gs = g + x * above, gs + above
+            else:
+                above = k * _power_integral(half, b, p)
+                g += 2.0 * k * _power_integral(a, half, p + 1.0) + x * above
+                gs += above
+        return g, gs
 
     def value(self, x: float) -> float:
         """G(x), [A/m], for a swing x >= 0 [T]."""
@@ -121,6 +184,8 @@ class BranchFunction:
             return g + x * self._tail
         if half >= self.rmax:
             return g + self._top
+        if len(self._pieces) > 1:
+            return g + self._continuous(half)[0]
         c, n = self.c, self.n
         return (g + 2.0 * c * _power_integral(self.r0, half, n - 2.0)
                 + x * c * _power_integral(half, self.rmax, n - 3.0))
@@ -133,6 +198,8 @@ class BranchFunction:
             return g + self._tail
         if half >= self.rmax:
             return g
+        if len(self._pieces) > 1:
+            return g + self._continuous(half)[1]
         return g + self.c * _power_integral(half, self.rmax, self.n - 3.0)
 
     def value_and_slope(self, x: float) -> tuple[float, float]:
@@ -144,6 +211,9 @@ class BranchFunction:
             return g + x * self._tail, gs + self._tail
         if half >= self.rmax:
             return g + self._top, gs
+        if len(self._pieces) > 1:
+            gc, gcs = self._continuous(half)
+            return g + gc, gs + gcs
         c, n, r0, rm = self.c, self.n, self.r0, self.rmax
         if abs(n - 2.0) < 1e-12:
             ln = math.log(rm / half)
@@ -161,15 +231,15 @@ class BranchFunction:
     def cycle_loss(self, amplitude: float) -> float:
         """Loss per cycle and volume of a cycle of half-swing a, integral rho 4 r (a - r) dr, [J/m^3].
 
-        Equal to K_h a^n (eq 7 per cycle) for r_0 <= a <= r_max.
+        Equal to K_h a^n (eq 7 per cycle) for r_0 <= a <= min(r_b, r_max).
         """
         a = float(amplitude)
         loss = 4.0 * self.w * self.r1 * max(a - self.r1, 0.0)
-        top = min(a, self.rmax)
-        if top > self.r0:
-            c, n = self.c, self.n
-            loss += 4.0 * c * (a * _power_integral(self.r0, top, n - 2.0)
-                               - _power_integral(self.r0, top, n - 1.0))
+        for lo, hi, k, p in self._pieces:
+            top = min(a, hi)
+            if top > lo:
+                loss += 4.0 * k * (a * _power_integral(lo, top, p + 1.0)
+                                   - _power_integral(lo, top, p + 2.0))
         return loss
 
 

@@ -98,12 +98,12 @@ class TimeDomainMagnetics:
         self.k_e = eddy_field_coefficient(p.eddy_coefficient)
         self.k_ex = excess_field_coefficient(p.excess_coefficient)
         self.nu = td.reversible_field_per_tesla
-        self.branch = BranchFunction(p.hysteresis_coefficient, p.steinmetz_exponent,
-                                     td.steinmetz_lower, td.steinmetz_upper)
+        limits = (td.steinmetz_lower, td.steinmetz_upper, td.steinmetz_break,
+                  td.steinmetz_exponent_high)
+        self.branch = BranchFunction(p.hysteresis_coefficient, p.steinmetz_exponent, *limits)
         if td.second_hysteresis_coefficient > 0.0:
             self.branch = BranchSum(self.branch, BranchFunction(
-                td.second_hysteresis_coefficient, td.second_steinmetz_exponent,
-                td.steinmetz_lower, td.steinmetz_upper))
+                td.second_hysteresis_coefficient, td.second_steinmetz_exponent, *limits))
         steepest = self.nu + self.branch.reversal_slope
         if not steepest < 1.0 / MU_0:
             raise ParameterError(

@@ -3,7 +3,8 @@
 The loss coefficients K_h, n, K_e, K_ex stay Table 2's
 (:class:`gmt.TransducerParameters`); the time-domain form needs three more
 numbers, the extended dynamic loss law (:mod:`gmt.timedomain.dynamic`)
-five and a second hysteresis density two, whose defaults switch them off:
+five, a second hysteresis density two and a break of the hysteresis exponent
+two, whose defaults switch them off:
 a frozen dataclass validated on construction.
 """
 from __future__ import annotations
@@ -55,6 +56,14 @@ class TimeDomainParameters:
     second_steinmetz_exponent : float
         n2, [-], in (1, 4]: with n2 > n the hysteresis exponent rises from n at
         small amplitudes to n2 at large ones.
+    steinmetz_break : float
+        r_b, [T], in (steinmetz_lower, 2]: above this half-swing the hysteresis loss per
+        cycle grows with the exponent ``steinmetz_exponent_high`` instead of n (the stop
+        densities turn from r^(n - 3) to r^(m - 3), :mod:`gmt.timedomain.hysteresis`).
+        Default 2 T: no break below the largest allowed ``steinmetz_upper``.
+    steinmetz_exponent_high : float
+        m, [-], in (1, 4]: the exponent above ``steinmetz_break`` (n's 3 in a ferrite's
+        Rayleigh region, about 2 above it).
     relaxation_coefficient : float
         k_r of the relaxation field H_r = k_r dB_pp^(beta - 2) x, [A/(m T) T^(2 - beta)],
         >= 0. Default 0: no relaxation.
@@ -72,6 +81,8 @@ class TimeDomainParameters:
     relaxation_time: float = 1e-6
     second_hysteresis_coefficient: float = 0.0
     second_steinmetz_exponent: float = 3.5
+    steinmetz_break: float = 2.0
+    steinmetz_exponent_high: float = 2.0
 
     def __post_init__(self):
         check_range("reversible_permeability", self.reversible_permeability, 1.0, 1e4,
@@ -92,6 +103,10 @@ class TimeDomainParameters:
         check_range("second_hysteresis_coefficient", self.second_hysteresis_coefficient, 0.0,
                     None, low_open=False)
         check_range("second_steinmetz_exponent", self.second_steinmetz_exponent, 1.0, 4.0,
+                    unit="-", high_open=False)
+        check_range("steinmetz_break", self.steinmetz_break, self.steinmetz_lower, 2.0,
+                    unit="T", high_open=False)
+        check_range("steinmetz_exponent_high", self.steinmetz_exponent_high, 1.0, 4.0,
                     unit="-", high_open=False)
 
     @property
