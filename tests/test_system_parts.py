@@ -155,8 +155,15 @@ def _doc_rows(start: str, end: str) -> dict:
 
     doc = (Path(__file__).resolve().parents[1] / "docs" / "FMU.md").read_text()
     part = doc[doc.index(start):doc.index(end, doc.index(start))]
-    return {line.split("|")[1].strip().strip("`"): line.split("|")[2].strip()
-            for line in part.splitlines() if line.startswith("| `")}
+    rows = {}
+    for line in part.splitlines():
+        if line.startswith("| `"):
+            name, causality = line.split("|")[1].strip().strip("`"), line.split("|")[2].strip()
+            # one row for the four valves' namesakes: `vN_area`, "V1-V4 (N = 1-4): ..."
+            names = ([f"v{n}_{name[3:]}" for n in range(1, 5)]
+                     if name.startswith("vN_") and "(N = 1-4)" in line else [name])
+            rows.update(dict.fromkeys(names, causality))
+    return rows
 
 
 @pytest.mark.parametrize("module,start,end", [
