@@ -71,7 +71,7 @@ from .linearfit import fit_linear, linear_member
 
 __all__ = ["BASE_LOWER", "BASE_UPPER", "HIGHER_FROM", "LEVEL_GAP", "MAX_EVALUATIONS",
            "UNEVALUATED", "Fit", "base_factor", "drive_levels", "fit_candidate",
-           "predictive_chi2", "score", "fit_and_score", "fit_all"]
+           "solver_method", "predictive_chi2", "score", "fit_and_score", "fit_all"]
 
 #: Most function evaluations of one start of a fit.
 MAX_EVALUATIONS = 300
@@ -238,6 +238,20 @@ class _Training:
         return self.ev.residuals_stacked(self.train, points, self.cand)
 
 
+def solver_method(cand: Candidate) -> str:
+    """The least-squares method of ``cand``'s fit: "dogbox" where a member's unknowns ask
+    for it (:attr:`gmt.extensions.FitSpec.method`), else "trf".
+
+    Both are scipy's bounded trust-region methods (Branch, Coleman & Li, SIAM J. Sci.
+    Comput. 21 (1999) 1-23; Voglis & Lagaris, WSEAS 2004). Where the chi^2 valley is long
+    and curved, trf's scaling by the distance to the bounds shrinks its steps along it: the
+    saturation law's exponents against M_b/M_s on labsim's Langevin law (seed 3 at 800
+    samples a period) took trf its 300 evaluations, still 1.4 of chi^2 short of the
+    optimum, and dogbox 43 to it (benchmarks/identify_diagnose_speed.py).
+    """
+    return "dogbox" if any(m.fit.method == "dogbox" for m in cand.members) else "trf"
+
+
 def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=None,
                   problem=None, max_evaluations=MAX_EVALUATIONS) -> tuple:
     """Least squares on the training features: (base, x, chi^2, residuals, cov).
@@ -250,7 +264,8 @@ def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=No
     residuals of ``cand``: an object with ``residuals(base, x)`` and ``stacked(points)``
     (one row per (base, x); the linear family's fit holds its weights in it,
     :mod:`smeha.diagnose.linearfit`). The Jacobian is scipy's forward differences
-    ('2-point'), its columns evaluated together (:mod:`smeha.diagnose.differences`).
+    ('2-point'), its columns evaluated together (:mod:`smeha.diagnose.differences`); the
+    method :func:`solver_method`'s.
     """
     nb = len(BASE_LOWER)
     factor = base_factor(base0)
@@ -276,7 +291,8 @@ def fit_candidate(ev: Evaluator, train: Batch, cand: Candidate, base0, starts=No
         z0 = np.minimum(np.maximum(z0, lo + pad), np.where(np.isfinite(hi), hi - pad, np.inf))
         try:
             sol = least_squares(fun, z0, jac=jac, bounds=(lo, hi), x_scale="jac",
-                                max_nfev=max_evaluations, xtol=1e-10, ftol=1e-10)
+                                method=solver_method(cand), max_nfev=max_evaluations,
+                                xtol=1e-10, ftol=1e-10)
         except UNEVALUATED:
             continue
         if not np.isfinite(sol.cost):

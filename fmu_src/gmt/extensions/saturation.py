@@ -215,7 +215,7 @@ class SaturationForm(MagnetizationStage, Extension):
                   ((0.3, 1.0, 2.0, 1.0),),
                   (1e-3, SLOPE_RANGE[0]) + (EXPONENT_RANGE[0],) * 2,
                   (0.97, SLOPE_RANGE[1]) + (EXPONENT_RANGE[1],) * 2,
-                  neutral=(1e-3, 1.0, 2.0, 1.0))
+                  neutral=(1e-3, 1.0, 2.0, 1.0), method="dogbox")
     finer = None
 
     @classmethod
@@ -245,10 +245,34 @@ class SaturationForm(MagnetizationStage, Extension):
                     values.get("knee_exponent", 2.0), values.get("tail_exponent", 1.0),
                     values.get("shoulder", 0.0), values.get("bias_shift", 0.0))
 
+    @classmethod
+    def stack_values(cls, values_list, runs):
+        """Each parameter per run (``runs`` a copy, copy after copy): the law acts per
+        sample, so each copy's rows are mapped through that copy's own law."""
+        return {name: np.repeat(np.array([v[name] for v in values_list], float), runs)
+                for name in values_list[0]}
+
     # periodic form
     @classmethod
     def steady_output(cls, values, steady, magnetization, theta, memo=None):
-        return cls.law(values, steady.params).magnetization(magnetization)
+        if np.ndim(values["saturation_magnetization_A_per_m"]) == 0:
+            return cls.law(values, steady.params).magnetization(magnetization)
+        # one law a run (stack_values): the rows of each law mapped together, each law
+        # checked once (memo: the same runs through the root's iterations)
+        groups = None if memo is None else memo.get("laws")
+        if groups is None:
+            names = tuple(values)
+            rows = np.column_stack([np.asarray(values[n], float) for n in names])
+            laws, inverse = np.unique(rows, axis=0, return_inverse=True)
+            groups = [(np.flatnonzero(inverse.ravel() == j),
+                       cls.law(dict(zip(names, map(float, row))), steady.params))
+                      for j, row in enumerate(laws)]
+            if memo is not None:
+                memo["laws"] = groups
+        out = np.empty(np.shape(magnetization))
+        for idx, law in groups:
+            out[idx] = law.magnetization(magnetization[idx])
+        return out
 
     # time-stepped form
     def __init__(self, values, params, point, upstream=None):
@@ -278,7 +302,7 @@ class RicherSaturationForm(SaturationForm):
                   tuple(s + (0.0, 0.0) for s in SaturationForm.fit.starts),
                   SaturationForm.fit.lower + (SHOULDER_RANGE[0], SHIFT_RANGE[0]),
                   SaturationForm.fit.upper + (SHOULDER_RANGE[1], SHIFT_RANGE[1]),
-                  neutral=SaturationForm.fit.neutral + (0.0, 0.0))
+                  neutral=SaturationForm.fit.neutral + (0.0, 0.0), method="dogbox")
     finer = None
 
     @classmethod
