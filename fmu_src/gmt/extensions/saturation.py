@@ -85,8 +85,8 @@ SHIFT_RANGE = (-1.0, 1.0)
 
 @functools.lru_cache(maxsize=256)
 def _inverse_table(knee: float, tail: float, shoulder: float):
-    """(u_max, s_max, S as a cubic Hermite interpolant of u >= 0, :func:`_hermite`) of
-    eq (1)."""
+    """(u_max, s_max, S as a cubic Hermite interpolant of u >= 0 up to u_max,
+    :func:`_hermite`) of eq (1)."""
     nodes = TABLE_SPAN * np.linspace(0.0, 1.0, TABLE_STEPS + 1) ** 3
     t = np.empty(2 * TABLE_STEPS + 1)
     t[::2], t[1::2] = nodes, 0.5 * (nodes[:-1] + nodes[1:])
@@ -102,19 +102,27 @@ def _inverse_table(knee: float, tail: float, shoulder: float):
     keep = np.isfinite(u)
     keep[1:] &= np.diff(u) > 0.0
     u, s, g = u[keep], s[keep], g[keep]
-    return float(u[-1]), float(s[-1]), functools.partial(_hermite, nodes=(u, s, g))
+    return float(u[-1]), float(s[-1]), functools.partial(_hermite, pieces=_pieces(u, s, g))
 
 
-def _hermite(x, nodes):
-    """The cubic Hermite interpolant through ``nodes`` = (x_i, y_i, dy/dx_i) at ``x``
-    (within [x_0, x_n]), [-]: numpy alone, as the FMU's run-time path imports no scipy."""
-    xs, ys, ds = nodes
-    i = np.clip(np.searchsorted(xs, x, side="right") - 1, 0, xs.size - 2)
-    h = xs[i + 1] - xs[i]
-    t = (x - xs[i]) / h
-    t2, t3 = t * t, t * t * t
-    return ((2.0 * t3 - 3.0 * t2 + 1.0) * ys[i] + (t3 - 2.0 * t2 + t) * h * ds[i]
-            + (3.0 * t2 - 2.0 * t3) * ys[i + 1] + (t3 - t2) * h * ds[i + 1])
+def _pieces(xs, ys, ds):
+    """(x_i, and the coefficients a_i, b_i, c_i, d_i of a_i + b_i t + c_i t^2 + d_i t^3,
+    t = x - x_i) of the cubic Hermite interpolant through (x_i, y_i, dy/dx_i) on each
+    interval: y_i, dy/dx_i, and the two that match y and dy/dx at x_(i+1)."""
+    h = np.diff(xs)
+    slope = np.diff(ys) / h
+    c = (3.0 * slope - 2.0 * ds[:-1] - ds[1:]) / h
+    d = (ds[:-1] + ds[1:] - 2.0 * slope) / (h * h)
+    return xs, ys[:-1], ds[:-1], c, d
+
+
+def _hermite(x, pieces):
+    """The cubic Hermite interpolant of :func:`_pieces` at ``x`` (within [x_0, x_n]), [-]:
+    numpy alone, as the FMU's run-time path imports no scipy."""
+    xs, a, b, c, d = pieces
+    i = np.minimum(np.searchsorted(xs, x, side="right") - 1, a.size - 1)
+    t = x - xs[i]
+    return a[i] + t * (b[i] + t * (c[i] + t * d[i]))
 
 
 def _susceptibility(s, knee, tail, shoulder=0.0):
