@@ -115,9 +115,9 @@ class FitSpec:
     allow (a delay of 0, a saturation magnetisation 1000 times M_b, a time constant
     of 0.1 us); a combination whose fit stopped short of the model it extends is
     refitted from there (:mod:`smeha.diagnose.decision`). None where there is none.
-    ``method``: the least-squares method of :func:`scipy.optimize.least_squares` that fits
-    them ("trf" or "dogbox"; a combination takes "dogbox" if a member asks for it,
-    :func:`smeha.diagnose.fit.fit_candidate`).
+    ``method``: how the fit starts ("trf": scipy's trf alone; "dogbox": a short dogbox
+    fit first, for a long curved chi^2 valley; a combination takes "dogbox" if a member
+    asks for it, :func:`smeha.diagnose.fit.solver_method`).
     """
 
     names: tuple = ()
