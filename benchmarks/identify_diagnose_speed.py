@@ -16,8 +16,9 @@ Timed, ``--repeats`` times each (default 3), the median printed:
 
 Each figure is wall time and the CPU time of the process and of its finished children
 (the diagnosis' worker processes, the CLI's subprocess): on a shared machine the CPU
-time is the figure that does not grow with the others' load. Figures only, no timed asserts. One process, BLAS pinned to one thread (the target's "on
-one core"); on a shared machine read the figures as upper bounds.
+time grows far less with the others' load than the wall time. Figures only, no timed
+asserts. BLAS pinned to one thread (the target's "on one core"); on a shared machine
+read the figures as upper bounds.
 
     python benchmarks/identify_diagnose_speed.py [--repeats 3] [--cli-repeats 1]
         [--effect eddy_current_diffusion] [--samples-per-cycle 800] [--cycles 6]
