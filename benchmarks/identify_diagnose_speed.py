@@ -14,8 +14,11 @@ Timed, ``--repeats`` times each (default 3), the median printed:
   start, imports, reading and checking the CSV, diagnosis, JSON), once unless
   ``--cli-repeats`` says otherwise.
 
-Figures only, no timed asserts. One process, BLAS pinned to one thread (the target's "on
-one core"); on a shared machine read the figures as upper bounds.
+Each figure is wall time and the CPU time of the process and of its finished children
+(the diagnosis' worker processes, the CLI's subprocess): on a shared machine the CPU
+time grows far less with the others' load than the wall time. Figures only, no timed
+asserts. BLAS pinned to one thread (the target's "on one core"); on a shared machine
+read the figures as upper bounds.
 
     python benchmarks/identify_diagnose_speed.py [--repeats 3] [--cli-repeats 1]
         [--effect eddy_current_diffusion] [--samples-per-cycle 800] [--cycles 6]
@@ -53,9 +56,18 @@ def dataset(effect, seed, cycles, samples_per_cycle, formulations=None):
     return ds, smeha_runs(ds)
 
 
-def _timed(fn):
-    t = time.perf_counter()
+def _cpu():
+    """CPU seconds of this process and of its finished children (a pool's workers)."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
+def _timed(fn, cpu=None):
+    """(wall seconds, result) of ``fn()``; ``cpu``, a list, gains its CPU seconds."""
+    t, c = time.perf_counter(), _cpu()
     out = fn()
+    if cpu is not None:
+        cpu.append(_cpu() - c)
     return time.perf_counter() - t, out
 
 
@@ -78,15 +90,18 @@ def main(argv=None):
     forms = dict(kv.split("=", 1) for kv in args.formulations.split(",") if kv) or None
     from smeha import diagnose, identify
 
+    load_start = os.getloadavg()[0]
     t_gen, (ds, runs) = _timed(lambda: dataset(args.effect, args.seed, args.cycles,
                                                args.samples_per_cycle, forms))
     walls = {"identify": [], "diagnose": [], "cli": []}
+    cpus = {"identify": [], "diagnose": [], "cli": []}
     result = None
     cli_cause = None
     for _ in range(args.repeats):
-        dt, _ = _timed(lambda: identify.identify(runs))
+        dt, _ = _timed(lambda: identify.identify(runs), cpus["identify"])
         walls["identify"].append(dt)
-        dt, result = _timed(lambda: diagnose.diagnose(runs, workers=args.workers))
+        dt, result = _timed(lambda: diagnose.diagnose(runs, workers=args.workers),
+                            cpus["diagnose"])
         walls["diagnose"].append(dt)
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "speed.csv"
@@ -98,19 +113,22 @@ def main(argv=None):
         for _ in range(args.cli_repeats):
             dt, proc = _timed(lambda: subprocess.run(
                 command + ["diagnose", str(path), "--json"]
-                + ([] if args.workers is None else ["--workers", str(args.workers)]), capture_output=True, text=True))
+                + ([] if args.workers is None else ["--workers", str(args.workers)]),
+                capture_output=True, text=True), cpus["cli"])
             if proc.returncode != 0:
                 raise SystemExit(f"smeha diagnose failed ({proc.returncode}):\n{proc.stderr}")
             walls["cli"].append(dt)
             cli_cause = json.loads(proc.stdout)["causes"]
     med = {k: statistics.median(v) for k, v in walls.items() if v}
+    med_cpu = {k: statistics.median(v) for k, v in cpus.items() if v}
     n_samples = sum(r.time.size for r in runs)
     out = {
         "dataset": {"generator": "labsim", "runs": len(runs), "cycles": args.cycles,
                     "samples_per_cycle": args.samples_per_cycle, "samples": n_samples,
                     "effect": args.effect, "seed": args.seed, "formulations": forms,
                     "generation_s": t_gen},
-        "wall_s": walls, "median_s": med,
+        "wall_s": walls, "median_s": med, "cpu_s": cpus, "median_cpu_s": med_cpu,
+        "load_average_1min": {"start": load_start, "end": os.getloadavg()[0]},
         "diagnosis": {"cause": result.cause, "causes": result.causes, "gain": result.gain,
                       "cli_causes": cli_cause},
         "python": sys.version.split()[0],
@@ -123,12 +141,14 @@ def main(argv=None):
           f"a period ({n_samples} samples), effect {d['effect']}, seed {d['seed']}, "
           f"formulations {forms or 'labsim default'} "
           f"(generated in {t_gen:.1f} s); diagnose's workers {args.workers or 'default'}, "
-          f"load average {os.getloadavg()[0]:.2f}")
+          f"load average (1 min) {load_start:.2f} at the start, {os.getloadavg()[0]:.2f} "
+          "at the end")
     for k, label in (("identify", "identify (function)"), ("diagnose", "diagnose (function)"),
                      ("cli", "smeha diagnose --json (subprocess)")):
         if k in med:
             runs_s = ", ".join(f"{v:.2f}" for v in walls[k])
-            print(f"  {label:<36} median {med[k]:7.2f} s   ({runs_s})")
+            print(f"  {label:<36} median {med[k]:7.2f} s wall, {med_cpu[k]:7.2f} s CPU "
+                  f"({runs_s})")
     print(f"  diagnosis: causes {result.causes or result.cause}, held-out gain "
           f"{result.gain:.3g}; CLI causes {cli_cause}")
     return 0

@@ -113,7 +113,8 @@ def labsim_batch():
 @pytest.mark.parametrize("label", ["paper", "rate_independent_hysteresis (preisach)",
                                    "rate_independent_hysteresis (play_operators)",
                                    "eddy_current_diffusion (cylinder_magnetization)",
-                                   "thermal_drift", "mechanical_resonance (two_dof)"])
+                                   "thermal_drift", "mechanical_resonance (two_dof)",
+                                   "magnetization_saturation"])
 def test_each_stacked_copy_is_its_own_evaluation(labsim_batch, label):
     # the points of a Jacobian: the base stepped in each unknown, the candidate's unknowns
     # stepped each (per run where the form takes them so: the hysteresis operators), and a

@@ -145,6 +145,13 @@ class Candidate:
             out.append((m, values))
         return tuple(out)
 
+    def unstacked_part(self, x, context) -> tuple:
+        """The unknowns in ``x`` of the members whose form takes its parameters for all
+        runs only (``stack_values`` of one copy is None): points that share them are
+        evaluated stacked (:meth:`Evaluator.residuals_stacked`)."""
+        return tuple(xm for m, xm in zip(self.members, self.split(x))
+                     if m.stack_values([m.from_fit(xm, context)], 1) is None)
+
     def parameters(self, x, context) -> dict:
         """The SI parameters: the member's, or by member variant name for a combination."""
         comps = self.components(x, context)
@@ -379,9 +386,14 @@ class Evaluator:
             components = (cand.components(xs[0], self.context) if len(set(xs)) == 1
                           else cand.stacked_components(xs, self.context, len(batch)))
         if components is None:
+            # the points grouped by the unknowns of the members that take no parameters
+            # per run (each group one stacked evaluation), else by their whole x
+            keys = [cand.unstacked_part(x, self.context) for x in xs]
+            if len(set(keys)) == 1:
+                keys = xs
             out = None
-            for x in dict.fromkeys(xs):
-                idx = [i for i, xi in enumerate(xs) if xi == x]
+            for key in dict.fromkeys(keys):
+                idx = [i for i, k in enumerate(keys) if k == key]
                 rows = self.residuals_stacked(batch, [points[i] for i in idx], cand)
                 if out is None:
                     out = np.empty((copies, rows.shape[1]))

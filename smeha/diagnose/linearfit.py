@@ -482,11 +482,13 @@ class _HeldWeights:
         self.prob, self.w = prob, None
         cand = prob.cand
         self.label = cand.label  # for fit_candidate's messages
+        self.members = cand.members  # and its method (fit.solver_method)
         self.lower = tuple(np.asarray(cand.lower, float)[prob.other_idx])
         self.upper = tuple(np.asarray(cand.upper, float)[prob.other_idx])
 
     def unknowns(self):
-        """What :func:`smeha.diagnose.fit.fit_candidate` reads of a candidate: the bounds."""
+        """What :func:`smeha.diagnose.fit.fit_candidate` reads of a candidate: the bounds
+        (and the members)."""
         return self
 
     def residuals(self, base, x_other):

@@ -115,6 +115,9 @@ class FitSpec:
     allow (a delay of 0, a saturation magnetisation 1000 times M_b, a time constant
     of 0.1 us); a combination whose fit stopped short of the model it extends is
     refitted from there (:mod:`smeha.diagnose.decision`). None where there is none.
+    ``method``: how the fit starts ("trf": scipy's trf alone; "dogbox": a short dogbox
+    fit first, for a long curved chi^2 valley; a combination takes "dogbox" if a member
+    asks for it, :func:`smeha.diagnose.fit.solver_method`).
     """
 
     names: tuple = ()
@@ -122,8 +125,11 @@ class FitSpec:
     lower: tuple = ()
     upper: tuple = ()
     neutral: tuple | None = None
+    method: str = "trf"
 
     def __post_init__(self):
+        if self.method not in ("trf", "dogbox"):
+            raise ParameterError(f"FitSpec method = {self.method!r}: one of 'trf', 'dogbox'")
         if self.neutral is None:
             return
         if len(self.neutral) != len(self.names) or not all(

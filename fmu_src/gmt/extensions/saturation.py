@@ -85,8 +85,8 @@ SHIFT_RANGE = (-1.0, 1.0)
 
 @functools.lru_cache(maxsize=256)
 def _inverse_table(knee: float, tail: float, shoulder: float):
-    """(u_max, s_max, S as a cubic Hermite interpolant of u >= 0, :func:`_hermite`) of
-    eq (1)."""
+    """(u_max, s_max, S as a cubic Hermite interpolant of u >= 0 up to u_max,
+    :func:`_hermite`) of eq (1)."""
     nodes = TABLE_SPAN * np.linspace(0.0, 1.0, TABLE_STEPS + 1) ** 3
     t = np.empty(2 * TABLE_STEPS + 1)
     t[::2], t[1::2] = nodes, 0.5 * (nodes[:-1] + nodes[1:])
@@ -102,19 +102,27 @@ def _inverse_table(knee: float, tail: float, shoulder: float):
     keep = np.isfinite(u)
     keep[1:] &= np.diff(u) > 0.0
     u, s, g = u[keep], s[keep], g[keep]
-    return float(u[-1]), float(s[-1]), functools.partial(_hermite, nodes=(u, s, g))
+    return float(u[-1]), float(s[-1]), functools.partial(_hermite, pieces=_pieces(u, s, g))
 
 
-def _hermite(x, nodes):
-    """The cubic Hermite interpolant through ``nodes`` = (x_i, y_i, dy/dx_i) at ``x``
-    (within [x_0, x_n]), [-]: numpy alone, as the FMU's run-time path imports no scipy."""
-    xs, ys, ds = nodes
-    i = np.clip(np.searchsorted(xs, x, side="right") - 1, 0, xs.size - 2)
-    h = xs[i + 1] - xs[i]
-    t = (x - xs[i]) / h
-    t2, t3 = t * t, t * t * t
-    return ((2.0 * t3 - 3.0 * t2 + 1.0) * ys[i] + (t3 - 2.0 * t2 + t) * h * ds[i]
-            + (3.0 * t2 - 2.0 * t3) * ys[i + 1] + (t3 - t2) * h * ds[i + 1])
+def _pieces(xs, ys, ds):
+    """(x_i, and the coefficients a_i, b_i, c_i, d_i of a_i + b_i t + c_i t^2 + d_i t^3,
+    t = x - x_i) of the cubic Hermite interpolant through (x_i, y_i, dy/dx_i) on each
+    interval: y_i, dy/dx_i, and the two that match y and dy/dx at x_(i+1)."""
+    h = np.diff(xs)
+    slope = np.diff(ys) / h
+    c = (3.0 * slope - 2.0 * ds[:-1] - ds[1:]) / h
+    d = (ds[:-1] + ds[1:] - 2.0 * slope) / (h * h)
+    return xs, ys[:-1], ds[:-1], c, d
+
+
+def _hermite(x, pieces):
+    """The cubic Hermite interpolant of :func:`_pieces` at ``x`` (within [x_0, x_n]), [-]:
+    numpy alone, as the FMU's run-time path imports no scipy."""
+    xs, a, b, c, d = pieces
+    i = np.minimum(np.searchsorted(xs, x, side="right") - 1, a.size - 1)
+    t = x - xs[i]
+    return a[i] + t * (b[i] + t * (c[i] + t * d[i]))
 
 
 def _susceptibility(s, knee, tail, shoulder=0.0):
@@ -215,7 +223,7 @@ class SaturationForm(MagnetizationStage, Extension):
                   ((0.3, 1.0, 2.0, 1.0),),
                   (1e-3, SLOPE_RANGE[0]) + (EXPONENT_RANGE[0],) * 2,
                   (0.97, SLOPE_RANGE[1]) + (EXPONENT_RANGE[1],) * 2,
-                  neutral=(1e-3, 1.0, 2.0, 1.0))
+                  neutral=(1e-3, 1.0, 2.0, 1.0), method="dogbox")
     finer = None
 
     @classmethod
@@ -245,10 +253,34 @@ class SaturationForm(MagnetizationStage, Extension):
                     values.get("knee_exponent", 2.0), values.get("tail_exponent", 1.0),
                     values.get("shoulder", 0.0), values.get("bias_shift", 0.0))
 
+    @classmethod
+    def stack_values(cls, values_list, runs):
+        """Each parameter per run (``runs`` a copy, copy after copy): the law acts per
+        sample, so each copy's rows are mapped through that copy's own law."""
+        return {name: np.repeat(np.array([v[name] for v in values_list], float), runs)
+                for name in values_list[0]}
+
     # periodic form
     @classmethod
     def steady_output(cls, values, steady, magnetization, theta, memo=None):
-        return cls.law(values, steady.params).magnetization(magnetization)
+        if np.ndim(values["saturation_magnetization_A_per_m"]) == 0:
+            return cls.law(values, steady.params).magnetization(magnetization)
+        # one law a run (stack_values): the rows of each law mapped together, each law
+        # checked once (memo: the same runs through the root's iterations)
+        groups = None if memo is None else memo.get("laws")
+        if groups is None:
+            names = tuple(values)
+            rows = np.column_stack([np.asarray(values[n], float) for n in names])
+            laws, inverse = np.unique(rows, axis=0, return_inverse=True)
+            groups = [(np.flatnonzero(inverse.ravel() == j),
+                       cls.law(dict(zip(names, map(float, row))), steady.params))
+                      for j, row in enumerate(laws)]
+            if memo is not None:
+                memo["laws"] = groups
+        out = np.empty(np.shape(magnetization))
+        for idx, law in groups:
+            out[idx] = law.magnetization(magnetization[idx])
+        return out
 
     # time-stepped form
     def __init__(self, values, params, point, upstream=None):
@@ -278,7 +310,7 @@ class RicherSaturationForm(SaturationForm):
                   tuple(s + (0.0, 0.0) for s in SaturationForm.fit.starts),
                   SaturationForm.fit.lower + (SHOULDER_RANGE[0], SHIFT_RANGE[0]),
                   SaturationForm.fit.upper + (SHOULDER_RANGE[1], SHIFT_RANGE[1]),
-                  neutral=SaturationForm.fit.neutral + (0.0, 0.0))
+                  neutral=SaturationForm.fit.neutral + (0.0, 0.0), method="dogbox")
     finer = None
 
     @classmethod
