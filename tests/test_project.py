@@ -187,3 +187,13 @@ def test_the_fmu_tooling_does_not_import_the_command_line():
                           cwd=ROOT, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == "[]"
+
+
+def test_the_docs_keep_to_their_size():
+    # the project's documentation budget: a README of at most 300 lines, each file under
+    # docs/ at most 500 and all of them at most 2,000 (history goes to CHANGELOG.md and
+    # benchmarks/, not to the docs)
+    sizes = {p.name: len(p.read_text().splitlines()) for p in (ROOT / "docs").glob("*.md")}
+    assert len((ROOT / "README.md").read_text().splitlines()) <= 300
+    assert max(sizes.values()) <= 500, sizes
+    assert sum(sizes.values()) <= 2000, sum(sizes.values())
