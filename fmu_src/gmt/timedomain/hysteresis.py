@@ -79,28 +79,65 @@ def _power_integral(a, b, p):
     return (b ** (p + 1.0) - a ** (p + 1.0)) / (p + 1.0)
 
 
-def cycle_loss_per_coefficient(amplitude, n, knee=math.inf, high_exponent=2.0):
+def _moments(t, n, knee, m):
+    """First and second moments integral_0^t rho(r) r^j dr, j = 1, 2, of the stop density
+    per unit K_h (rho = c r^(n - 3) up to r_b = ``knee``, c r_b^(n - m) r^(m - 3) above,
+    c = n (n - 1)/4; module docstring), for upper limits ``t`` [T] (an array)."""
+    c = 0.25 * n * (n - 1.0)
+    over = t > knee
+    if not np.any(over):
+        p = t ** (n - 1.0)
+        return c * p / (n - 1.0), c * p * t / n
+    r = float(knee)
+    u = t if np.all(over) else np.maximum(t, r)
+    scale, p = c * r ** (n - m), u ** (m - 1.0)
+    m1 = c * r ** (n - 1.0) / (n - 1.0) + scale * (p - r ** (m - 1.0)) / (m - 1.0)
+    m2 = c * r ** n / n + scale * (p * u - r ** m) / m
+    if u is not t:  # the limits below the break
+        under = ~over
+        v = t[under]
+        p = v ** (n - 1.0)
+        m1[under], m2[under] = c * p / (n - 1.0), c * p * v / n
+    return m1, m2
+
+
+def cycle_loss_per_coefficient(amplitude, n, knee=math.inf, high_exponent=2.0, lower=0.0,
+                               upper=math.inf):
     """Loss per cycle of the stop density per unit K_h for half-swings ``amplitude`` [T].
 
-    a^n up to the break r_b = ``knee`` [T]; above it (density c r_b^(n - m) r^(m - 3),
-    c = n (n - 1)/4, m = ``high_exponent`` in (1, 4]) integral rho 4 r (a - r) dr gives
+    W(a) = integral rho(r) 4 r (a - r) dr over the stops (module docstring), for the
+    density c r^(n - 3) up to the break r_b = ``knee`` [T] and c r_b^(n - m) r^(m - 3)
+    above it (m = ``high_exponent`` in (1, 4]), c = n (n - 1)/4 per unit K_h:
 
-        n (n - 1) [a r_b^(n-1)/(n-1) - r_b^n/n + r_b^(n-m) (a (a^(m-1) - r_b^(m-1))/(m-1)
-                   - (a^m - r_b^m)/m)],
+    * r_0 <= a <= min(r_b, r_max): the law itself, a^n (eq 7 per cycle);
+    * a > r_b: 4 (a M_1(a) - M_2(a)) with the moments M_j of the broken density,
 
-    continuous with a^n and with its slope at r_b. Vectorised; r_0 < a <= r_max assumed
-    (module docstring), as in :meth:`BranchFunction.cycle_loss`.
+          n (n - 1) [a r_b^(n-1)/(n-1) - r_b^n/n + r_b^(n-m) (a (a^(m-1) - r_b^(m-1))/(m-1)
+                     - (a^m - r_b^m)/m)],
+
+      continuous with a^n and with its slope at r_b;
+    * a > r_max = ``upper``: no stops above r_max, 4 (a M_1(r_max) - M_2(r_max)), linear
+      in a;
+    * a < r_0 = ``lower``: the one stop that replaces those below r_0 (radius
+      r_1 = r_0 (n - 1)/n, weight c r_0^(n - 2) n/(n - 1)^2), n r_0^(n - 1) max(a - r_1, 0).
+
+    ``lower`` = 0 and ``upper`` = inf (the defaults) are the limits r_0 -> 0, r_max ->
+    inf the loss study fits with; :meth:`BranchFunction.cycle_loss` gives the operator's
+    r_0 and r_max. Vectorised: an array in, an array out; a float in, a float out.
     """
     a = np.atleast_1d(np.asarray(amplitude, dtype=float))
     loss = a ** n
-    over = a > knee
-    if not np.any(over):
-        return loss if np.ndim(amplitude) else loss[0]
-    r, m, b = float(knee), float(high_exponent), a[over]
-    upper = b * (b ** (m - 1.0) - r ** (m - 1.0)) / (m - 1.0) - (b ** m - r ** m) / m
-    loss[over] = n * (n - 1.0) * (b * r ** (n - 1.0) / (n - 1.0) - r ** n / n
-                                  + r ** (n - m) * upper)
-    return loss if np.ndim(amplitude) else loss[0]
+    beyond = a > min(knee, upper)
+    if np.any(beyond):
+        b = a[beyond]
+        m1, m2 = _moments(b if upper == math.inf else np.minimum(b, upper), n, knee,
+                          float(high_exponent))
+        loss[beyond] = 4.0 * (b * m1 - m2)
+    below = a < lower
+    if np.any(below):
+        r1 = lower * (n - 1.0) / n
+        loss[below] = n * lower ** (n - 1.0) * np.maximum(a[below] - r1, 0.0)
+    return loss if np.ndim(amplitude) else float(loss[0])
 
 
 class BranchFunction:
@@ -146,6 +183,7 @@ class BranchFunction:
                 f"steinmetz_break = {knee:g} T must exceed steinmetz_lower = {lower:g} T")
         self.k_h = float(hysteresis_coefficient)
         self.n = n
+        self.knee, self.high_exponent = float(knee), float(high_exponent)
         self.r0 = float(lower)
         self.rmax = float(upper)
         self.c = self.k_h * n * (n - 1.0) / 4.0
@@ -231,16 +269,11 @@ class BranchFunction:
     def cycle_loss(self, amplitude: float) -> float:
         """Loss per cycle and volume of a cycle of half-swing a, integral rho 4 r (a - r) dr, [J/m^3].
 
-        Equal to K_h a^n (eq 7 per cycle) for r_0 <= a <= min(r_b, r_max).
+        Equal to K_h a^n (eq 7 per cycle) for r_0 <= a <= min(r_b, r_max)
+        (:func:`cycle_loss_per_coefficient` with this operator's r_0 and r_max).
         """
-        a = float(amplitude)
-        loss = 4.0 * self.w * self.r1 * max(a - self.r1, 0.0)
-        for lo, hi, k, p in self._pieces:
-            top = min(a, hi)
-            if top > lo:
-                loss += 4.0 * k * (a * _power_integral(lo, top, p + 1.0)
-                                   - _power_integral(lo, top, p + 2.0))
-        return loss
+        return self.k_h * cycle_loss_per_coefficient(amplitude, self.n, self.knee,
+                                                     self.high_exponent, self.r0, self.rmax)
 
 
 class BranchSum:
