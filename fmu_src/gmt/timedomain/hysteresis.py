@@ -79,6 +79,18 @@ def _power_integral(a, b, p):
     return (b ** (p + 1.0) - a ** (p + 1.0)) / (p + 1.0)
 
 
+def _branch_piece(lo, hi, k, p):
+    """What G and G' need of a piece k r^p of the stop density over [lo, hi] [T]: (lo, hi,
+    q = p + 1, whether q = 0, k, k/q, k/(q + 1), the antiderivatives' constants k hi^q/q
+    (k ln hi when q = 0) and k lo^(q+1)/(q+1), the whole piece's integral 2 k r^(p+1) dr
+    and integral k r^p dr)."""
+    q = p + 1.0
+    log = abs(q) < 1e-12
+    return (lo, hi, q, log, k, 0.0 if log else k / q, k / (q + 1.0),
+            k * (math.log(hi) if log else hi ** q / q), k * lo ** (q + 1.0) / (q + 1.0),
+            2.0 * k * _power_integral(lo, hi, p + 1.0), k * _power_integral(lo, hi, p))
+
+
 def _moments(t, n, knee, m):
     """First and second moments integral_0^t rho(r) r^j dr, j = 1, 2, of the stop density
     per unit K_h (rho = c r^(n - 3) up to r_b = ``knee``, c r_b^(n - m) r^(m - 3) above,
@@ -189,59 +201,39 @@ class BranchFunction:
         self.c = self.k_h * n * (n - 1.0) / 4.0
         self.r1 = self.r0 * (n - 1.0) / n
         self.w = self.c * self.r0 ** (n - 2.0) * n / (n - 1.0) ** 2
-        # the continuous part, pieces (from, to, coefficient, power) of the density
-        self._pieces = [(self.r0, min(knee, self.rmax), self.c, n - 3.0)]
+        # the continuous part: pieces k r^p of the density over [r_from, r_to]
+        pieces = [(self.r0, min(knee, self.rmax), self.c, n - 3.0)]
         if knee < self.rmax:
             m = float(high_exponent)
-            self._pieces.append((knee, self.rmax, self.c * knee ** (n - m), m - 3.0))
+            pieces.append((knee, self.rmax, self.c * knee ** (n - m), m - 3.0))
+        self._pieces = tuple(_branch_piece(*piece) for piece in pieces)
         # its elastic slope below 2 r_0 and its value above 2 r_max
-        self._tail = sum(k * _power_integral(a, b, p) for a, b, k, p in self._pieces)
-        self._top = 2.0 * sum(k * _power_integral(a, b, p + 1.0) for a, b, k, p in self._pieces)
+        self._tail = sum(piece[-1] for piece in self._pieces)
+        self._top = sum(piece[-2] for piece in self._pieces)
 
     def _continuous(self, half):
-        """(G, G') of the continuous part for r_0 < ``half`` < r_max (two pieces)."""
+        """(G, G') of the continuous part for r_0 < ``half`` < r_max, x = 2 half: over each
+        piece k r^p of the density, G = integral 2 r rho dr below ``half`` + x integral
+        rho dr above it and G' the second integral (module docstring); one power a piece."""
         g = gs = 0.0
         x = 2.0 * half
-        for a, b, k, p in self._pieces:
-            if half >= b:
-                g += 2.0 * k * _power_integral(a, b, p + 1.0)
-            elif half <= a:
-                above = k * _power_integral(a, b, p)
-                g, gs = g + x * above, gs + above
+        for lo, hi, q, log, k, k_q, k_q1, upper, lower, whole_g, whole_gs in self._pieces:
+            if half >= hi:
+                g += whole_g
+            elif half <= lo:
+                g, gs = g + x * whole_gs, gs + whole_gs
             else:
-                above = k * _power_integral(half, b, p)
-                g += 2.0 * k * _power_integral(a, half, p + 1.0) + x * above
+                if log:  # p = -1: k integral dr/r above half
+                    power, above = 1.0, upper - k * math.log(half)
+                else:
+                    power = half ** q
+                    above = upper - k_q * power
+                g += 2.0 * (k_q1 * power * half - lower) + x * above
                 gs += above
         return g, gs
 
-    def value(self, x: float) -> float:
-        """G(x), [A/m], for a swing x >= 0 [T]."""
-        g = self.w * (x if x < 2.0 * self.r1 else 2.0 * self.r1)
-        half = 0.5 * x
-        if half <= self.r0:
-            return g + x * self._tail
-        if half >= self.rmax:
-            return g + self._top
-        if len(self._pieces) > 1:
-            return g + self._continuous(half)[0]
-        c, n = self.c, self.n
-        return (g + 2.0 * c * _power_integral(self.r0, half, n - 2.0)
-                + x * c * _power_integral(half, self.rmax, n - 3.0))
-
-    def slope(self, x: float) -> float:
-        """G'(x) = dH/dB along a branch a swing x >= 0 [T] from its reversal, [A/(m T)]."""
-        g = self.w if x < 2.0 * self.r1 else 0.0
-        half = 0.5 * x
-        if half <= self.r0:
-            return g + self._tail
-        if half >= self.rmax:
-            return g
-        if len(self._pieces) > 1:
-            return g + self._continuous(half)[1]
-        return g + self.c * _power_integral(half, self.rmax, self.n - 3.0)
-
     def value_and_slope(self, x: float) -> tuple[float, float]:
-        """(G(x), G'(x)) with one power evaluation (the solvers' inner loop)."""
+        """(G(x) [A/m], G'(x) [A/(m T)]) for a swing x >= 0 [T] (the solvers' inner loop)."""
         w = self.w
         g, gs = (w * x, w) if x < 2.0 * self.r1 else (2.0 * w * self.r1, 0.0)
         half = 0.5 * x
@@ -249,17 +241,16 @@ class BranchFunction:
             return g + x * self._tail, gs + self._tail
         if half >= self.rmax:
             return g + self._top, gs
-        if len(self._pieces) > 1:
-            gc, gcs = self._continuous(half)
-            return g + gc, gs + gcs
-        c, n, r0, rm = self.c, self.n, self.r0, self.rmax
-        if abs(n - 2.0) < 1e-12:
-            ln = math.log(rm / half)
-            return (g + 2.0 * c * (half - r0) + x * c * ln, gs + c * ln)
-        p = half ** (n - 2.0)  # half^(n-1) = p * half
-        below = (p * half - r0 ** (n - 1.0)) / (n - 1.0)
-        above = (rm ** (n - 2.0) - p) / (n - 2.0)
-        return g + 2.0 * c * below + x * c * above, gs + c * above
+        gc, gcs = self._continuous(half)
+        return g + gc, gs + gcs
+
+    def value(self, x: float) -> float:
+        """G(x), [A/m], for a swing x >= 0 [T]."""
+        return self.value_and_slope(x)[0]
+
+    def slope(self, x: float) -> float:
+        """G'(x) = dH/dB along a branch a swing x >= 0 [T] from its reversal, [A/(m T)]."""
+        return self.value_and_slope(x)[1]
 
     @property
     def reversal_slope(self) -> float:
@@ -267,7 +258,7 @@ class BranchFunction:
         return self.w + self._tail
 
     def cycle_loss(self, amplitude: float) -> float:
-        """Loss per cycle and volume of a cycle of half-swing a, integral rho 4 r (a - r) dr, [J/m^3].
+        """Loss per cycle and volume of half-swing a, integral rho 4 r (a - r) dr, [J/m^3].
 
         Equal to K_h a^n (eq 7 per cycle) for r_0 <= a <= min(r_b, r_max)
         (:func:`cycle_loss_per_coefficient` with this operator's r_0 and r_max).
