@@ -162,7 +162,7 @@ def test_libcosim_runs_the_plant_with_the_transducer_fmus_mechanics(systems):
 # -- the container's start ------------------------------------------------------------------------
 #: Stop time of the container's start-up run, [s]: two periods at 100 Hz, long enough for the
 #: transducer's design-point monitor to judge the current (a five-sample oscillation at the
-#: start was flagged within 10 ms).
+#: start is flagged within 10 ms).
 START_RUN = 0.02
 
 
@@ -187,8 +187,8 @@ def test_the_container_starts_the_transducer_at_the_drives_initial_output(system
     # fmpy's may differ from k h in the last bits); 1e-12 bounds that, while u = 0 at the
     # first step gives currents that differ at the first digit
     assert np.max(np.abs(current - reference)) <= 1e-12 * np.max(np.abs(reference))
-    # the compensator's first samples (one every compensator_period) move one way: with
-    # u = 0 at the first step they alternated (-0.68, +0.68, -0.27, +1.00, -0.11 A)
+    # the compensator's first samples (one every compensator_period) move one way; u = 0
+    # at the first step makes them alternate (-0.68, +0.68, -0.27, +1.00, -0.11 A)
     every = round(float(p["transducer.compensator_period"]) / h)
     samples = current[:5 * every:every]
     assert np.all(np.diff(samples) < 0.0) or np.all(np.diff(samples) > 0.0), samples
