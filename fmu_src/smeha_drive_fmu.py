@@ -43,7 +43,8 @@ class SmehaDrive(SlaveBase, Fmi2Slave):
         self._register({"Real": Real},
                        {"parameter": Fmi2Causality.parameter, "output": Fmi2Causality.output},
                        {"fixed": Fmi2Variability.fixed,
-                        "continuous": Fmi2Variability.continuous})
+                        "continuous": Fmi2Variability.continuous},
+                       getters={"u": self._output_u})
 
     def _built(self) -> bool:
         return self._signal is not None
@@ -51,26 +52,49 @@ class SmehaDrive(SlaveBase, Fmi2Slave):
     def setup_experiment(self, start_time, stop_time=None, tolerance=None):
         self._start_time = float(start_time)
 
-    def _at(self, time: float) -> float:
-        offset, amplitude, omega = self._signal
+    @staticmethod
+    def _at(signal, time: float) -> float:
+        """u at ``time`` [s] of ``signal`` = (offset [V], amplitude [V], omega [rad/s])."""
+        offset, amplitude, omega = signal
         return offset + amplitude * math.cos(omega * time)
 
-    def exit_initialization_mode(self):
+    def _signal_from_parameters(self):
+        """(offset, amplitude, omega) from the parameters as they are now, and the problem
+        that makes them no signal (None when they make one)."""
         values = [float(getattr(self, name)) for name in table.PARAMETERS]
-        problem = table.signal_problem(*values)
+        offset, amplitude, frequency = values
+        return (offset, amplitude, 2.0 * math.pi * frequency), table.signal_problem(*values)
+
+    def _output_u(self) -> float:
+        """u as a host reads it. Built, the value at the end of the last step (at the start
+        time before the first). In Initialization Mode, u at the start time from the
+        parameters set so far: u is an initial unknown there (an output of initial
+        "calculated", FMI 2.0.4 sections 2.2.8 and 4.2.4), and a master that connects its
+        units in that mode (fmpy's container FMU) hands on what it reads, so the transducer's
+        first step sees u(t0), not 0."""
+        if self._signal is None:
+            try:
+                signal, problem = self._signal_from_parameters()
+                if problem is None:
+                    return self._at(signal, self._start_time)
+            except Exception:  # never raise into pythonfmu; the step reports bad parameters
+                pass
+        return self.u
+
+    def exit_initialization_mode(self):
+        signal, problem = self._signal_from_parameters()
         if problem:
             self._problem = f"initialisation failed: {problem}"
             self._report(self._problem)
             return
-        offset, amplitude, frequency = values
-        self._signal = (offset, amplitude, 2.0 * math.pi * frequency)
+        self._signal = signal
         self._problem = None
-        self.u = self._at(self._start_time)
+        self.u = self._at(signal, self._start_time)
 
     def do_step(self, current_time, step_size):
         if self._signal is None:
             return self._refuse_step(current_time)
-        self.u = self._at(current_time + step_size)
+        self.u = self._at(self._signal, current_time + step_size)
         return True
 
     def _fail_step(self, message: str):

@@ -44,9 +44,13 @@ class SlaveBase:
         if self.IMPORT_PROBLEM:
             self._report(self.IMPORT_PROBLEM)
 
-    def _register(self, types: dict, causality: dict, variability: dict, units: bool = False):
+    def _register(self, types: dict, causality: dict, variability: dict, units: bool = False,
+                  getters: dict | None = None):
         """Register every variable of :attr:`TABLE` with pythonfmu(3)'s classes and enums
-        (``types``: FMI type name -> class; ``units``: pass each Real's unit, FMI 3.0)."""
+        (``types``: FMI type name -> class; ``units``: pass each Real's unit, FMI 3.0;
+        ``getters``: variable name -> the function that reads it, for an output computed
+        on read rather than held in the attribute of its name)."""
+        getters = getters or {}
         for var in self.TABLE.VARIABLES:
             options = {}
             if units and var.kind == "Real":
@@ -55,6 +59,8 @@ class SlaveBase:
                 options["setter"] = self._parameter_setter(var.name)
             elif var.causality == "calculatedParameter":
                 options["getter"] = self._calculated_getter(var.name)
+            if var.name in getters:
+                options["getter"] = getters[var.name]
             self.register_variable(types[var.kind](
                 var.name, causality=causality[var.causality],
                 variability=variability[var.variability],

@@ -14,6 +14,10 @@ Commands
 ``libcosim OUT OSP F``    OspSystemStructure.xml in libcosim; its flow check, and the
                           mechanics each unit runs with
 ``container OUT FMU F``   the container FMU in fmpy's simulate_fmu; its flow check
+``container_log OUT FMU STOP``
+                          the container FMU in fmpy's simulate_fmu with its units' logging
+                          on, to STOP: the transducer's current after each step, the
+                          messages at Warning or above, the parameters (start values)
 ``free OUT F MODE CYCLES``  dy of the free transducer between the valve switches (eqs
                           40/41; smeha.studies.flow.free_dy: no hydraulics)
 ``plant_bad OUT FMU NAME=VALUE...``
@@ -104,6 +108,26 @@ def container(out_path, fmu_path, frequency):
     _write(out_path, _check(chk, run.wall, len(run.record) - 1))
 
 
+def container_log(out_path, fmu_path, stop_time):
+    from fmpy import read_model_description, simulate_fmu
+
+    messages = []
+
+    def logger(environment, instance, status, category, message):
+        if status >= 1:  # fmi2Warning and above
+            messages.append([int(status), message.decode()])
+
+    md = read_model_description(fmu_path)
+    step = float(md.defaultExperiment.stepSize)
+    result = simulate_fmu(fmu_path, stop_time=float(stop_time), step_size=step,
+                          output_interval=step, output=["transducer.current"],
+                          debug_logging=True, logger=logger)
+    _write(out_path, {"step": step, "time": result["time"].tolist(),
+                      "current": result["transducer.current"].tolist(), "messages": messages,
+                      "parameters": {v.name: v.start for v in md.modelVariables
+                                     if v.causality == "parameter"}})
+
+
 def libcosim(out_path, osp_path, frequency):
     from smeha.fmu import systemrun
 
@@ -175,7 +199,7 @@ def _write(path, obj):
 
 
 COMMANDS = {"write": write, "harness": harness, "fmpy": fmpy, "libcosim": libcosim,
-            "container": container, "plant_bad": plant_bad,
+            "container": container, "container_log": container_log, "plant_bad": plant_bad,
             "free": free, "plant_drive": plant_drive}
 
 if __name__ == "__main__":

@@ -38,13 +38,14 @@ import sys
 import zipfile
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 try:
-    from fmu_fixtures import HOST_ENV, child_env
+    from fmu_fixtures import HOST_ENV, child_env, run_runner
     from test_fmu_hosts import Unzipped, c_host  # noqa: F401  (fixture)
 except ImportError:  # tests/ imported as a package
-    from tests.fmu_fixtures import HOST_ENV, child_env
+    from tests.fmu_fixtures import HOST_ENV, child_env, run_runner
     from tests.test_fmu_hosts import Unzipped, c_host  # noqa: F401
 
 pytestmark = pytest.mark.integration
@@ -156,6 +157,46 @@ def test_libcosim_runs_the_plant_with_the_transducer_fmus_mechanics(systems):
     # paper, Table 2: m = 0.02 kg, c = 2945 N s/m, K = 1.963e7 N/m
     assert (plant["equivalent_mass"], plant["equivalent_damping"],
             plant["equivalent_stiffness"]) == (0.02, 2945.0, 1.963e7)
+
+
+# -- the container's start ------------------------------------------------------------------------
+#: Stop time of the container's start-up run, [s]: two periods at 100 Hz, long enough for the
+#: transducer's design-point monitor to judge the current (a five-sample oscillation at the
+#: start is flagged within 10 ms).
+START_RUN = 0.02
+
+
+def test_the_container_starts_the_transducer_at_the_drives_initial_output(system_dist,
+                                                                          tmp_path):
+    # reference: the transducer FMU alone in fmpy (tests/fmu_runner.py "drive"), driven by
+    # the drive's law u = offset + amplitude cos(2 pi f t) at t = k h from the first step,
+    # with the container's parameters; the container must give its transducer the same u:
+    # the drive's u(t0) at the first step (its output in Initialization Mode), not 0
+    dist = system_dist[0]
+    got = _run("container_log", tmp_path / "container", dist / "SmehaEha.fmu", START_RUN)
+    p, h = got["parameters"], got["step"]
+    steps = round(START_RUN / h)
+    settings = [f"{name.split('.', 1)[1]}={value}" for name, value in p.items()
+                if name.startswith("transducer.")]
+    alone = run_runner("drive", tmp_path / "alone", dist / "SmehaGmt.fmu", steps, repr(h),
+                       p["drive.frequency"], p["drive.amplitude"], p["drive.offset"], *settings)
+    assert alone["statuses"] == [0]
+    current = np.array(got["current"][1:steps + 1])  # the row at t = 0 is before the first step
+    reference = np.array(alone["rows"])[:, 1]
+    # the same arithmetic on the same u: measured 5e-15 relative (the container's clock and
+    # fmpy's may differ from k h in the last bits); 1e-12 bounds that, while u = 0 at the
+    # first step gives currents that differ at the first digit
+    assert np.max(np.abs(current - reference)) <= 1e-12 * np.max(np.abs(reference))
+    # the compensator's first samples (one every compensator_period) move one way; u = 0
+    # at the first step makes them alternate (-0.68, +0.68, -0.27, +1.00, -0.11 A)
+    every = round(float(p["transducer.compensator_period"]) / h)
+    samples = current[:5 * every:every]
+    assert np.all(np.diff(samples) < 0.0) or np.all(np.diff(samples) > 0.0), samples
+    # its warnings are the transducer's own, as the FMU alone gives them (at 100 Hz
+    # compensated, the compensator's current amplitude off the model's I_m)
+    warned = [m for _, m in got["messages"]]
+    assert not any("oscillates" in m for m in warned), warned
+    assert warned == [m for status, _, m in alone["logs"] if status >= 1], (warned, alone)
 
 
 # -- the ideal limit of eqs 40/41: an independent reference -------------------------------------

@@ -209,3 +209,60 @@ def test_solver_raises_when_it_does_not_converge(monkeypatch, call):
         else:
             mag.flux_density_for(2e4)
     assert issubclass(gmt.ConvergenceError, gmt.RunError)
+
+
+def _loop_area(branch, a, steps=2000):
+    """integral H_irr dB around the operator's cycle between -a and a, [J/m^3]: the second of
+    two cycles, B stepped uniformly, H_irr by the trapezoidal rule."""
+    from gmt.timedomain.hysteresis import SteinmetzHysteresis
+
+    op = SteinmetzHysteresis(branch)
+    op.move(-a)
+    up = np.linspace(-a, a, steps + 1)
+    area = 0.0
+    for cycle in range(2):
+        for path in (up, up[::-1]):
+            h = np.array([op.move(b) for b in path])  # the first point is the present one
+            if cycle == 1:
+                area += float(np.sum(0.5 * (h[1:] + h[:-1]) * np.diff(path)))
+    return area
+
+
+def test_the_loss_study_and_the_operator_share_one_cycle_loss_law():
+    # reference: W(a) = integral rho(r) 4 r (a - r) dr by adaptive quadrature (scipy's quad,
+    # sharing nothing with the closed forms) over the density c r^(n-3) below r_b and
+    # c r_b^(n-m) r^(m-3) above, c = K_h n (n-1)/4 (module docstring): from 0 to a for the
+    # loss study (r_0 -> 0, r_max -> inf); for the operator from r_0 to min(a, r_max) plus
+    # its one stop at r_1 = r_0 (n-1)/n of weight w = c r_0^(n-2) n/(n-1)^2, whose loop is
+    # the parallelogram 4 w r_1 (a - r_1). rel 1e-9: quad's tolerance. The grid holds
+    # half-swings below r_1 and r_0, the break r_b and either side of it, and r_max and above
+    from scipy.integrate import quad
+
+    k_h, n, m, r0, knee, rmax = 1500.0, 2.98, 2.0, 2e-3, 0.028, 0.5
+    c = k_h * n * (n - 1.0) / 4.0
+    r1, w = r0 * (n - 1.0) / n, c * r0 ** (n - 2.0) * n / (n - 1.0) ** 2
+
+    def rho(r):
+        return c * r ** (n - 3.0) if r <= knee else c * knee ** (n - m) * r ** (m - 3.0)
+
+    def w_quad(a, lo, hi):
+        top = min(a, hi)
+        if top <= lo:
+            return 0.0
+        return quad(lambda r: rho(r) * 4.0 * r * (a - r), lo, top,
+                    points=[knee] if lo < knee < top else None, epsabs=0.0, epsrel=1e-12)[0]
+
+    branch = BranchFunction(k_h, n, r0, rmax, knee, m)
+    grid = np.array([0.5 * r1, 0.9 * r0, r0, 0.01, knee, 0.03, 0.3, rmax, 0.8])
+    study = k_h * cycle_loss_per_coefficient(grid, n, knee, m)
+    assert isinstance(cycle_loss_per_coefficient(0.01, n, knee, m), float)
+    for a, w_study in zip(grid, study):
+        operator = w_quad(a, r0, rmax) + 4.0 * w * r1 * max(a - r1, 0.0)
+        assert branch.cycle_loss(a) == pytest.approx(operator, rel=1e-9), a
+        assert w_study == pytest.approx(w_quad(a, 0.0, math.inf), rel=1e-9), a
+        if r0 <= a <= rmax:  # where the two uses are one law
+            assert branch.cycle_loss(a) == pytest.approx(w_study, rel=1e-12), a
+    # below r_0 and above r_max the operator's own loop (its G, not the closed form) is the
+    # operator's loss; rel 1e-5: the trapezoidal rule over 2000 steps of a smooth branch
+    for a in (0.5 * r0, 0.9 * r0, 0.3, 0.8):
+        assert _loop_area(branch, a) == pytest.approx(branch.cycle_loss(a), rel=1e-5), a

@@ -165,16 +165,29 @@ def test_congruent_minor_loops_carry_the_steinmetz_loss():
     assert op.move(0.05) == pytest.approx(major_at, rel=1e-12)
 
 
-def test_branch_function_is_the_integral_of_its_stops():
-    # G(x) = int rho(r) min(x, 2r) dr with rho = K_h n (n-1) r^(n-3) / 4 on [r_0, r_max]
-    # and the single stop below r_0: scipy's quadrature of that definition.
-    g = hysteresis.BranchFunction(K_H, N_EXP, 2e-3, 0.2)
-    c = K_H * N_EXP * (N_EXP - 1) / 4
-    for x in (1e-4, 3e-3, 0.02, 0.1, 0.3, 0.5):
-        cont, _ = integrate.quad(lambda r: c * r ** (N_EXP - 3) * min(x, 2 * r), 2e-3, 0.2,
-                                 points=[x / 2] if 2e-3 < x / 2 < 0.2 else None, limit=200)
-        stop = g.w * min(x, 2 * g.r1)
-        assert g.value(x) == pytest.approx(cont + stop, rel=1e-9), x
+@pytest.mark.parametrize("n, knee, m", [(N_EXP, math.inf, 2.0), (2.0, math.inf, 2.0),
+                                         (2.98, 0.028, 2.0), (2.5, 0.05, 3.5)],
+                         ids=["paper", "n2-log", "broken-m2-log", "broken-m3.5"])
+def test_branch_function_is_the_integral_of_its_stops(n, knee, m):
+    # G(x) = int rho(r) min(x, 2r) dr and G'(x) = int_{r > x/2} rho(r) dr with
+    # rho = K_h n (n-1) r^(n-3) / 4 on [r_0, r_max] (turned to c r_b^(n-m) r^(m-3) above the
+    # break r_b) and the single stop below r_0: scipy's quadrature of that definition;
+    # n = 2 or m = 2 makes a piece r^-1, whose integral is a logarithm
+    g = hysteresis.BranchFunction(K_H, n, 2e-3, 0.2, knee, m)
+    c = K_H * n * (n - 1) / 4
+
+    def rho(r):
+        return c * r ** (n - 3) if r <= knee else c * knee ** (n - m) * r ** (m - 3)
+
+    for x in (1e-4, 3e-3, 0.02, 0.056, 0.1, 0.3, 0.5):
+        points = [p for p in (x / 2, knee) if 2e-3 < p < 0.2] or None
+        cont, _ = integrate.quad(lambda r: rho(r) * min(x, 2 * r), 2e-3, 0.2, points=points,
+                                 limit=200)
+        above, _ = integrate.quad(rho, min(max(x / 2, 2e-3), 0.2), 0.2,
+                                  points=[knee] if x / 2 < knee < 0.2 else None, limit=200)
+        assert g.value(x) == pytest.approx(cont + g.w * min(x, 2 * g.r1), rel=1e-9), x
+        assert g.slope(x) == pytest.approx(above + (g.w if x < 2 * g.r1 else 0.0),
+                                           rel=1e-9), x
         assert g.value_and_slope(x)[0] == pytest.approx(g.value(x), rel=1e-13)
         assert g.value_and_slope(x)[1] == pytest.approx(g.slope(x), rel=1e-13)
 

@@ -381,6 +381,11 @@ def write_container(desc: SystemDescription, path: str | os.PathLike) -> Path:
     Two things fmpy 0.3.32's writer leaves to its caller: the container maps value
     reference i + 1 to its i-th variable (0 is time), so ``time`` comes first; and
     connections must name FMI 3.0 types (``Float64``), which it converts for variables only.
+
+    The container passes its connections on once as it leaves Initialization Mode, reading
+    its units' outputs before they leave it (a start value given here to a connected input
+    is overwritten then): the units give their initial outputs there (the drive u(t0)), so
+    every unit's first step sees them, as in libcosim and OMSimulator.
     """
     import tempfile
     import uuid

@@ -79,28 +79,77 @@ def _power_integral(a, b, p):
     return (b ** (p + 1.0) - a ** (p + 1.0)) / (p + 1.0)
 
 
-def cycle_loss_per_coefficient(amplitude, n, knee=math.inf, high_exponent=2.0):
+def _branch_piece(lo, hi, k, p):
+    """What G and G' need of a piece k r^p of the stop density over [lo, hi] [T]: (lo, hi,
+    q = p + 1, whether q = 0, k, k/q, k/(q + 1), the antiderivatives' constants k hi^q/q
+    (k ln hi when q = 0) and k lo^(q+1)/(q+1), the whole piece's integral 2 k r^(p+1) dr
+    and integral k r^p dr)."""
+    q = p + 1.0
+    log = abs(q) < 1e-12
+    return (lo, hi, q, log, k, 0.0 if log else k / q, k / (q + 1.0),
+            k * (math.log(hi) if log else hi ** q / q), k * lo ** (q + 1.0) / (q + 1.0),
+            2.0 * k * _power_integral(lo, hi, p + 1.0), k * _power_integral(lo, hi, p))
+
+
+def _moments(t, n, knee, m):
+    """First and second moments integral_0^t rho(r) r^j dr, j = 1, 2, of the stop density
+    per unit K_h (rho = c r^(n - 3) up to r_b = ``knee``, c r_b^(n - m) r^(m - 3) above,
+    c = n (n - 1)/4; module docstring), for upper limits ``t`` [T] (an array)."""
+    c = 0.25 * n * (n - 1.0)
+    over = t > knee
+    if not np.any(over):
+        p = t ** (n - 1.0)
+        return c * p / (n - 1.0), c * p * t / n
+    r = float(knee)
+    u = t if np.all(over) else np.maximum(t, r)
+    scale, p = c * r ** (n - m), u ** (m - 1.0)
+    m1 = c * r ** (n - 1.0) / (n - 1.0) + scale * (p - r ** (m - 1.0)) / (m - 1.0)
+    m2 = c * r ** n / n + scale * (p * u - r ** m) / m
+    if u is not t:  # the limits below the break
+        under = ~over
+        v = t[under]
+        p = v ** (n - 1.0)
+        m1[under], m2[under] = c * p / (n - 1.0), c * p * v / n
+    return m1, m2
+
+
+def cycle_loss_per_coefficient(amplitude, n, knee=math.inf, high_exponent=2.0, lower=0.0,
+                               upper=math.inf):
     """Loss per cycle of the stop density per unit K_h for half-swings ``amplitude`` [T].
 
-    a^n up to the break r_b = ``knee`` [T]; above it (density c r_b^(n - m) r^(m - 3),
-    c = n (n - 1)/4, m = ``high_exponent`` in (1, 4]) integral rho 4 r (a - r) dr gives
+    W(a) = integral rho(r) 4 r (a - r) dr over the stops (module docstring), for the
+    density c r^(n - 3) up to the break r_b = ``knee`` [T] and c r_b^(n - m) r^(m - 3)
+    above it (m = ``high_exponent`` in (1, 4]), c = n (n - 1)/4 per unit K_h:
 
-        n (n - 1) [a r_b^(n-1)/(n-1) - r_b^n/n + r_b^(n-m) (a (a^(m-1) - r_b^(m-1))/(m-1)
-                   - (a^m - r_b^m)/m)],
+    * r_0 <= a <= min(r_b, r_max): the law itself, a^n (eq 7 per cycle);
+    * a > r_b: 4 (a M_1(a) - M_2(a)) with the moments M_j of the broken density,
 
-    continuous with a^n and with its slope at r_b. Vectorised; r_0 < a <= r_max assumed
-    (module docstring), as in :meth:`BranchFunction.cycle_loss`.
+          n (n - 1) [a r_b^(n-1)/(n-1) - r_b^n/n + r_b^(n-m) (a (a^(m-1) - r_b^(m-1))/(m-1)
+                     - (a^m - r_b^m)/m)],
+
+      continuous with a^n and with its slope at r_b;
+    * a > r_max = ``upper``: no stops above r_max, 4 (a M_1(r_max) - M_2(r_max)), linear
+      in a;
+    * a < r_0 = ``lower``: the one stop that replaces those below r_0 (radius
+      r_1 = r_0 (n - 1)/n, weight c r_0^(n - 2) n/(n - 1)^2), n r_0^(n - 1) max(a - r_1, 0).
+
+    ``lower`` = 0 and ``upper`` = inf (the defaults) are the limits r_0 -> 0, r_max ->
+    inf the loss study fits with; :meth:`BranchFunction.cycle_loss` gives the operator's
+    r_0 and r_max. Vectorised: an array in, an array out; a float in, a float out.
     """
     a = np.atleast_1d(np.asarray(amplitude, dtype=float))
     loss = a ** n
-    over = a > knee
-    if not np.any(over):
-        return loss if np.ndim(amplitude) else loss[0]
-    r, m, b = float(knee), float(high_exponent), a[over]
-    upper = b * (b ** (m - 1.0) - r ** (m - 1.0)) / (m - 1.0) - (b ** m - r ** m) / m
-    loss[over] = n * (n - 1.0) * (b * r ** (n - 1.0) / (n - 1.0) - r ** n / n
-                                  + r ** (n - m) * upper)
-    return loss if np.ndim(amplitude) else loss[0]
+    beyond = a > min(knee, upper)
+    if np.any(beyond):
+        b = a[beyond]
+        m1, m2 = _moments(b if upper == math.inf else np.minimum(b, upper), n, knee,
+                          float(high_exponent))
+        loss[beyond] = 4.0 * (b * m1 - m2)
+    below = a < lower
+    if np.any(below):
+        r1 = lower * (n - 1.0) / n
+        loss[below] = n * lower ** (n - 1.0) * np.maximum(a[below] - r1, 0.0)
+    return loss if np.ndim(amplitude) else float(loss[0])
 
 
 class BranchFunction:
@@ -146,64 +195,45 @@ class BranchFunction:
                 f"steinmetz_break = {knee:g} T must exceed steinmetz_lower = {lower:g} T")
         self.k_h = float(hysteresis_coefficient)
         self.n = n
+        self.knee, self.high_exponent = float(knee), float(high_exponent)
         self.r0 = float(lower)
         self.rmax = float(upper)
         self.c = self.k_h * n * (n - 1.0) / 4.0
         self.r1 = self.r0 * (n - 1.0) / n
         self.w = self.c * self.r0 ** (n - 2.0) * n / (n - 1.0) ** 2
-        # the continuous part, pieces (from, to, coefficient, power) of the density
-        self._pieces = [(self.r0, min(knee, self.rmax), self.c, n - 3.0)]
+        # the continuous part: pieces k r^p of the density over [r_from, r_to]
+        pieces = [(self.r0, min(knee, self.rmax), self.c, n - 3.0)]
         if knee < self.rmax:
             m = float(high_exponent)
-            self._pieces.append((knee, self.rmax, self.c * knee ** (n - m), m - 3.0))
+            pieces.append((knee, self.rmax, self.c * knee ** (n - m), m - 3.0))
+        self._pieces = tuple(_branch_piece(*piece) for piece in pieces)
         # its elastic slope below 2 r_0 and its value above 2 r_max
-        self._tail = sum(k * _power_integral(a, b, p) for a, b, k, p in self._pieces)
-        self._top = 2.0 * sum(k * _power_integral(a, b, p + 1.0) for a, b, k, p in self._pieces)
+        self._tail = sum(piece[-1] for piece in self._pieces)
+        self._top = sum(piece[-2] for piece in self._pieces)
 
     def _continuous(self, half):
-        """(G, G') of the continuous part for r_0 < ``half`` < r_max (two pieces)."""
+        """(G, G') of the continuous part for r_0 < ``half`` < r_max, x = 2 half: over each
+        piece k r^p of the density, G = integral 2 r rho dr below ``half`` + x integral
+        rho dr above it and G' the second integral (module docstring); one power a piece."""
         g = gs = 0.0
         x = 2.0 * half
-        for a, b, k, p in self._pieces:
-            if half >= b:
-                g += 2.0 * k * _power_integral(a, b, p + 1.0)
-            elif half <= a:
-                above = k * _power_integral(a, b, p)
-                g, gs = g + x * above, gs + above
+        for lo, hi, q, log, k, k_q, k_q1, upper, lower, whole_g, whole_gs in self._pieces:
+            if half >= hi:
+                g += whole_g
+            elif half <= lo:
+                g, gs = g + x * whole_gs, gs + whole_gs
             else:
-                above = k * _power_integral(half, b, p)
-                g += 2.0 * k * _power_integral(a, half, p + 1.0) + x * above
+                if log:  # p = -1: k integral dr/r above half
+                    power, above = 1.0, upper - k * math.log(half)
+                else:
+                    power = half ** q
+                    above = upper - k_q * power
+                g += 2.0 * (k_q1 * power * half - lower) + x * above
                 gs += above
         return g, gs
 
-    def value(self, x: float) -> float:
-        """G(x), [A/m], for a swing x >= 0 [T]."""
-        g = self.w * (x if x < 2.0 * self.r1 else 2.0 * self.r1)
-        half = 0.5 * x
-        if half <= self.r0:
-            return g + x * self._tail
-        if half >= self.rmax:
-            return g + self._top
-        if len(self._pieces) > 1:
-            return g + self._continuous(half)[0]
-        c, n = self.c, self.n
-        return (g + 2.0 * c * _power_integral(self.r0, half, n - 2.0)
-                + x * c * _power_integral(half, self.rmax, n - 3.0))
-
-    def slope(self, x: float) -> float:
-        """G'(x) = dH/dB along a branch a swing x >= 0 [T] from its reversal, [A/(m T)]."""
-        g = self.w if x < 2.0 * self.r1 else 0.0
-        half = 0.5 * x
-        if half <= self.r0:
-            return g + self._tail
-        if half >= self.rmax:
-            return g
-        if len(self._pieces) > 1:
-            return g + self._continuous(half)[1]
-        return g + self.c * _power_integral(half, self.rmax, self.n - 3.0)
-
     def value_and_slope(self, x: float) -> tuple[float, float]:
-        """(G(x), G'(x)) with one power evaluation (the solvers' inner loop)."""
+        """(G(x) [A/m], G'(x) [A/(m T)]) for a swing x >= 0 [T] (the solvers' inner loop)."""
         w = self.w
         g, gs = (w * x, w) if x < 2.0 * self.r1 else (2.0 * w * self.r1, 0.0)
         half = 0.5 * x
@@ -211,17 +241,16 @@ class BranchFunction:
             return g + x * self._tail, gs + self._tail
         if half >= self.rmax:
             return g + self._top, gs
-        if len(self._pieces) > 1:
-            gc, gcs = self._continuous(half)
-            return g + gc, gs + gcs
-        c, n, r0, rm = self.c, self.n, self.r0, self.rmax
-        if abs(n - 2.0) < 1e-12:
-            ln = math.log(rm / half)
-            return (g + 2.0 * c * (half - r0) + x * c * ln, gs + c * ln)
-        p = half ** (n - 2.0)  # half^(n-1) = p * half
-        below = (p * half - r0 ** (n - 1.0)) / (n - 1.0)
-        above = (rm ** (n - 2.0) - p) / (n - 2.0)
-        return g + 2.0 * c * below + x * c * above, gs + c * above
+        gc, gcs = self._continuous(half)
+        return g + gc, gs + gcs
+
+    def value(self, x: float) -> float:
+        """G(x), [A/m], for a swing x >= 0 [T]."""
+        return self.value_and_slope(x)[0]
+
+    def slope(self, x: float) -> float:
+        """G'(x) = dH/dB along a branch a swing x >= 0 [T] from its reversal, [A/(m T)]."""
+        return self.value_and_slope(x)[1]
 
     @property
     def reversal_slope(self) -> float:
@@ -229,18 +258,13 @@ class BranchFunction:
         return self.w + self._tail
 
     def cycle_loss(self, amplitude: float) -> float:
-        """Loss per cycle and volume of a cycle of half-swing a, integral rho 4 r (a - r) dr, [J/m^3].
+        """Loss per cycle and volume of half-swing a, integral rho 4 r (a - r) dr, [J/m^3].
 
-        Equal to K_h a^n (eq 7 per cycle) for r_0 <= a <= min(r_b, r_max).
+        Equal to K_h a^n (eq 7 per cycle) for r_0 <= a <= min(r_b, r_max)
+        (:func:`cycle_loss_per_coefficient` with this operator's r_0 and r_max).
         """
-        a = float(amplitude)
-        loss = 4.0 * self.w * self.r1 * max(a - self.r1, 0.0)
-        for lo, hi, k, p in self._pieces:
-            top = min(a, hi)
-            if top > lo:
-                loss += 4.0 * k * (a * _power_integral(lo, top, p + 1.0)
-                                   - _power_integral(lo, top, p + 2.0))
-        return loss
+        return self.k_h * cycle_loss_per_coefficient(amplitude, self.n, self.knee,
+                                                     self.high_exponent, self.r0, self.rmax)
 
 
 class BranchSum:
