@@ -166,3 +166,48 @@ def test_stacked_batches_are_kept_within_their_bound(labsim_batch):
     for copies in range(3, 3 + Batch.STACKS_KEPT):
         batch.stacked(copies)
     assert len(batch._stacks) == Batch.STACKS_KEPT and 2 not in batch._stacks
+
+
+def test_a_density_combination_on_its_upper_bounds_has_a_covariance(labsim_batch):
+    # every step of a Jacobian stays within the unknowns' bounds (the rule of
+    # relative_steps), the covariance's too: the saturation law's exponents on their upper
+    # bound 4 beside the Preisach density, where a fit of labsim's hysteresis with
+    # mean-field saturation ended, made a law outside its range one step up, the fit
+    # failed and the combination was lost
+    from smeha.diagnose import linearfit
+
+    ev, batch = labsim_batch
+    forms = {c.label: c.members[0] for c in candidates()[1:]}
+    cand = Candidate((forms["rate_independent_hysteresis (preisach)"],
+                      forms["magnetization_saturation"]))
+    lin = linearfit.linear_member(cand)
+    prob = linearfit._Problem(ev, batch, cand, lin)
+    x = np.array(cand.starts()[0], float)
+    x[prob.other_idx] = np.minimum(np.asarray(cand.upper, float)[prob.other_idx], 1e4)
+    x[prob.other_idx[-4:]] = (0.5, 2.0, 4.0, 4.0)  # M_b/M_s, slope, knee, tail: upper
+    w = np.where(np.arange(prob.lin_idx.size) % 3 == 0, 4e3, 0.0)
+    other = x[prob.other_idx]
+    base = (9.6e4, 1.84, 2.0e4, 2.0, 1.05)
+    r0 = prob.residuals(base, w, other)
+    cov = linearfit._covariance(ev, batch, cand, prob, base, w, other,
+                                prob.jacobian(base, w, other, r0), 1.0)
+    assert np.all(np.isfinite(cov))
+
+
+def test_a_fit_that_fails_is_kept_with_its_label(monkeypatch):
+    # a diagnosis goes on without a candidate or combination it cannot fit and reports
+    # each one (smeha.diagnose.workflow: "not fitted, left out"), its label first
+    from smeha.diagnose import fit
+
+    cand = candidates()[1]
+
+    def failing(*args, **kwargs):
+        raise ValueError("tail_exponent = 4.000001 - is outside the allowed range [0.5, 4]")
+
+    monkeypatch.setattr(fit, "fit_and_score", failing)
+    with fit.unfitted_kept() as kept:
+        out = fit.fit_all(None, None, None, [(cand, (1.0,), None)] * 2, workers=1)
+    assert out == [f"{cand.label}: tail_exponent = 4.000001 - is outside the allowed range "
+                   "[0.5, 4]"] * 2
+    assert kept == out[:1]  # each reason once
+    assert fit.fit_all(None, None, None, [(cand, (1.0,), None)], workers=1) == out[:1]

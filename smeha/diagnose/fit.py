@@ -57,6 +57,8 @@ measures the model and not the sensor or the sampling.
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 import time
 from dataclasses import dataclass, field, replace
@@ -425,11 +427,29 @@ def fit_and_score(ev, train, held, cand, base0, starts=None, screen=False) -> Fi
 
 
 def _fit_or_reason(ev, train, held, cand, base0, starts, screen=False):
-    """:func:`fit_and_score`, or the ValueError's message when the fit fails."""
+    """:func:`fit_and_score`, or the reason (the candidate's label and the ValueError's
+    message) when the fit fails."""
     try:
         return fit_and_score(ev, train, held, cand, base0, starts=starts, screen=screen)
     except ValueError as exc:
-        return str(exc)
+        reason = str(exc)
+        return reason if reason.startswith(cand.label) else f"{cand.label}: {reason}"
+
+
+_UNFITTED = contextvars.ContextVar("unfitted", default=None)
+
+
+@contextlib.contextmanager
+def unfitted_kept():
+    """Within it, the reason of every fit of :func:`fit_all` that failed is kept, in the
+    order of the batches, in the list it yields (a diagnosis reports the candidates and
+    combinations it could not fit; the selection goes on without them)."""
+    kept = []
+    token = _UNFITTED.set(kept)
+    try:
+        yield kept
+    finally:
+        _UNFITTED.reset(token)
 
 
 def fit_all(ev, train, held, jobs, workers=None, costs=None) -> list:
@@ -438,7 +458,8 @@ def fit_all(ev, train, held, jobs, workers=None, costs=None) -> list:
 
     ``jobs`` holds (candidate, base0, starts) tuples, or (candidate, base0, starts,
     screen) for a linear family's screen (:func:`fit_and_score`); the result holds, in
-    job order, each one's :class:`Fit` or, where its fit failed, the reason (str). The
+    job order, each one's :class:`Fit` or, where its fit failed, the reason (str; kept
+    also where :func:`unfitted_kept` collects them). The
     fits do not depend on each other, so the result does not depend on ``workers``.
     ``costs`` (one number a job, e.g. the seconds of an earlier fit of its candidate):
     the jobs are handed to the workers the costliest first (the longest-processing-time
@@ -457,5 +478,8 @@ def fit_all(ev, train, held, jobs, workers=None, costs=None) -> list:
     out = [None] * len(jobs)
     for i, result in zip(order, done):
         out[i] = result
+    kept = _UNFITTED.get()
+    if kept is not None:
+        kept.extend(r for r in out if not isinstance(r, Fit) and r not in kept)
     return out
 

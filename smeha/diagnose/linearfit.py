@@ -245,8 +245,7 @@ def _joint(prob, base, w, chi2, other, lam, rounds=None):
     rounds = JOINT_ROUNDS if rounds is None else rounds
     nb = len(BASE_LOWER)
     factor = base_factor(base)
-    lo = np.concatenate((BASE_LOWER[:nb], np.asarray(prob.cand.lower, float)[prob.other_idx]))
-    hi = np.concatenate((BASE_UPPER[:nb], np.asarray(prob.cand.upper, float)[prob.other_idx]))
+    lo, hi = _unknown_bounds(prob)
     pen = np.sqrt(lam) * prob.penalty
 
     def unpack(z):
@@ -325,7 +324,17 @@ def _damped_step(a, rhs, pen, floored, mu, w, below, above):
                                  np.maximum(upper, 0.0)) / floored
 
 
-def _unknowns_jacobian(prob, base, w, other, factor, r0, upper=None):
+def _unknown_bounds(prob) -> tuple:
+    """(lower, upper) of the base's first unknowns (scaled as in
+    :func:`smeha.diagnose.fit.fit_candidate`) and the other unknowns, as :func:`_joint` and
+    :func:`_unknowns_jacobian` order them."""
+    nb = len(BASE_LOWER)
+    other = prob.other_idx
+    return (np.concatenate((BASE_LOWER[:nb], np.asarray(prob.cand.lower, float)[other])),
+            np.concatenate((BASE_UPPER[:nb], np.asarray(prob.cand.upper, float)[other])))
+
+
+def _unknowns_jacobian(prob, base, w, other, factor, r0, upper):
     """d r / d (z, other) by forward differences, the weights ``w`` held: z the base's first
     ``factor.size`` unknowns over ``factor`` (as :func:`smeha.diagnose.fit.fit_candidate`
     scales them), then the other unknowns; a step of 1e-6 of the value (at least 1e-9)
@@ -334,8 +343,6 @@ def _unknowns_jacobian(prob, base, w, other, factor, r0, upper=None):
     together. ``r0``: the residuals at (base, w, other)."""
     nb = factor.size
     z0 = np.concatenate((np.asarray(base[:nb]) / factor, other))
-    if upper is None:
-        upper = np.full(z0.size, np.inf)
 
     def split(z):
         if np.array_equal(z[:nb], z0[:nb]):  # a step in the other unknowns: base as it is
@@ -457,7 +464,7 @@ def _covariance(ev, train, cand, prob, base, w, other, jac_w, lam):
     nb = len(BASE_LOWER)
     factor = base_factor(base)
     r0 = prob.residuals(base, w, other)
-    jz = _unknowns_jacobian(prob, base, w, other, factor[:nb], r0)
+    jz = _unknowns_jacobian(prob, base, w, other, factor[:nb], r0, _unknown_bounds(prob)[1])
     # the columns in the order of x: base, then x's linear and other unknowns in place
     nx = prob.lin_idx.size + prob.other_idx.size
     jx = np.zeros((r0.size, nx))

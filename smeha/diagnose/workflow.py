@@ -15,7 +15,7 @@ from .candidates import CAUSES, PAPER, Batch, Evaluator, candidates
 from .decision import also_consistent, select
 from .rules import CONFUSABLE_WITHOUT_B, within_noise
 from .features import extract
-from .fit import Fit, fit_all, fit_and_score
+from .fit import Fit, fit_all, fit_and_score, unfitted_kept
 
 __all__ = ["Diagnosis", "default_holdout", "propagate_errors",
            "diagnose"]
@@ -304,11 +304,11 @@ def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
     # first rule): they are not fitted
     tried = () if within_noise(paper) else candidates()[1:]
     jobs = [(cand, paper.base, None) for cand in tried if cand.cause in causes]
-    done = fit_all(ev, train, held, jobs, workers)
-    # a candidate that cannot be fitted is left out, and said so
-    fits = [f for f in done if isinstance(f, Fit)]
-    unfitted = [f for f in done if not isinstance(f, Fit)]
-    sel = select(ev, train, held, paper, fits, sense, workers)
+    # a candidate or combination that cannot be fitted is left out, and said so
+    with unfitted_kept() as unfitted:
+        done = fit_all(ev, train, held, jobs, workers)
+        fits = [f for f in done if isinstance(f, Fit)]
+        sel = select(ev, train, held, paper, fits, sense, workers)
     cause, chosen = sel.answer, sel.chosen
     character = characterise(ev, list(feats.values()), paper.base)
     noise = float(np.median([rf.noise_y for rf in feats.values()])) * 1e6
@@ -319,6 +319,5 @@ def _diagnose(runs, holdout, params, causes, workers) -> Diagnosis:
                      also_consistent=also_consistent(paper, fits, chosen, cause),
                      combinations=sel.tried, skipped=skipped, order=sel.order,
                      stopped=sel.stopped, first_in=sel.first_in, screened=sel.screened)
-    diag.evidence = evidence(diag) + [f"candidate not fitted, left out: {why}"
-                                       for why in unfitted]
+    diag.evidence = evidence(diag) + [f"not fitted, left out: {why}" for why in unfitted]
     return diag
