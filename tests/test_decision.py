@@ -751,3 +751,37 @@ def test_a_first_filter_on_y_must_remove_the_excess_at_every_drive_level():
     # an unexplained report names the filter refused at a level, with its shares
     clause = report._unalike_filters(SimpleNamespace(paper=paper, fits=[alone]))
     assert "transport_delay 37.2 % at 0.6 A, 63.4 % at 1 A" in clause
+
+
+def test_a_round_that_names_no_cause_says_why_of_each_model_it_tried(monkeypatch):
+    # with B a round tries the best-ranked firm combination and, where the best-ranked of
+    # all has an unknown on a bound, that one too (decision._tries); when every try is
+    # refused the stop states each one's label and the rule it failed, so that a report
+    # naming the combination that predicts best does not go on with another's refusal
+    # (the outside lab A file: the density + saturation predicted best, weak, and the
+    # stop gave only the density + one-mass mechanics' refusal)
+    # (the play operators stand in for the density: a density's combinations would be
+    # refitted first, decision._continued)
+    hyst, sat = _cls("rate_independent_hysteresis"), _cls(
+        "magnetization_saturation")
+    mech = _cls("mechanical_resonance", "one_dof")
+    paper = fit(y=1e5, b=1e5, drift=0.0, train=4e5)
+    current = fit((hyst,), y=2e3, b=2e3, train=1e4)
+    firm = fit((hyst, mech), y=1.99e3, b=2e3, train=9.9e3)
+    weak = dataclasses.replace(fit((hyst, sat), y=1.9e3, b=1.9e3, train=9.0e3),
+                               at_bounds=("magnetization_saturation.tail_exponent",))
+
+    class Finer:
+        def refusal(self, f, added):
+            return ""
+
+    monkeypatch.setattr(decision, "_round_fits", lambda *a, **k: (current, [firm, weak],
+                                                                    Finer(), []))
+    monkeypatch.setattr(decision, "_rescued", lambda ev, train, held, cur, ref, fits,
+                        workers=None: fits)
+    out = decision._next_cause(None, None, None, paper, [], current, ["rate_independent_"
+                               "hysteresis"], [], True, False)
+    stopped = out[3]
+    assert stopped.startswith(f"{firm.label}: ")
+    assert f"; {weak.label}: " in stopped
+    assert stopped.count("that must go") == 2

@@ -114,7 +114,7 @@ class Selection(NamedTuple):
     #: the named causes in the order they were added (a combination's members are in the
     #: order of the model's chain, gmt.extensions.ordered, which is not this one)
     order: list
-    #: why no further cause was named, in words (the best try and the first rule it
+    #: why no further cause was named, in words (each model tried and the rule it
     #: failed, smeha.diagnose.rules.refusal), or "" where the model came within noise or
     #: no cause was named
     stopped: str = ""
@@ -273,7 +273,7 @@ def _next_cause(ev, train, held, paper: Fit, singles, current: Fit, order, tried
         nxt = next((f for f in tries if not refused(f, reference)), None)
     if nxt is None:
         return (_better(current, reference), order, tried,
-                f"{tries[0].label}: {refused(tries[0], reference)}", screened)
+                "; ".join(f"{f.label}: {refused(f, reference)}" for f in tries), screened)
     order = order + [c for c in nxt.causes if c not in order]
     current, order = exchange(ev, train, held, paper, nxt, order, singles, tried, sense,
                               workers, timelike)

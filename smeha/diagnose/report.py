@@ -389,7 +389,7 @@ def _named_lines(d) -> list[str]:
                    f"{first.score - best.score:.4g}, "
                    f"{100 * explained(first, best, chans):.3g} % of the remaining "
                    f"excess{where} removed); no further cause is named"
-                   + (" (the rule the best-ranked try failed: next line)" if d.stopped
+                   + (" (the rule each model tried failed: next line)" if d.stopped
                       else ""))
     if d.stopped:
         out.append(f"no further cause named: {d.stopped}")
