@@ -109,6 +109,24 @@ PACKAGE_SOURCES = {"gmt": FMU_SRC / "gmt" if IN_SOURCE_TREE else REPO / "gmt",
                    "system_models": REPO / "system_models"}
 
 
+def build_id() -> str:
+    """The build identifier every FMU of this source tree records (``smeha_fmu_runtime``'s
+    ``BUILD_KEY``): the first 12 hex digits of a SHA-256 of the Python sources the FMUs bundle
+    (``fmu_src/*.py`` and the packages of :data:`PACKAGE_SOURCES`, by relative path and
+    content). FMUs with the same identifier run the same Python code and may share one
+    process; the FMUs refuse to be instantiated beside another build's."""
+    import hashlib
+
+    digest = hashlib.sha256()
+    files = [(f"fmu_src/{path.name}", path) for path in sorted(FMU_SRC.glob("*.py"))]
+    for key, root in sorted(PACKAGE_SOURCES.items()):
+        files += [(f"{key}/{path.relative_to(root).as_posix()}", path)
+                  for path in sorted(root.rglob("*.py")) if "__pycache__" not in path.parts]
+    for name, path in files:
+        digest.update(name.encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()[:12]
+
+
 @dataclass(frozen=True)
 class FmuSpec:
     """What one FMU is built from.
@@ -427,8 +445,10 @@ def _stage(fmu: FmuSpec, staging: Path) -> Path:
     shutil.copy2(script, staging / script.name)
     for module in fmu.modules:
         shutil.copy2(FMU_SRC / f"{module}.py", staging)
-    (staging / _runtime().ENVIRONMENT_FILE).write_text(_runtime().format_environment(
-        native.environment_record(fmu.required)), encoding="utf-8")
+    record = native.environment_record(fmu.required)
+    record[_runtime().BUILD_KEY] = [build_id()]
+    (staging / _runtime().ENVIRONMENT_FILE).write_text(_runtime().format_environment(record),
+                                                       encoding="utf-8")
     for bundled, key in fmu.packages:
         bundle_package(PACKAGE_SOURCES[key], staging / bundled, fmu.renames)
     return staging / script.name
