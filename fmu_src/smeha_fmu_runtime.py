@@ -298,7 +298,10 @@ def refuse_other_build(resources: str, model: str | None = None) -> None:
     One Python interpreter serves every pythonfmu FMU of a process, and it keeps one module
     of each name: an FMU instantiated after another of a different build would run the
     other build's modules (or fail on their differences). FMUs of one build share them
-    safely; an FMU whose record has no build identifier is not checked.
+    safely; an FMU whose record has no build identifier is not checked. Raised at
+    instantiation (``smeha_fmu_base.SlaveBase._init_base``), not at the slave module's import:
+    pythonfmu3 0.3.4 crashes the host (SIGSEGV) when that import fails, and answers an
+    exception of the constructor with NULL.
     """
     record = _record(os.path.abspath(resources)) if resources else None
     if not record or BUILD_KEY not in record:
@@ -316,8 +319,7 @@ def refuse_other_build(resources: str, model: str | None = None) -> None:
 
 
 def prepare(resources: str | None = None) -> dict:
-    """Steps 1-3 of the module docstring; return :data:`REPORT`. First, refuse an FMU whose
-    build differs from the FMU modules already loaded (:func:`refuse_other_build`).
+    """Steps 1-3 of the module docstring; return :data:`REPORT`.
 
     Steps 1 and 2 are done once per process; step 3 once per FMU, since the
     FMUs of this project share this module (by name) in one process but each
@@ -327,14 +329,8 @@ def prepare(resources: str | None = None) -> dict:
     ----------
     resources : str, optional
         Directory holding :data:`ENVIRONMENT_FILE` (default: this module's).
-
-    Raises
-    ------
-    BuildConflict
-        FMU modules of another build are loaded in this process.
     """
     folder = os.path.abspath(resources or os.path.dirname(os.path.abspath(__file__)))
-    refuse_other_build(folder)
     if folder in _PREPARED:
         REPORT.clear()
         REPORT.update(_PREPARED[folder])
