@@ -9,8 +9,7 @@ status no host can miss (:meth:`SlaveBase._refuse_step`; for FMI 2.0,
 :func:`fail_step_fmi2`).
 
 Bundled into each FMU's resources under this name (unique to this project); imports only
-the standard library (``ctypes`` when an FMI 2.0 step fails, after the run-time set-up) and
-``smeha_fmu_runtime`` (the build check of an instantiation).
+the standard library (``ctypes`` when an FMI 2.0 step fails, after the run-time set-up).
 """
 from __future__ import annotations
 
@@ -37,15 +36,7 @@ class SlaveBase:
     TABLE = None  # the variable table module: VARIABLES, BY_NAME
 
     def _init_base(self):
-        """Every variable at its initial value; the instance not usable until initialised.
-
-        Refuses the instance (``smeha_fmu_runtime.BuildConflict``, instantiation fails)
-        when this FMU's build differs from that of the FMU modules running it: the
-        process loaded another build's first, and their code is not this FMU's.
-        """
-        import smeha_fmu_runtime  # bundled next to this module
-
-        smeha_fmu_runtime.refuse_other_build(self.resources, self.MODEL_NAME)
+        """Every variable at its initial value; the instance not usable until initialised."""
         for var in self.TABLE.VARIABLES:
             setattr(self, var.name, var.initial_value)
         self._problem = self.IMPORT_PROBLEM or f"not initialised (call {self.EXIT_INITIALIZATION})"

@@ -29,11 +29,6 @@
  * logged the reason as Error) and the call returns Error instead of Fatal: FMI 2.0.4 keeps
  * Fatal for a model that is corrupted for all instances. Every other Fatal stays Fatal.
  *
- * A slave that refuses to be instantiated (another build's modules are loaded,
- * smeha_fmu_runtime.refuse_other_build) raises an exception whose text pythonfmu logs at
- * Fatal after its own words: the relay logs only the reason, what follows REFUSED, at Error
- * (instantiation returns NULL; the other instances are unharmed).
- *
  * Build defines: SMEHA_FMI (2 or 3), SMEHA_TARGET (file name), SMEHA_MODEL (model name);
  * smeha_fmu_forward.h (generated) defines the forwarders, resolve_targets() and the
  * T_<function> pointers; smeha_fmu_probe.h (generated from smeha_fmu_probe.py, the build's
@@ -81,7 +76,6 @@ extern char **environ;
 #define ENV_PYTHON "SMEHA_FMU_PYTHON"
 #define RECORD_FILE "smeha_fmu_environment.txt"
 #define RECOVERABLE "smehaRecoverable" /* a log category */
-#define REFUSED "smehaRefused: " /* smeha_fmu_runtime.REFUSAL_MARKER */
 #define TEXT_MAX 8192
 
 /* One instance as the host sees it: pythonfmu's instance and the host's callbacks. */
@@ -133,13 +127,6 @@ static int relay_message(Instance *in, int status, const char *category)
         if (category && strcmp(category, in->categories[i]) == 0)
             return 1;
     return in->n_categories == 0;
-}
-
-/* A refusal's reason within a message (the text after REFUSED), or NULL. */
-static const char *refusal(const char *message)
-{
-    const char *found = message ? strstr(message, REFUSED) : NULL;
-    return found ? found + strlen(REFUSED) : NULL;
 }
 
 static void set_categories(Instance *in, int logging_on, size_t n, const char *const names[])
@@ -568,11 +555,7 @@ static void relay_log(fmi2ComponentEnvironment environment, fmi2String name, fmi
     va_start(args, message);
     vsnprintf(text, sizeof text, message ? message : "", args);
     va_end(args);
-    const char *reason = refusal(text);
-    if (reason && in->host.logger)
-        in->host.logger(in->host.componentEnvironment, name, fmi2Error, "logStatusError", "%s",
-                        reason);
-    else if (relay_message(in, status, category) && in->host.logger)
+    if (relay_message(in, status, category) && in->host.logger)
         in->host.logger(in->host.componentEnvironment, name, status, category, "%s", text);
 }
 
@@ -640,10 +623,7 @@ static void relay_log(fmi3InstanceEnvironment environment, fmi3Status status,
                       fmi3String category, fmi3String message)
 {
     Instance *in = environment;
-    const char *reason = refusal(message);
-    if (reason && in->host_log)
-        in->host_log(in->host_environment, fmi3Error, "logStatusError", reason);
-    else if (relay_message(in, status, category) && in->host_log)
+    if (relay_message(in, status, category) && in->host_log)
         in->host_log(in->host_environment, status, category, message);
 }
 

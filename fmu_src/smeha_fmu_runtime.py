@@ -64,6 +64,11 @@ ENVIRONMENT_FILE = "smeha_fmu_environment.txt"
 #: (another FMU's build records its own in the environment record, :func:`required_packages`).
 REQUIRED_PACKAGES = ("numpy",)
 
+#: Key of the build identifier in the environment record (``smeha.fmu.build.build_id``): a
+#: hash of the Python sources the project's FMUs bundle, and the suffix of the names they are
+#: bundled under.
+BUILD_KEY = "build"
+
 #: What :func:`prepare` did and found for the FMU that called it last, for messages and tests.
 REPORT: dict = {}
 
@@ -236,86 +241,6 @@ def arm_clean_exit(model_identifier: str) -> list[str]:
     except (OSError, AttributeError):
         pass
     return armed
-
-
-#: Key of the build identifier in the environment record: a hash of the Python sources every
-#: FMU of one source tree bundles (``smeha.fmu.build.build_id``), the same for all of them.
-BUILD_KEY = "build"
-#: What the FMU's loader looks for in a failed instantiation's message (``smeha_fmu_loader.c``):
-#: the text after it is the reason, logged at Error.
-REFUSAL_MARKER = "smehaRefused: "
-
-
-class BuildConflict(RuntimeError):
-    """This FMU's build differs from that of FMU modules already loaded in the process.
-
-    Its ``repr`` is the marked message: pythonfmu logs the ``repr`` of the exception that
-    fails an instantiation, and the loader logs what follows the marker at Error.
-    """
-
-    def __repr__(self):
-        return REFUSAL_MARKER + str(self)
-
-
-def _record(folder: str) -> dict | None:
-    """The environment record in ``folder``, or None when it holds none."""
-    try:
-        with open(os.path.join(folder, ENVIRONMENT_FILE), encoding="utf-8") as fh:
-            return parse_environment(fh.read())
-    except OSError:
-        return None
-
-
-def _build_of(record: dict) -> str:
-    return (record.get(BUILD_KEY) or ["none (built before build identifiers)"])[0]
-
-
-def loaded_builds() -> dict:
-    """Build identifier -> (module, folder) of one loaded module of each FMU build.
-
-    Every module and package an FMU of this project bundles has a top-level name beginning
-    ``smeha_`` and lies in an FMU's resources folder, next to its environment record;
-    modules from elsewhere (the source tree, a host's own packages) have no record there.
-    """
-    builds: dict = {}
-    for name, module in list(sys.modules.items()):
-        path = getattr(module, "__file__", None)
-        if not name.startswith("smeha_") or "." in name or not path:
-            continue
-        folder = os.path.dirname(os.path.abspath(path))
-        if hasattr(module, "__path__"):  # a package: its __init__.py, one folder down
-            folder = os.path.dirname(folder)
-        record = _record(folder)
-        if record is not None:
-            builds.setdefault(_build_of(record), (name, folder))
-    return builds
-
-
-def refuse_other_build(resources: str, model: str | None = None) -> None:
-    """Raise :class:`BuildConflict` when FMU modules of another build than that of the FMU
-    in ``resources`` are loaded in this process.
-
-    One Python interpreter serves every pythonfmu FMU of a process, and it keeps one module
-    of each name: an FMU instantiated after another of a different build would run the
-    other build's modules (or fail on their differences). FMUs of one build share them
-    safely; an FMU whose record has no build identifier is not checked. Raised at
-    instantiation (``smeha_fmu_base.SlaveBase._init_base``), not at the slave module's import:
-    pythonfmu3 0.3.4 crashes the host (SIGSEGV) when that import fails, and answers an
-    exception of the constructor with NULL.
-    """
-    record = _record(os.path.abspath(resources)) if resources else None
-    if not record or BUILD_KEY not in record:
-        return
-    own = _build_of(record)
-    others = {build: where for build, where in loaded_builds().items() if build != own}
-    if others:
-        build, (module, folder) = next(iter(others.items()))
-        raise BuildConflict(
-            f"{model or 'the FMU of ' + os.path.dirname(resources)} (build {own}) cannot run beside the FMU of build {build} already loaded "
-            f"in this process: pythonfmu FMUs share one Python and its modules by name, and "
-            f"{module} is that build's (from {folder}), so this FMU would run another build's "
-            f"code. Use FMUs built together (smeha build --system) or run this one in a "
-            f"separate process (docs/FMU.md)")
 
 
 def prepare(resources: str | None = None) -> dict:

@@ -113,8 +113,8 @@ def build_id() -> str:
     """The build identifier every FMU of this source tree records (``smeha_fmu_runtime``'s
     ``BUILD_KEY``): the first 12 hex digits of a SHA-256 of the Python sources the FMUs bundle
     (``fmu_src/*.py`` and the packages of :data:`PACKAGE_SOURCES`, by relative path and
-    content). FMUs with the same identifier run the same Python code and may share one
-    process; the FMUs refuse to be instantiated beside another build's."""
+    content): the same sources give the same identifier. Every module and package an FMU
+    bundles is bundled under its name and this suffix (:func:`bundled_names`)."""
     import hashlib
 
     digest = hashlib.sha256()
@@ -432,8 +432,36 @@ def bundle_package(source: Path, dest: Path, renames: dict) -> None:
             path.write_text(renamed, encoding="utf-8")
 
 
-def _stage(fmu: FmuSpec, staging: Path) -> Path:
-    """Copy the slave, its modules and packages into ``staging``; return the script."""
+def bundled_names(build: str | None = None) -> dict:
+    """Every module and package the project's FMUs bundle -> the name this build bundles it
+    under, ``<name>_<build>`` (``build``: :func:`build_id`).
+
+    One Python interpreter serves every pythonfmu FMU of a host process, and it keeps one
+    module per name: pythonfmu imports each FMU's slave module by the name in its
+    ``slavemodule.txt``, and the slave imports the rest by name. Under names of their own
+    build, the modules of FMUs built from other sources never meet: each FMU runs its own
+    build's code beside any other, and FMUs of one build share theirs."""
+    build = build or build_id()
+    names = set()
+    for key in SPECS:
+        fmu = spec(key)
+        names.update((fmu.slave, *fmu.modules, *(bundled for bundled, _ in fmu.packages)))
+    return {name: f"{name}_{build}" for name in sorted(names)}
+
+
+def rename_modules(text: str, names: dict) -> str:
+    """``text`` with every whole-word occurrence of a key of ``names`` replaced by its value:
+    imports, and the names the bundled code passes to importlib (its ``BUNDLED_*`` constants)."""
+    if not names:
+        return text
+    pattern = re.compile(r"\b(" + "|".join(map(re.escape, sorted(names, key=len, reverse=True)))
+                         + r")\b")
+    return pattern.sub(lambda m: names[m.group(1)], text)
+
+
+def _stage(fmu: FmuSpec, staging: Path, names: dict) -> Path:
+    """Copy the slave, its modules and packages into ``staging`` under their bundled
+    ``names`` (:func:`bundled_names`), every name in them renamed; return the script."""
     script = FMU_SRC / f"{fmu.slave}.py"
     missing = [str(p) for p in (script, *(FMU_SRC / f"{m}.py" for m in fmu.modules),
                                 *(PACKAGE_SOURCES[k] / "__init__.py" for _, k in fmu.packages))
@@ -442,16 +470,20 @@ def _stage(fmu: FmuSpec, staging: Path) -> Path:
         raise BuildError(f"the FMU sources are missing ({', '.join(missing)}): the build needs "
                          "the smeha source tree (fmu_src/ and system_models/ as checked out)")
     staging.mkdir(parents=True)
-    shutil.copy2(script, staging / script.name)
-    for module in fmu.modules:
-        shutil.copy2(FMU_SRC / f"{module}.py", staging)
+    for module in (fmu.slave, *fmu.modules):
+        (staging / f"{names[module]}.py").write_text(rename_modules(
+            (FMU_SRC / f"{module}.py").read_text(encoding="utf-8"), names), encoding="utf-8")
     record = native.environment_record(fmu.required)
-    record[_runtime().BUILD_KEY] = [build_id()]
+    record[_runtime().BUILD_KEY] = [names[fmu.slave][len(fmu.slave) + 1:]]
     (staging / _runtime().ENVIRONMENT_FILE).write_text(_runtime().format_environment(record),
                                                        encoding="utf-8")
     for bundled, key in fmu.packages:
-        bundle_package(PACKAGE_SOURCES[key], staging / bundled, fmu.renames)
-    return staging / script.name
+        dest = staging / names[bundled]
+        bundle_package(PACKAGE_SOURCES[key], dest, fmu.renames)
+        for path in sorted(dest.rglob("*.py")):
+            path.write_text(rename_modules(path.read_text(encoding="utf-8"), names),
+                            encoding="utf-8")
+    return staging / f"{names[fmu.slave]}.py"
 
 
 def _worker(key: str, workdir: str) -> None:
@@ -459,16 +491,17 @@ def _worker(key: str, workdir: str) -> None:
     workdir/raw."""
     fmu = spec(key)
     work = Path(workdir)
-    script = _stage(fmu, work / "src")
+    names = bundled_names()
+    script = _stage(fmu, work / "src", names)
     sys.path.insert(0, str(script.parent))
     if fmu.check:
-        getattr(importlib.import_module(fmu.table), fmu.check)()  # the staged copy
+        getattr(importlib.import_module(names[fmu.table]), fmu.check)()  # the staged copy
     if fmu.compile:
-        module, function = fmu.compile.split(":")
+        module, function = rename_modules(fmu.compile, names).split(":")
         getattr(importlib.import_module(module), function)()
     project_files = [script.parent / name for name in (
-        *(bundled for bundled, _ in fmu.packages), *(f"{m}.py" for m in fmu.modules),
-        _runtime().ENVIRONMENT_FILE)]
+        *(names[bundled] for bundled, _ in fmu.packages),
+        *(f"{names[m]}.py" for m in fmu.modules), _runtime().ENVIRONMENT_FILE)]
     if fmu.fmi == "2":
         from pythonfmu.builder import FmuBuilder
         FmuBuilder.build_FMU(script, dest=work / "raw", project_files=project_files,
@@ -542,9 +575,10 @@ def _compiled(fmu: FmuSpec, staging: Path) -> dict:
     so the extracted FMU loads it; a host on another CPU compiles again, at its first run."""
     if not fmu.compile:
         return {}
+    names = bundled_names()
     return {f"resources/{path.relative_to(staging).as_posix()}": path.read_bytes()
             for bundled, _ in fmu.packages
-            for path in sorted((staging / bundled).rglob("__pycache__/*.nb[ic]"))}
+            for path in sorted((staging / names[bundled]).rglob("__pycache__/*.nb[ic]"))}
 
 
 def validate_fmu(path) -> list[str]:
