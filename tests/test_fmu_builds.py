@@ -1,27 +1,29 @@
-"""FMUs of different builds in one process: the later one refuses, the earlier keeps running.
+"""FMUs of different builds in one process each run their own build's code.
 
-pythonfmu FMUs share their host's Python and its ``sys.modules``: an FMU instantiated
-after one of another build would import the modules the first one loaded (same names)
-and run that build's code without a word. Each FMU records its build identifier
-(``smeha.fmu.build.build_id``) and refuses, at instantiation, to run beside modules of
-another build (``smeha_fmu_runtime.refuse_other_build``). Another build is made here by
-rewriting the identifier in a copy of the session's FMUs: the check reads nothing else.
-FMUs of one build (SmehaGmt and SmehaGmt3 of one ``build_fmu.py`` run) still load and run
-side by side, and give the same outputs (same code, same drive).
+pythonfmu FMUs share their host's Python and its ``sys.modules``: pythonfmu imports each
+FMU's slave module by name, and the slave imports the rest by name, so with names common
+to every build an FMU instantiated after one of another build would run the first one's
+modules without a word. The build bundles every module under ``<name>_<build id>``
+(``smeha.fmu.build.bundled_names``). Here a second build is made from a copy of the
+source tree whose transducer slave doubles the ``displacement`` output (an exact factor):
+its FMU loaded between two FMUs of the session's build must read twice theirs, bit for bit,
+and theirs must be unchanged (SmehaGmt3 loaded after it still runs the session's code).
 """
 from __future__ import annotations
 
 import math
+import shutil
+import subprocess
+import sys
 import zipfile
 
 import pytest
 
-from fmu_fixtures import fmu_dist, run_runner, runner_dir  # noqa: F401  (fixtures)
+from fmu_fixtures import REPO, child_env, fmu_dist, run_runner, runner_dir  # noqa: F401
 
 pytestmark = pytest.mark.integration
 
 RECORD = "resources/smeha_fmu_environment.txt"
-OTHER = "000000000000"
 
 
 def _build(fmu) -> str:
@@ -30,42 +32,39 @@ def _build(fmu) -> str:
     return next((line.split("\t", 1)[1] for line in lines if line.startswith("build\t")), "")
 
 
-def _other_build(fmu, dest):
-    """A copy of ``fmu`` whose record names the build :data:`OTHER`."""
-    with zipfile.ZipFile(fmu) as zin, zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as zout:
-        for info in zin.infolist():
-            data = zin.read(info.filename)
-            if info.filename == RECORD:
-                kept = [line for line in data.decode().splitlines()
-                        if not line.startswith("build\t")]
-                data = "\n".join([*kept, f"build\t{OTHER}", ""]).encode()
-            zout.writestr(info, data)
-    return dest
+def _other_build(tmp_path):
+    """SmehaGmt.fmu built from a copy of the tree whose slave doubles ``displacement``."""
+    tree = tmp_path / "tree"
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
+    for part in ("smeha", "fmu_src", "system_models"):
+        shutil.copytree(REPO / part, tree / part, ignore=ignore)
+    shutil.copy2(REPO / "build_fmu.py", tree)
+    slave = tree / "fmu_src" / "smeha_fmu_slave.py"
+    text = slave.read_text()
+    assert text.count("reals = (out.current, out.displacement,") == 1
+    slave.write_text(text.replace("reals = (out.current, out.displacement,",
+                                  "reals = (out.current, 2.0 * out.displacement,"))
+    out = tmp_path / "dist"
+    proc = subprocess.run([sys.executable, str(tree / "build_fmu.py"), "--fmi", "2", "--out",
+                           str(out)], cwd=tree, env=child_env(), capture_output=True,
+                          text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    return out / "SmehaGmt.fmu"
 
 
-def test_another_build_refused_first_keeps_running(fmu_dist, runner_dir, tmp_path):
+def test_each_build_runs_its_own_code(fmu_dist, runner_dir, tmp_path):
     a2, a3 = fmu_dist["2"], fmu_dist["3"]
-    b2 = _other_build(a2, tmp_path / "SmehaGmt.fmu")
-    b3 = _other_build(a3, tmp_path / "SmehaGmt3.fmu")
-    # the later builds find the slave modules of A2 and A3 imported (one name per model)
-    res = run_runner("builds", runner_dir / "builds", a2, a3, b3, b2)
-    first, same3, other3, other2 = res["runs"]
-    assert first["instantiated"] and same3["instantiated"]
-    # one build: the same code, the same outputs (bit-identical; gmt computes both)
-    assert same3["rows"] == first["rows"]
-    ours = _build(a2)
-    assert len(ours) == 12 and ours == _build(a3)
-    for refused, model in ((other3, "SmehaGmt3"), (other2, "SmehaGmt")):
-        assert not refused["instantiated"], f"{model} of build {OTHER} ran beside build {ours}"
-        problems = [m for m in refused["logs"] if m[0] >= 3]  # Error or Fatal
-        assert len(problems) == 1, refused["logs"]
-        status, category, text = problems[0]
-        assert status == 3 and category == "logStatusError"  # Error: nothing is corrupted
-        assert f"build {OTHER}" in text and f"build {ours}" in text, text
-        assert "smeha build --system" in text and "separate process" in text, text
-        assert "Traceback" not in text and "PyObject_Call" not in text, text
-        assert text.startswith(f"{model} (build {OTHER})"), text
-    # the first FMU steps on, continuing its trajectory
+    b2 = _other_build(tmp_path)
+    res = run_runner("builds", runner_dir / "builds", a2, b2, a3)
+    first, other, same = res["runs"]
+    assert all(run["instantiated"] for run in res["runs"]), res["runs"]
+    assert [m for run in res["runs"] for m in run["logs"] if m[0] >= 3] == []
+    # the other build's FMU ran its own slave, not the one SmehaGmt of the first build loaded
+    assert other["rows"] == [2.0 * y for y in first["rows"]]
+    # one build: the same code, the same outputs (bit-identical), also after the other build
+    assert same["rows"] == first["rows"]
+    assert len(_build(a2)) == 12 and _build(a2) == _build(a3) != _build(b2)
+    # the first FMU steps on, continuing its own trajectory (0.1 ms into 20 ms periods)
     again = res["first_again"]
     assert len(again) == 10 and all(math.isfinite(y) for y in again)
     assert again[0] != first["rows"][-1]
