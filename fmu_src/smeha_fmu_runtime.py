@@ -246,9 +246,10 @@ def arm_clean_exit(model_identifier: str) -> list[str]:
 def prepare(resources: str | None = None) -> dict:
     """Steps 1-3 of the module docstring; return :data:`REPORT`.
 
-    Steps 1 and 2 are done once per process; step 3 once per FMU, since the
-    FMUs of this project share this module (by name) in one process but each
-    records its own packages: each slave passes its own resources folder.
+    Steps 1 and 2 are done once per process (again, harmlessly, by another build's copy of
+    this module); step 3 once per FMU, since the FMUs of one build share this module (by
+    name) in one process but each records its own packages: each slave passes its own
+    resources folder.
 
     Parameters
     ----------

@@ -233,6 +233,13 @@ def reference(out_path):
     _write(out_path, results)
 
 
+def bundled_module(name):
+    """The loaded module an FMU bundles as ``name`` (under ``<name>_<build id>``)."""
+    return next(module for key, module in sys.modules.items()
+                if key.startswith(f"{name}_") and "." not in key
+                and len(key) == len(name) + 13)
+
+
 # -- fmpy wrapper for FMI 2.0 and 3.0 -------------------------------------------------------
 _CALLBACKS = []  # keep ctypes callbacks alive
 
@@ -387,7 +394,7 @@ def _behaviour_cases(fmu_path, res) -> dict:
     for name in CASES:
         fmu = Fmu(fmu_path, name=name, unzipdir=fmus["fixed50"].dir if fmus else None)
         if not fmus:
-            res["gmt_file"] = sys.modules["smeha_fmu_gmt"].__file__
+            res["gmt_file"] = bundled_module("smeha_fmu_gmt").__file__
             res["unzipdir"] = fmu.dir
         params = make_case(name)[0]
         res[f"init_{name}"] = fmu.init(params)

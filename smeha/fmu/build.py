@@ -432,9 +432,9 @@ def bundle_package(source: Path, dest: Path, renames: dict) -> None:
             path.write_text(renamed, encoding="utf-8")
 
 
-def bundled_names(build: str | None = None) -> dict:
-    """Every module and package the project's FMUs bundle -> the name this build bundles it
-    under, ``<name>_<build>`` (``build``: :func:`build_id`).
+def bundled_names(fmu: FmuSpec, build: str | None = None) -> dict:
+    """Every module of ``fmu_src/`` and every package ``fmu`` bundles -> the name this build
+    bundles it under, ``<name>_<build>`` (``build``: :func:`build_id`).
 
     One Python interpreter serves every pythonfmu FMU of a host process, and it keeps one
     module per name: pythonfmu imports each FMU's slave module by the name in its
@@ -442,10 +442,8 @@ def bundled_names(build: str | None = None) -> dict:
     build, the modules of FMUs built from other sources never meet: each FMU runs its own
     build's code beside any other, and FMUs of one build share theirs."""
     build = build or build_id()
-    names = set()
-    for key in SPECS:
-        fmu = spec(key)
-        names.update((fmu.slave, *fmu.modules, *(bundled for bundled, _ in fmu.packages)))
+    names = {path.stem for path in FMU_SRC.glob("*.py")}
+    names.update(bundled for bundled, _ in fmu.packages)
     return {name: f"{name}_{build}" for name in sorted(names)}
 
 
@@ -491,7 +489,7 @@ def _worker(key: str, workdir: str) -> None:
     workdir/raw."""
     fmu = spec(key)
     work = Path(workdir)
-    names = bundled_names()
+    names = bundled_names(fmu)
     script = _stage(fmu, work / "src", names)
     sys.path.insert(0, str(script.parent))
     if fmu.check:
@@ -575,7 +573,7 @@ def _compiled(fmu: FmuSpec, staging: Path) -> dict:
     so the extracted FMU loads it; a host on another CPU compiles again, at its first run."""
     if not fmu.compile:
         return {}
-    names = bundled_names()
+    names = bundled_names(fmu)
     return {f"resources/{path.relative_to(staging).as_posix()}": path.read_bytes()
             for bundled, _ in fmu.packages
             for path in sorted((staging / names[bundled]).rglob("__pycache__/*.nb[ic]"))}
