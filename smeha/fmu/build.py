@@ -112,13 +112,14 @@ PACKAGE_SOURCES = {"gmt": FMU_SRC / "gmt" if IN_SOURCE_TREE else REPO / "gmt",
 def build_id() -> str:
     """The build identifier every FMU of this source tree records (``smeha_fmu_runtime``'s
     ``BUILD_KEY``): the first 12 hex digits of a SHA-256 of the Python sources the FMUs bundle
-    (``fmu_src/*.py`` and the packages of :data:`PACKAGE_SOURCES`, by relative path and
-    content): the same sources give the same identifier. Every module and package an FMU
+    (``fmu_src/*.py``, the packages of :data:`PACKAGE_SOURCES` and this module, which renames
+    them, by relative path and content): the same sources give the same identifier. Every module and package an FMU
     bundles is bundled under its name and this suffix (:func:`bundled_names`)."""
     import hashlib
 
     digest = hashlib.sha256()
-    files = [(f"fmu_src/{path.name}", path) for path in sorted(FMU_SRC.glob("*.py"))]
+    files = [("build.py", Path(__file__))]
+    files += [(f"fmu_src/{path.name}", path) for path in sorted(FMU_SRC.glob("*.py"))]
     for key, root in sorted(PACKAGE_SOURCES.items()):
         files += [(f"{key}/{path.relative_to(root).as_posix()}", path)
                   for path in sorted(root.rglob("*.py")) if "__pycache__" not in path.parts]
@@ -442,7 +443,7 @@ def bundled_names(fmu: FmuSpec, build: str | None = None) -> dict:
     build, the modules of FMUs built from other sources never meet: each FMU runs its own
     build's code beside any other, and FMUs of one build share theirs."""
     build = build or build_id()
-    names = {path.stem for path in FMU_SRC.glob("*.py")}
+    names = {path.stem for path in FMU_SRC.glob("*.py") if not path.stem.startswith("_")}
     names.update(bundled for bundled, _ in fmu.packages)
     return {name: f"{name}_{build}" for name in sorted(names)}
 
