@@ -113,8 +113,9 @@ def build_id() -> str:
     """The build identifier every FMU of this source tree records (``smeha_fmu_runtime``'s
     ``BUILD_KEY``): the first 12 hex digits of a SHA-256 of the Python sources the FMUs bundle
     (``fmu_src/*.py``, the packages of :data:`PACKAGE_SOURCES` and this module, which renames
-    them, by relative path and content): the same sources give the same identifier. Every module and package an FMU
-    bundles is bundled under its name and this suffix (:func:`bundled_names`)."""
+    them, by relative path and content): the same sources give the same identifier. Every
+    module and package an FMU bundles is bundled under its name and this suffix
+    (:func:`bundled_names`)."""
     import hashlib
 
     digest = hashlib.sha256()
