@@ -8,7 +8,7 @@ an *unusable* instance -- a bad parameter, a package missing -- fail every step 
 status no host can miss (:meth:`SlaveBase._refuse_step`; for FMI 2.0,
 :func:`fail_step_fmi2`).
 
-Bundled into each FMU's resources under this name (unique to this project); imports only
+Bundled into each FMU's resources under this name and the build's identifier; imports only
 the standard library (``ctypes`` when an FMI 2.0 step fails, after the run-time set-up).
 """
 from __future__ import annotations

@@ -7,9 +7,11 @@ which builds gmt's objects from the parameters named here;
 ``smeha.fmu.build`` writes the units of the FMI 2.0 model description from the
 same table, and ``docs/FMU.md`` documents it.
 
-The FMU bundles this file under its own name, ``resources/smeha_fmu_interface.py``
-(a module name unique to this project, so that it cannot collide with another
-Python FMU in the same host process). It imports nothing from ``smeha`` and does
+The FMU bundles this file as ``resources/smeha_fmu_interface_<build>.py``, like every
+module and package it bundles under its name and the build's identifier
+(``smeha.fmu.build.bundled_names``: one Python interpreter serves every pythonfmu FMU of
+a host process, and modules are shared by name), so that it meets no other Python FMU's
+module, nor another build's. It imports nothing from ``smeha`` and does
 not import ``gmt`` at module level; :func:`check_against_gmt` imports ``gmt``
 when called, which inside an FMU is the bundled copy. ``smeha.fmu.build`` loads
 this file from the source tree under another module name
@@ -32,8 +34,8 @@ from smeha_fmu_variables import UNITS, Variable, unit_problems  # noqa: F401  (U
 MODEL_NAME_FMI2 = "SmehaGmt"
 #: modelName / modelIdentifier of the FMI 3.0 FMU (``SmehaGmt3.fmu``).
 MODEL_NAME_FMI3 = "SmehaGmt3"
-#: Slave module names (unique to this project: one Python interpreter serves
-#: every pythonfmu FMU of a host process, and modules are shared by name).
+#: Slave module names (in an FMU, suffixed with the build's identifier, like every bundled
+#: module: see the module docstring).
 SLAVE_MODULE_FMI2 = "smeha_gmt_fmu"
 SLAVE_MODULE_FMI3 = "smeha_gmt_fmu3"
 #: Module name of this file, in fmu_src/ and in the FMU's resources.

@@ -64,6 +64,11 @@ ENVIRONMENT_FILE = "smeha_fmu_environment.txt"
 #: (another FMU's build records its own in the environment record, :func:`required_packages`).
 REQUIRED_PACKAGES = ("numpy",)
 
+#: Key of the build identifier in the environment record (``smeha.fmu.build.build_id``): a
+#: hash of the Python sources the project's FMUs bundle, and the suffix of the names they are
+#: bundled under.
+BUILD_KEY = "build"
+
 #: What :func:`prepare` did and found for the FMU that called it last, for messages and tests.
 REPORT: dict = {}
 
@@ -241,9 +246,10 @@ def arm_clean_exit(model_identifier: str) -> list[str]:
 def prepare(resources: str | None = None) -> dict:
     """Steps 1-3 of the module docstring; return :data:`REPORT`.
 
-    Steps 1 and 2 are done once per process; step 3 once per FMU, since the
-    FMUs of this project share this module (by name) in one process but each
-    records its own packages: each slave passes its own resources folder.
+    Steps 1 and 2 are done once per process (again, harmlessly, by another build's copy of
+    this module); step 3 once per FMU, since the FMUs of one build share this module (by
+    name) in one process but each records its own packages: each slave passes its own
+    resources folder.
 
     Parameters
     ----------

@@ -211,8 +211,8 @@ class TransducerSlave(SlaveBase):
                 if used != bundled and not _same_sources(used, bundled):
                     self._report(f"gmt is imported from {used}, not from the FMU's "
                                  f"resources, and differs from this FMU's: another FMU "
-                                 f"(another smeha version) loaded {used.name} first",
-                                 self.STATUS_WARNING)
+                                 f"of its build, whose files differ, loaded {used.name} "
+                                 "first", self.STATUS_WARNING)
         except Exception as exc:
             self._transducer = None
             self._problem = f"initialisation failed: {type(exc).__name__}: {exc}"

@@ -7,7 +7,7 @@ plant; ``smeha_drive_fmu.py``: the drive signal), as :class:`Variable` records; 
 register them, ``smeha.fmu.build`` writes their units into the FMI 2.0 model description
 from :data:`UNITS`, and ``docs/FMU.md`` documents them.
 
-Bundled into each FMU's resources under this name (a module name unique to this project).
+Bundled into each FMU's resources under this name and the build's identifier.
 It imports nothing beyond the standard library.
 """
 from __future__ import annotations

@@ -15,8 +15,9 @@ from which a system takes them; and the controller's and integrator's settings.
 
 Bundled in the FMU as ``resources/smeha_plant_interface.py``, with ``system_models`` as
 ``resources/smeha_plant_system_models`` and ``gmt`` (its parameter checks) as
-``resources/smeha_plant_gmt`` (names unique to this FMU: one Python interpreter serves
-every pythonfmu FMU of a process, and modules are shared by name). Imports nothing from
+``resources/smeha_plant_gmt`` (names unique to this FMU, each suffixed with the build's
+identifier in the FMU: one Python interpreter serves every pythonfmu FMU of a process,
+and modules are shared by name). Imports nothing from
 ``smeha``; ``system_models`` through :func:`physics`, which inside the FMU is the bundled
 copy.
 """

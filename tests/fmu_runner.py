@@ -15,6 +15,8 @@ Commands
 ``simulate_bad OUT FMU``   fmpy.simulate_fmu with every bad parameter
 ``init_mode OUT FMU``      the calculated parameters read in Initialization Mode (fmpy)
 ``ssp_fmpy OUT SSP F``     the EHA system's .ssp in fmpy's SSP master: piston position, flow
+``builds OUT FMU...``      instantiate each FMU in turn in one process (fmpy), initialise and
+                           step the ones that instantiate, then step the first again
 
 Why a child process: pythonfmu FMUs run in the host's interpreter, and a host
 that already imported ``gmt`` makes the FMU use that copy instead of the one
@@ -231,6 +233,13 @@ def reference(out_path):
     _write(out_path, results)
 
 
+def bundled_module(name):
+    """The loaded module an FMU bundles as ``name`` (under ``<name>_<build id>``)."""
+    return next(module for key, module in sys.modules.items()
+                if key.startswith(f"{name}_") and "." not in key
+                and len(key) == len(name) + 13)
+
+
 # -- fmpy wrapper for FMI 2.0 and 3.0 -------------------------------------------------------
 _CALLBACKS = []  # keep ctypes callbacks alive
 
@@ -385,7 +394,7 @@ def _behaviour_cases(fmu_path, res) -> dict:
     for name in CASES:
         fmu = Fmu(fmu_path, name=name, unzipdir=fmus["fixed50"].dir if fmus else None)
         if not fmus:
-            res["gmt_file"] = sys.modules["smeha_fmu_gmt"].__file__
+            res["gmt_file"] = bundled_module("smeha_fmu_gmt").__file__
             res["unzipdir"] = fmu.dir
         params = make_case(name)[0]
         res[f"init_{name}"] = fmu.init(params)
@@ -823,6 +832,89 @@ def ssp_fmpy(out_path, ssp_path, frequency):
                       "flow": flow, "wall": run.wall})
 
 
+def builds(out_path, *fmu_paths):
+    """One process, FMUs instantiated in turn: whether each instantiated, its log, and the
+    output it reads (``displacement``, or the drive's ``u``) over 10 steps of 10 us (the
+    transducer's u = cos(2 pi 50 t)); then the first FMU steps 10 more."""
+    results, live = [], []
+    for k, path in enumerate(fmu_paths):
+        unit = _Unit(path, f"i{k}")
+        entry = {"path": path, "instantiated": unit.instantiate(), "logs": unit.logs}
+        if entry["instantiated"]:
+            entry["rows"] = unit.run(0)
+            live.append(unit)
+        results.append(entry)
+    _write(out_path, {"runs": results, "first_again": live[0].run(10) if live else []})
+
+
+class _Unit:
+    """Any FMU of the project through fmpy (FMI 2.0 or 3.0), its log captured."""
+
+    def __init__(self, path, name):
+        from fmpy import extract, read_model_description
+
+        self.md = read_model_description(path)
+        self.fmi, self.name, self.logs = self.md.fmiVersion[0], name, []
+        self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.dir = extract(path)
+
+    def instantiate(self) -> bool:
+        from fmpy.fmi3 import FMU3Slave
+
+        cs = self.md.coSimulation
+        try:
+            if self.fmi == "2":
+                from ctypes import byref
+
+                from fmpy.fmi2 import (FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE,
+                                       fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
+                                       fmi2CallbackLoggerTYPE, free)
+                from fmpy.logging import addLoggerProxy
+
+                def logger(env, inst, status, category, message):
+                    self.logs.append((int(status), (category or b"").decode(),
+                                      message.decode()))
+
+                cb = fmi2CallbackFunctions()
+                cb.logger = fmi2CallbackLoggerTYPE(logger)
+                cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+                cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+                addLoggerProxy(byref(cb))
+                _CALLBACKS.append(cb)
+                self.s = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir,
+                                   modelIdentifier=cs.modelIdentifier, instanceName=self.name)
+                self.s.instantiate(callbacks=cb, loggingOn=True)
+            else:
+                def logger(env, status, category, message):
+                    self.logs.append((int(status), (category or b"").decode(),
+                                      message.decode()))
+
+                self.s = FMU3Slave(guid=self.md.guid, unzipDirectory=self.dir,
+                                   modelIdentifier=cs.modelIdentifier, instanceName=self.name)
+                self.s.instantiate(loggingOn=True, logMessage=logger)
+        except Exception:  # fmpy: "Failed to instantiate ..."
+            return False
+        if self.fmi == "2":
+            self.s.setupExperiment(startTime=0.0)
+            self.s.enterInitializationMode()
+        else:
+            self.s.enterInitializationMode(startTime=0.0)
+        self.s.exitInitializationMode()
+        return True
+
+    def run(self, start, n=10, h=1e-5):
+        get = self.s.getReal if self.fmi == "2" else self.s.getFloat64
+        put = self.s.setReal if self.fmi == "2" else self.s.setFloat64
+        out = self.vr.get("displacement", self.vr.get("u"))
+        rows = []
+        for k in range(start, start + n):
+            if "external_force" in self.vr:
+                put([self.vr["u"]], [math.cos(2 * math.pi * 50.0 * k * h)])
+            self.s.doStep(k * h, h)
+            rows.append(get([out])[0])
+        return rows
+
+
 def _write(path, obj):
     with open(path, "w") as fh:
         json.dump(obj, fh, default=str)
@@ -830,7 +922,7 @@ def _write(path, obj):
 
 COMMANDS = {"reference": reference, "behaviour": behaviour, "bad_input": bad_input,
             "memory": memory, "cosim": cosim, "drive": drive, "simulate_bad": simulate_bad,
-            "init_mode": init_mode, "ssp_fmpy": ssp_fmpy}
+            "init_mode": init_mode, "ssp_fmpy": ssp_fmpy, "builds": builds}
 
 if __name__ == "__main__":
     COMMANDS[sys.argv[1]](*sys.argv[2:])

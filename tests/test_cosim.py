@@ -94,7 +94,8 @@ def fmu_and_direct():
     path = ensure_fmu(quiet=True)
     case = Case(100.0, "compensated", cycles=4, backend="fmu")
     fmu = run_case(case, path)
-    module = sys.modules.get("smeha_fmu_gmt")
+    module = next((m for key, m in sys.modules.items()
+                   if key.startswith("smeha_fmu_gmt_") and "." not in key), None)
     physics_file = getattr(module, "__file__", None)
     direct = run_case(dataclasses.replace(case, backend="direct"))
     return fmu, direct, physics_file
@@ -278,13 +279,14 @@ def test_fmu_and_direct_backends_give_the_same_run(fmu_and_direct):
 
 
 def test_fmu_runs_its_own_bundled_physics(fmu_and_direct):
-    """The FMU imports its physics under its own name (smeha_fmu_gmt) from its resources,
-    not the repository's gmt that this process has imported."""
+    """The FMU imports its physics under its own name (smeha_fmu_gmt_<build>) from its
+    resources, not the repository's gmt that this process has imported."""
     physics_file = fmu_and_direct[2]
     assert physics_file is not None, "the FMU did not load smeha_fmu_gmt"
     path = Path(physics_file).resolve()
     assert REPO not in path.parents
-    assert path.parent.name == "smeha_fmu_gmt" and path.parent.parent.name == "resources"
+    assert path.parent.name.startswith("smeha_fmu_gmt_")
+    assert path.parent.parent.name == "resources"
     assert Path(gmt.__file__).resolve() != path
 
 

@@ -8,6 +8,7 @@ separate child.
 """
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 import uuid
@@ -61,10 +62,15 @@ def test_build_writes_fmi2_fmu_with_bundled_gmt(fmu_dist):
     assert fmu.is_file()
     with zipfile.ZipFile(fmu) as z:
         names = set(z.namelist())
-        assert z.read("resources/slavemodule.txt").decode().strip() == "smeha_gmt_fmu"
-    assert {"resources/smeha_fmu_gmt/__init__.py", "resources/smeha_fmu_gmt/transducer.py",
-            "resources/smeha_gmt_fmu.py", "resources/smeha_fmu_interface.py",
-            "resources/smeha_fmu_slave.py", "resources/smeha_fmu_runtime.py",
+        slave = z.read("resources/slavemodule.txt").decode().strip()
+        record = z.read("resources/smeha_fmu_environment.txt").decode()
+    # every module under its name and the build's identifier (recorded)
+    build = slave.removeprefix("smeha_gmt_fmu_")
+    assert re.fullmatch("[0-9a-f]{12}", build) and f"build\t{build}\n" in record
+    assert {f"resources/smeha_fmu_gmt_{build}/__init__.py",
+            f"resources/smeha_fmu_gmt_{build}/transducer.py",
+            f"resources/smeha_gmt_fmu_{build}.py", f"resources/smeha_fmu_interface_{build}.py",
+            f"resources/smeha_fmu_slave_{build}.py", f"resources/smeha_fmu_runtime_{build}.py",
             "resources/smeha_fmu_environment.txt",
             "binaries/linux64/SmehaGmt.so"} <= names
     assert not any("__pycache__" in n for n in names)
@@ -233,7 +239,9 @@ def test_two_builds_give_the_same_model_description_but_the_date(fmu_dist, tmp_p
 def test_fmu_runs_its_bundled_gmt(behaviour):
     res = behaviour("2")
     assert res["gmt_imported_before_fmu"] is False
-    assert Path(res["gmt_file"]).parent == Path(res["unzipdir"]) / "resources" / "smeha_fmu_gmt"
+    gmt_dir = Path(res["gmt_file"]).parent
+    assert gmt_dir.parent == Path(res["unzipdir"]) / "resources"
+    assert gmt_dir.name.startswith("smeha_fmu_gmt_")
 
 
 @pytest.mark.parametrize("case", CASES + VARIANT_CASES)
@@ -418,7 +426,7 @@ fmu, tamper = sys.argv[1], sys.argv[2] == "tamper"
 for k in range(2):
     folder = extract(fmu)
     if tamper and k == 1:  # the second copy's physics differs from the one loaded first
-        init = Path(folder) / "resources" / "smeha_fmu_gmt" / "__init__.py"
+        init = next((Path(folder) / "resources").glob("smeha_fmu_gmt_*/__init__.py"))
         init.write_text(init.read_text() + "# another version\\n")
     simulate_fmu(folder, stop_time=1e-4, output_interval=1e-5, debug_logging=True)
 """

@@ -69,7 +69,9 @@ def test_fmi3_declares_units_natively(fmu_dist):
 def test_fmi3_runs_its_bundled_gmt(behaviour):
     res = behaviour("3")
     assert res["gmt_imported_before_fmu"] is False
-    assert Path(res["gmt_file"]).parent == Path(res["unzipdir"]) / "resources" / "smeha_fmu_gmt"
+    gmt_dir = Path(res["gmt_file"]).parent
+    assert gmt_dir.parent == Path(res["unzipdir"]) / "resources"
+    assert gmt_dir.name.startswith("smeha_fmu_gmt_")
 
 
 @pytest.mark.parametrize("case", CASES + VARIANT_CASES)

@@ -221,3 +221,35 @@ def test_a_message_reaches_the_host_as_written_however_often_it_is_formatted():
         ("off its design point (tolerances 5 percent in frequency, 1 percent in amplitude)",
          "warning"),
         ("rate 100 percent", "error")]
+
+
+def test_an_fmus_modules_are_bundled_under_names_of_its_build():
+    """Every module of fmu_src/ and the FMU's packages are renamed ``<name>_<build>`` (whole
+    words only: imports, the names given to importlib), so that FMUs of two builds never share
+    a module in one Python (smeha.fmu.build.bundled_names)."""
+    from smeha.fmu import build
+
+    project_imports = 0
+    for key in build.SPECS:
+        fmu = build.spec(key)
+        names = build.bundled_names(fmu, "0123456789ab")
+        assert all(v == f"{k}_0123456789ab" for k, v in names.items())
+        for module in (fmu.slave, *fmu.modules):
+            path = FMU_SRC / f"{module}.py"
+            project_imports += len({m for m in _imported_modules(path)
+                                    if m.split(".")[0] in names})
+            tree = ast.parse(build.rename_modules(path.read_text(), names))
+            renamed = {n.module if isinstance(n, ast.ImportFrom) else a.name
+                       for n in ast.walk(tree) if isinstance(n, (ast.Import, ast.ImportFrom))
+                       for a in getattr(n, "names", [])}
+            assert not {m for m in renamed if m and m.split(".")[0] in names}, module
+    assert project_imports > 10  # the slaves import their neighbours by name
+    text = ('import smeha_fmu_interface as iface\nfrom smeha_fmu_base import SlaveBase\n'
+            'PACKAGE = "smeha_fmu_gmt"  # smeha_gmt_fmu3, smeha_fmu_environment.txt\n')
+    names = build.bundled_names(build.spec("transducer2"), "0123456789ab")
+    assert build.rename_modules(text, {k: v for k, v in names.items()
+                                       if k != "smeha_gmt_fmu3"}) == (
+        'import smeha_fmu_interface_0123456789ab as iface\n'
+        'from smeha_fmu_base_0123456789ab import SlaveBase\n'
+        'PACKAGE = "smeha_fmu_gmt_0123456789ab"  # smeha_gmt_fmu3, smeha_fmu_environment.txt\n')
+    assert len(build.build_id()) == 12 and build.build_id() == build.build_id()

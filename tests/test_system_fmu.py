@@ -243,11 +243,13 @@ def test_build_writes_a_valid_ssp_and_osp(system_dist):
 def test_the_plant_fmu_carries_its_physics_under_names_of_its_own(system_dist):
     with zipfile.ZipFile(system_dist[0] / "SmehaPlant.fmu") as z:
         names = set(z.namelist())
-        rod = z.read("resources/smeha_plant_system_models/rod.py").decode()
         record = z.read("resources/smeha_fmu_environment.txt").decode()
-    assert "from smeha_plant_gmt.errors import" in rod and "from gmt" not in rod
+        build = record.split("build\t", 1)[1].split()[0]  # the suffix of every bundled name
+        rod = z.read(f"resources/smeha_plant_system_models_{build}/rod.py").decode()
+    assert f"from smeha_plant_gmt_{build}.errors import" in rod and "from gmt" not in rod
     # numba's cache of the compiled kernel, made at build time
-    assert any(n.startswith("resources/smeha_plant_system_models/") and "/__pycache__/" in n
+    assert any(n.startswith(f"resources/smeha_plant_system_models_{build}/")
+               and "/__pycache__/" in n
                and "._plant_run-" in n and n.endswith(".nbc") for n in names)
     assert "required\tnumpy\nrequired\tnumba\n" in record
 

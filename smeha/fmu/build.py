@@ -109,6 +109,26 @@ PACKAGE_SOURCES = {"gmt": FMU_SRC / "gmt" if IN_SOURCE_TREE else REPO / "gmt",
                    "system_models": REPO / "system_models"}
 
 
+def build_id() -> str:
+    """The build identifier every FMU of this source tree records (``smeha_fmu_runtime``'s
+    ``BUILD_KEY``): the first 12 hex digits of a SHA-256 of the Python sources the FMUs bundle
+    (``fmu_src/*.py``, the packages of :data:`PACKAGE_SOURCES` and this module, which renames
+    them, by relative path and content): the same sources give the same identifier. Every
+    module and package an FMU bundles is bundled under its name and this suffix
+    (:func:`bundled_names`)."""
+    import hashlib
+
+    digest = hashlib.sha256()
+    files = [("build.py", Path(__file__))]
+    files += [(f"fmu_src/{path.name}", path) for path in sorted(FMU_SRC.glob("*.py"))]
+    for key, root in sorted(PACKAGE_SOURCES.items()):
+        files += [(f"{key}/{path.relative_to(root).as_posix()}", path)
+                  for path in sorted(root.rglob("*.py")) if "__pycache__" not in path.parts]
+    for name, path in files:
+        digest.update(name.encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()[:12]
+
+
 @dataclass(frozen=True)
 class FmuSpec:
     """What one FMU is built from.
@@ -414,8 +434,34 @@ def bundle_package(source: Path, dest: Path, renames: dict) -> None:
             path.write_text(renamed, encoding="utf-8")
 
 
-def _stage(fmu: FmuSpec, staging: Path) -> Path:
-    """Copy the slave, its modules and packages into ``staging``; return the script."""
+def bundled_names(fmu: FmuSpec, build: str | None = None) -> dict:
+    """Every module of ``fmu_src/`` and every package ``fmu`` bundles -> the name this build
+    bundles it under, ``<name>_<build>`` (``build``: :func:`build_id`).
+
+    One Python interpreter serves every pythonfmu FMU of a host process, and it keeps one
+    module per name: pythonfmu imports each FMU's slave module by the name in its
+    ``slavemodule.txt``, and the slave imports the rest by name. Under names of their own
+    build, the modules of FMUs built from other sources never meet: each FMU runs its own
+    build's code beside any other, and FMUs of one build share theirs."""
+    build = build or build_id()
+    names = {path.stem for path in FMU_SRC.glob("*.py") if not path.stem.startswith("_")}
+    names.update(bundled for bundled, _ in fmu.packages)
+    return {name: f"{name}_{build}" for name in sorted(names)}
+
+
+def rename_modules(text: str, names: dict) -> str:
+    """``text`` with every whole-word occurrence of a key of ``names`` replaced by its value:
+    imports, and the names the bundled code passes to importlib (its ``BUNDLED_*`` constants)."""
+    if not names:
+        return text
+    pattern = re.compile(r"\b(" + "|".join(map(re.escape, sorted(names, key=len, reverse=True)))
+                         + r")\b")
+    return pattern.sub(lambda m: names[m.group(1)], text)
+
+
+def _stage(fmu: FmuSpec, staging: Path, names: dict) -> Path:
+    """Copy the slave, its modules and packages into ``staging`` under their bundled
+    ``names`` (:func:`bundled_names`), every name in them renamed; return the script."""
     script = FMU_SRC / f"{fmu.slave}.py"
     missing = [str(p) for p in (script, *(FMU_SRC / f"{m}.py" for m in fmu.modules),
                                 *(PACKAGE_SOURCES[k] / "__init__.py" for _, k in fmu.packages))
@@ -424,14 +470,20 @@ def _stage(fmu: FmuSpec, staging: Path) -> Path:
         raise BuildError(f"the FMU sources are missing ({', '.join(missing)}): the build needs "
                          "the smeha source tree (fmu_src/ and system_models/ as checked out)")
     staging.mkdir(parents=True)
-    shutil.copy2(script, staging / script.name)
-    for module in fmu.modules:
-        shutil.copy2(FMU_SRC / f"{module}.py", staging)
-    (staging / _runtime().ENVIRONMENT_FILE).write_text(_runtime().format_environment(
-        native.environment_record(fmu.required)), encoding="utf-8")
+    for module in (fmu.slave, *fmu.modules):
+        (staging / f"{names[module]}.py").write_text(rename_modules(
+            (FMU_SRC / f"{module}.py").read_text(encoding="utf-8"), names), encoding="utf-8")
+    record = native.environment_record(fmu.required)
+    record[_runtime().BUILD_KEY] = [names[fmu.slave][len(fmu.slave) + 1:]]
+    (staging / _runtime().ENVIRONMENT_FILE).write_text(_runtime().format_environment(record),
+                                                       encoding="utf-8")
     for bundled, key in fmu.packages:
-        bundle_package(PACKAGE_SOURCES[key], staging / bundled, fmu.renames)
-    return staging / script.name
+        dest = staging / names[bundled]
+        bundle_package(PACKAGE_SOURCES[key], dest, fmu.renames)
+        for path in sorted(dest.rglob("*.py")):
+            path.write_text(rename_modules(path.read_text(encoding="utf-8"), names),
+                            encoding="utf-8")
+    return staging / f"{names[fmu.slave]}.py"
 
 
 def _worker(key: str, workdir: str) -> None:
@@ -439,16 +491,17 @@ def _worker(key: str, workdir: str) -> None:
     workdir/raw."""
     fmu = spec(key)
     work = Path(workdir)
-    script = _stage(fmu, work / "src")
+    names = bundled_names(fmu)
+    script = _stage(fmu, work / "src", names)
     sys.path.insert(0, str(script.parent))
     if fmu.check:
-        getattr(importlib.import_module(fmu.table), fmu.check)()  # the staged copy
+        getattr(importlib.import_module(names[fmu.table]), fmu.check)()  # the staged copy
     if fmu.compile:
-        module, function = fmu.compile.split(":")
+        module, function = rename_modules(fmu.compile, names).split(":")
         getattr(importlib.import_module(module), function)()
     project_files = [script.parent / name for name in (
-        *(bundled for bundled, _ in fmu.packages), *(f"{m}.py" for m in fmu.modules),
-        _runtime().ENVIRONMENT_FILE)]
+        *(names[bundled] for bundled, _ in fmu.packages),
+        *(f"{names[m]}.py" for m in fmu.modules), _runtime().ENVIRONMENT_FILE)]
     if fmu.fmi == "2":
         from pythonfmu.builder import FmuBuilder
         FmuBuilder.build_FMU(script, dest=work / "raw", project_files=project_files,
@@ -522,9 +575,10 @@ def _compiled(fmu: FmuSpec, staging: Path) -> dict:
     so the extracted FMU loads it; a host on another CPU compiles again, at its first run."""
     if not fmu.compile:
         return {}
+    names = bundled_names(fmu)
     return {f"resources/{path.relative_to(staging).as_posix()}": path.read_bytes()
             for bundled, _ in fmu.packages
-            for path in sorted((staging / bundled).rglob("__pycache__/*.nb[ic]"))}
+            for path in sorted((staging / names[bundled]).rglob("__pycache__/*.nb[ic]"))}
 
 
 def validate_fmu(path) -> list[str]:
