@@ -22,10 +22,13 @@ def pytest_sessionstart(session):
     numba writes its compiled code to a cache beside the kernel's sources (about 45 s of
     CPU on this project's machine when the cache is empty: a fresh checkout, a Python of
     its own). Workers that reach their first kernel test while the cache is still empty
-    each compile it; compiled once before them, every worker loads it (~0.4 s).
+    each compile it; compiled once before them, every worker loads it (~0.4 s). Done for
+    the configured test paths (the whole suite, or its fast tests: both use the kernel),
+    not for named files, which may not need it.
     """
     config = session.config
-    if hasattr(config, "workerinput") or (getattr(config.option, "numprocesses", 0) or 0) < 2:
+    if (hasattr(config, "workerinput") or (getattr(config.option, "numprocesses", 0) or 0) < 2
+            or config.args_source is not pytest.Config.ArgsSource.TESTPATHS):
         return
     from system_models import kernel
     kernel.ensure_compiled()
