@@ -10,9 +10,21 @@ from __future__ import annotations
 import math
 from types import SimpleNamespace
 
+import numpy  # noqa: F401  (numpy's and scipy's BLAS loaded, for the limit below)
 import pytest
+import scipy.linalg  # noqa: F401
+from threadpoolctl import threadpool_limits
 
 import gmt
+
+# One BLAS thread in each test process: the suite runs one process a core (pytest-xdist's
+# workers), so BLAS's own threads would only contend for the same cores, and OpenBLAS's
+# threads wait for work by spinning (smeha.pool's docstring). Measured: the finer-grid
+# relays of tests/test_preisach.py (a 10,548-long dot product a sample, which OpenBLAS
+# splits over its threads) took 32 s of CPU with its default threads on a loaded 2-core
+# machine and 0.24 s with one. The limit holds for the whole process (never restored) and
+# acts on the BLAS libraries loaded by then: numpy's and scipy's, imported above.
+threadpool_limits(limits=1, user_api="blas")
 
 
 @pytest.hookimpl(tryfirst=True)
