@@ -10,9 +10,40 @@ from __future__ import annotations
 import math
 from types import SimpleNamespace
 
+import numpy  # noqa: F401  (numpy's and scipy's BLAS loaded, for the limit below)
 import pytest
+import scipy.linalg  # noqa: F401
+from threadpoolctl import threadpool_limits
 
 import gmt
+
+# One BLAS thread in each test process: the suite runs one process a core (pytest-xdist's
+# workers), so BLAS's own threads would only contend for the same cores, and OpenBLAS's
+# threads wait for work by spinning (smeha.pool's docstring). Measured: the finer-grid
+# relays of tests/test_preisach.py (a 10,548-long dot product a sample, which OpenBLAS
+# splits over its threads) took 32 s of CPU with its default threads on a loaded 2-core
+# machine and 0.24 s with one. The limit holds for the whole process (never restored) and
+# acts on the BLAS libraries loaded by then: numpy's and scipy's, imported above.
+threadpool_limits(limits=1, user_api="blas")
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_sessionstart(session):
+    """Under pytest-xdist, compile the hydraulic kernel once, here, before the workers start.
+
+    numba writes its compiled code to a cache beside the kernel's sources (about 45 s of
+    CPU on this project's machine when the cache is empty: a fresh checkout, a Python of
+    its own). Workers that reach their first kernel test while the cache is still empty
+    each compile it; compiled once before them, every worker loads it (~0.4 s). Done for
+    the configured test paths (the whole suite, or its fast tests: both use the kernel),
+    not for named files, which may not need it.
+    """
+    config = session.config
+    if (hasattr(config, "workerinput") or (getattr(config.option, "numprocesses", 0) or 0) < 2
+            or config.args_source is not pytest.Config.ArgsSource.TESTPATHS):
+        return
+    from system_models import kernel
+    kernel.ensure_compiled()
 
 #: Permeability of free space, [H/m] (eq 3); 4 pi 1e-7, as in every textbook
 #: before the 2019 SI revision (the difference, 5e-10 relative, is immaterial).

@@ -37,6 +37,12 @@ STEPS, H, FREQUENCY = 1500, 1e-5, 50.0
 OUTPUTS = ("current", "displacement", "velocity", "flux_density", "force")
 
 
+def _built(request, *names):
+    """The fixtures ``names`` (the FMUs and what is run from them), set up only once the test
+    has found its tool: a test skipped for a missing tool builds nothing."""
+    return [request.getfixturevalue(name) for name in names]
+
+
 def _tool(variable: str, *names: str) -> str:
     found = os.environ.get(variable) or next(filter(None, map(shutil.which, names)), None)
     if not found or not os.access(found, os.X_OK):
@@ -79,8 +85,9 @@ def _close(got, ref, rtol=1e-12):
 
 
 @pytest.mark.parametrize("fmi", ["2", "3"])
-def test_fmusim_runs_the_fmu_as_fmpy_does(fmi, fmu_dist, drive_csv, reference, tmp_path):
+def test_fmusim_runs_the_fmu_as_fmpy_does(fmi, request, tmp_path):
     fmusim = _tool("FMUSIM", "fmusim")
+    fmu_dist, drive_csv, reference = _built(request, "fmu_dist", "drive_csv", "reference")
     out = tmp_path / "out.csv"
     # one step beyond: fmusim's clock accumulates h and may stop a step short of k h
     cmd = [fmusim, "--interface-type", "cs", "--input-file", str(drive_csv), "--stop-time",
@@ -97,9 +104,9 @@ def test_fmusim_runs_the_fmu_as_fmpy_does(fmi, fmu_dist, drive_csv, reference, t
     assert _close(got, ref) <= 1e-12
 
 
-def test_fmucheck_finds_no_problem_and_runs_the_fmu_as_fmpy_does(fmu_dist, drive_csv,
-                                                                  reference, tmp_path):
+def test_fmucheck_finds_no_problem_and_runs_the_fmu_as_fmpy_does(request, tmp_path):
     fmucheck = _tool("FMUCHECK", "fmuCheck.linux64", "fmuCheck")
+    fmu_dist, drive_csv, reference = _built(request, "fmu_dist", "drive_csv", "reference")
     out = tmp_path / "out.csv"
     proc = subprocess.run([fmucheck, "-k", "cs", "-h", repr(H), "-s", repr(STEPS * H), "-n",
                            "0", "-i", str(drive_csv), "-o", str(out), str(fmu_dist["2"])],
@@ -128,12 +135,13 @@ FIXED_STEP_NOTICE = ("[WARNING][FMUCHK] FMU does not support variable communicat
 
 
 @pytest.mark.parametrize("name", ["SmehaDrive", "SmehaPlant", "SmehaEha"])
-def test_fmucheck_finds_no_problem_in_the_systems_fmus(name, system_dist, tmp_path):
+def test_fmucheck_finds_no_problem_in_the_systems_fmus(name, request, tmp_path):
     # the drive's and the plant's FMUs, and the three as one (fmpy's container FMU), at the
     # start values for 0.02 s in steps of 0.1 ms; the container's transducer, at 100 Hz
     # compensated, reports its design-point warning, which must reach the checker's log as
     # the FMU wrote it (the container formats it once before passing it on as a format)
     fmucheck = _tool("FMUCHECK", "fmuCheck.linux64", "fmuCheck")
+    (system_dist,) = _built(request, "system_dist")
     proc = subprocess.run([fmucheck, "-k", "cs", "-l", "3", "-h", "1e-4", "-s", "0.02", "-o",
                            str(tmp_path / "out.csv"), str(system_dist[0] / f"{name}.fmu")],
                           capture_output=True, text=True, env=HOST_ENV, timeout=300)
@@ -166,10 +174,11 @@ def _omsimulator() -> str:
 
 
 @pytest.mark.parametrize("fmi", ["2", "3"])
-def test_omsimulator_runs_the_fmu_as_fmpy_does(fmi, fmu_dist, runner_dir, tmp_path):
+def test_omsimulator_runs_the_fmu_as_fmpy_does(fmi, request, tmp_path):
     from smeha.fmu.systemrun import omsimulator_errors
 
     exe = _omsimulator()
+    fmu_dist, runner_dir = _built(request, "fmu_dist", "runner_dir")
     out = tmp_path / "oms.csv"
     proc = subprocess.run([exe, str(fmu_dist[fmi]), f"--stopTime={OMS_STEPS * OMS_H!r}",
                            f"--stepSize={OMS_H!r}", f"--intervals={OMS_STEPS}",

@@ -55,12 +55,17 @@ def _blas_threads(_):
 def test_jobs_run_with_one_blas_thread_and_the_limit_is_restored():
     # smeha.pool's docstring: one BLAS thread a process while jobs run (threadpoolctl reads
     # the libraries' own setting), in this process and in the workers; afterwards this
-    # process has the threads it had
-    before = _blas_threads(0)
-    if not before:
-        pytest.skip("no BLAS library that threadpoolctl controls")
-    here = pool.run_jobs(_blas_threads, [(0,)], 1, desc="t", unit="job", quiet=True)
-    away = pool.run_jobs(_blas_threads, [(0,), (1,)], 2, desc="t", unit="job", quiet=True)
-    assert here == [[1] * len(before)]
-    assert away == [[1] * len(before)] * 2
-    assert _blas_threads(0) == before
+    # process has the threads it had. The test processes run with one BLAS thread
+    # (conftest.py); two here, so that a limit not set or not restored shows
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=2, user_api="blas"):
+        before = _blas_threads(0)
+        if not before:
+            pytest.skip("no BLAS library that threadpoolctl controls")
+        assert before == [2] * len(before)
+        here = pool.run_jobs(_blas_threads, [(0,)], 1, desc="t", unit="job", quiet=True)
+        away = pool.run_jobs(_blas_threads, [(0,), (1,)], 2, desc="t", unit="job", quiet=True)
+        assert here == [[1] * len(before)]
+        assert away == [[1] * len(before)] * 2
+        assert _blas_threads(0) == before
