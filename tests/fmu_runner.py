@@ -244,6 +244,27 @@ def bundled_module(name):
 _CALLBACKS = []  # keep ctypes callbacks alive
 
 
+def fmi2_callbacks(logs):
+    """fmpy's FMI 2.0 callbacks with a logger that appends (status, category, message) to
+    ``logs``, kept alive in :data:`_CALLBACKS`."""
+    from ctypes import byref
+
+    from fmpy.fmi2 import (calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                           fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free)
+    from fmpy.logging import addLoggerProxy
+
+    def logger(env, inst, status, category, message):
+        logs.append((int(status), (category or b"").decode(), message.decode()))
+
+    cb = fmi2CallbackFunctions()
+    cb.logger = fmi2CallbackLoggerTYPE(logger)
+    cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    addLoggerProxy(byref(cb))
+    _CALLBACKS.append(cb)
+    return cb
+
+
 class Fmu:
     """One FMU instance through fmpy, FMI 2.0 or 3.0, with its log captured."""
 
@@ -258,22 +279,9 @@ class Fmu:
         self.logs = []
         self._out_vr = [self.vr[n] for n in REALS + ("sensed_displacement",)]
         if self.fmi == "2":
-            from ctypes import byref
+            from fmpy.fmi2 import FMU2Slave
 
-            from fmpy.fmi2 import (FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE,
-                                   fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
-                                   fmi2CallbackLoggerTYPE, free)
-            from fmpy.logging import addLoggerProxy
-
-            def logger(env, inst, status, category, message):
-                self.logs.append((int(status), (category or b"").decode(), message.decode()))
-
-            cb = fmi2CallbackFunctions()
-            cb.logger = fmi2CallbackLoggerTYPE(logger)
-            cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-            cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-            addLoggerProxy(byref(cb))
-            _CALLBACKS.append(cb)
+            cb = fmi2_callbacks(self.logs)
             self.s = FMU2Slave(guid=md.guid, unzipDirectory=self.dir,
                                modelIdentifier=md.coSimulation.modelIdentifier,
                                instanceName=name)
@@ -864,23 +872,9 @@ class _Unit:
         cs = self.md.coSimulation
         try:
             if self.fmi == "2":
-                from ctypes import byref
+                from fmpy.fmi2 import FMU2Slave
 
-                from fmpy.fmi2 import (FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE,
-                                       fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
-                                       fmi2CallbackLoggerTYPE, free)
-                from fmpy.logging import addLoggerProxy
-
-                def logger(env, inst, status, category, message):
-                    self.logs.append((int(status), (category or b"").decode(),
-                                      message.decode()))
-
-                cb = fmi2CallbackFunctions()
-                cb.logger = fmi2CallbackLoggerTYPE(logger)
-                cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-                cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-                addLoggerProxy(byref(cb))
-                _CALLBACKS.append(cb)
+                cb = fmi2_callbacks(self.logs)
                 self.s = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir,
                                    modelIdentifier=cs.modelIdentifier, instanceName=self.name)
                 self.s.instantiate(callbacks=cb, loggingOn=True)
