@@ -227,14 +227,18 @@ class SaturationForm(MagnetizationStage, Extension):
                             high_open=False, optional=True),
                   Parameter("bias_shift", "-", *SHIFT_RANGE, low_open=False,
                             high_open=False, optional=True))
-    # one start, the tanh law tangent to the paper at zero: started also from M_b/M_s 0.6
-    # and from Froehlich-Kennelly, the fits ended within 2 of its held-out score on
-    # labsim's Langevin law (seed 3 at 800 a period) and outside lab D, at 3 times the cost;
-    # from it the fit reaches labsim's arctangent law tangent at the bias (seed 0 at 800 a
-    # period: k = 2.44, d = -0.57, held-out chi^2/n 1.07)
+    # two starts, the tanh law through zero with the paper's M extrapolated to it (k = 1,
+    # d = 0) and the tanh law tangent to the paper at a bias of M_s / 2 (k = 1 / sech^2
+    # u_b = 4/3, d = u_b - 2/3, tanh u_b = 1/2). From the first alone the fit reached
+    # labsim's arctangent law tangent at the bias alone (seed 0 at 800 a period: k = 2.44,
+    # d = -0.57, held-out chi^2/n 1.07) but beside its eddy currents or mechanics ended
+    # above the paper's model (seed 0: held-out chi^2/n 2.7e6 against 3.6e6; unexplained),
+    # and beside Froehlich-Kennelly's a hysteresis was named with the delay; from both
+    # each pair is named, and labsim's mean-field Langevin law alone as before (gain 112)
     fit = FitSpec(("M_b/M_s", "initial_slope", "knee_exponent", "tail_exponent",
                    "bias_shift"),
-                  ((0.3, 1.0, 2.0, 1.0, 0.0),),
+                  ((0.3, 1.0, 2.0, 1.0, 0.0),
+                   (0.5, 4.0 / 3.0, 2.0, 1.0, math.atanh(0.5) - 2.0 / 3.0)),
                   (1e-3, SLOPE_RANGE[0]) + (EXPONENT_RANGE[0],) * 2 + (SHIFT_RANGE[0],),
                   (0.97, SLOPE_RANGE[1]) + (EXPONENT_RANGE[1],) * 2 + (SHIFT_RANGE[1],),
                   neutral=(1e-3, 1.0, 2.0, 1.0, 0.0), method="dogbox")
