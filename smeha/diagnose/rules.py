@@ -233,7 +233,9 @@ def shows_signature(current: Fit, new: Fit, added) -> bool:
     tests/test_decision.py::
     test_a_first_hysteresis_must_show_the_loops_higher_harmonics_against_the_paper)."""
     if added.signature == GROWS_WITH_DRIVE:
-        return grows_with_drive(current, new, added)
+        # asked with a sense voltage: without one each run's B_m is estimated from y's
+        # fundamental (eq 19), which takes up what the law changes there
+        return not new.measured_of(("B",)) or grows_with_drive(current, new, added)
     if added.signature != HIGHER_HARMONICS:
         return True
     return current.heldout_chi2_higher - new.heldout_chi2_higher > MIN_BIC_DROP
@@ -247,7 +249,8 @@ DRIVE_POWER = 3.0
 def grows_with_drive(current: Fit, new: Fit, added) -> bool:
     """True when the held-out excess ``new`` removes from ``current`` in ``added``'s
     channels grows from the lowest drive level to the highest by more than (I_high /
-    I_low)^:data:`DRIVE_POWER` (or where the held-out runs hold one level only).
+    I_low)^:data:`DRIVE_POWER` (or where the held-out runs hold one level only). Asked by
+    :func:`shows_signature` where B is measured.
 
     A linear effect on M (a lag, a resonance) changes the response in proportion to the
     drive: its misfit grows as I_m and its chi^2 as I_m^2. A memoryless nonlinearity bends
