@@ -785,3 +785,24 @@ def test_a_round_that_names_no_cause_says_why_of_each_model_it_tried(monkeypatch
     assert stopped.startswith(f"{firm.label}: ")
     assert f"; {weak.label}: " in stopped
     assert stopped.count("that must go") == 2
+
+
+def test_a_saturation_must_remove_more_as_the_drive_grows_than_a_linear_effect_would():
+    # a linear effect's chi^2 grows as I_m^2, a memoryless nonlinearity's as I_m^4 or I_m^6;
+    # a saturation must remove, from 0.6 A to 1 A, more than (1/0.6)^3 = 4.6 times as much.
+    # The amounts: labsim's Langevin law at strength 0.1 (800 a period, seed 0: 58.6 and
+    # 3130, 53 times) and the law fitted to eddy currents + a one-mass resonance (20 kHz
+    # clock, seed 1: 4.16e5 and 8.85e5, 2.1 times; named saturation without the rule)
+    sat = _cls("magnetization_saturation")
+    paper = _by_level(fit((), y=3204.6), (74.6, 3130.0))
+    weak = _by_level(fit((sat,), y=16.0), (16.0, 0.0))
+    assert rules.shows_signature(paper, weak, sat)
+    paper = _by_level(fit((), y=2.113e6), (5.93e5, 1.52e6))
+    imitation = _by_level(fit((sat,), y=8.12e5), (1.77e5, 6.35e5))
+    assert not rules.shows_signature(paper, imitation, sat)
+    reason = rules.refusal(fit(()), paper, imitation, [], sense=True)
+    assert reason.startswith("what it removes does not grow with the drive"), reason
+    # one drive level asks nothing
+    flat = dataclasses.replace(imitation, heldout_run_amplitudes=(1.0,) * 4)
+    assert rules.shows_signature(dataclasses.replace(paper, heldout_run_amplitudes=(1.0,) * 4),
+                                 flat, sat)

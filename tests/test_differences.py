@@ -184,7 +184,8 @@ def test_a_density_combination_on_its_upper_bounds_has_a_covariance(labsim_batch
     prob = linearfit._Problem(ev, batch, cand, lin)
     x = np.array(cand.starts()[0], float)
     x[prob.other_idx] = np.minimum(np.asarray(cand.upper, float)[prob.other_idx], 1e4)
-    x[prob.other_idx[-4:]] = (0.5, 2.0, 4.0, 4.0)  # M_b/M_s, slope, knee, tail: upper
+    # M_b/M_s, slope, knee, tail, bias shift: the exponents on their upper bounds
+    x[prob.other_idx[-5:]] = (0.5, 2.0, 4.0, 4.0, 0.0)
     w = np.where(np.arange(prob.lin_idx.size) % 3 == 0, 4e3, 0.0)
     other = x[prob.other_idx]
     base = (9.6e4, 1.84, 2.0e4, 2.0, 1.05)

@@ -43,7 +43,7 @@ CASES = {
     "rate_independent_hysteresis": (None, (0.25, -0.85, 1.0)),
     "magnetization_saturation": (
         {"saturation_magnetization_A_per_m": 4e5, "initial_slope": 1.1, "knee_exponent": 1.5,
-         "tail_exponent": 2.0}, (250e3 / 4e5, 1.1, 1.5, 2.0)),
+         "tail_exponent": 2.0, "bias_shift": -0.2}, (250e3 / 4e5, 1.1, 1.5, 2.0, -0.2)),
     "eddy_current_diffusion": (
         {"time_constant_s": 1.6e-3, "order": 0.5}, (math.log10(1.6e-3), 0.5)),
     "transport_delay": ({"delay_s": 3.37e-4}, (0.337,)),
@@ -597,7 +597,7 @@ def test_a_state_of_the_wrong_size_is_refused():
 #: internal unknowns of the members of the combinations below (each extension's FitSpec)
 COMBINED = {
     ("rate_independent_hysteresis", ""): (0.25, -0.85, 1.0),
-    ("magnetization_saturation", ""): (0.625, 1.0, 2.0, 1.0),
+    ("magnetization_saturation", ""): (0.625, 1.0, 2.0, 1.0, 0.0),
     ("eddy_current_diffusion", "lag"): (math.log10(1.6e-3), 0.5),
     ("eddy_current_diffusion", "slab"): (-3.0,),
     ("eddy_current_diffusion", "cylinder"): (-3.0,),

@@ -101,14 +101,31 @@ def test_a_law_outside_its_ranges_is_refused_naming_the_parameter(field, value):
         SoftSaturation(**kwargs)
 
 
+def test_a_law_tangent_to_the_paper_at_the_bias_is_a_member():
+    # the paper's linear M as the small-signal model about the bias: the tanh law through
+    # the bias u_b, tanh(u_b) = M_b / M_s, scaled so that its slope there is the paper's,
+    # M_tot = M_s tanh(u_b + M / (M_s sech^2 u_b)) (closed form, written here), is eq (1)'s
+    # p = 2, q = 1 with k = cosh^2 u_b and d = u_b - k M_b / M_s
+    ms, mb = 450e3, 250e3
+    ub = math.atanh(mb / ms)
+    k = math.cosh(ub) ** 2
+    law = SoftSaturation(ms, mb, k, 2.0, 1.0, 0.0, ub - k * mb / ms)
+    m = np.linspace(-1.5e5, 1.5e5, 31)
+    closed = ms * np.tanh(ub + m / (ms / math.cosh(ub) ** 2)) - mb
+    assert np.max(np.abs(law.magnetization(m) - closed)) < 1e-8 * ms
+    # its slope at the bias is the paper's: 1
+    assert (law.magnetization(1.0) - law.magnetization(-1.0)) / 2 == pytest.approx(1.0,
+                                                                                   rel=1e-6)
+
+
 def test_the_richer_form_holds_the_law_and_starts_from_it():
     # c = 0 is eq (1): the richer form's start from a fit is the same law
-    x = (0.4, 1.05, 1.8, 1.2)
+    x = (0.4, 1.05, 1.8, 1.2, -0.1)
     ctx = {"params": gmt.TransducerParameters()}
     assert SaturationForm.finer is RicherSaturationForm
     start = SaturationForm.finer_start(x)
     assert RicherSaturationForm.from_fit(start, ctx) == dict(
-        SaturationForm.from_fit(x, ctx), shoulder=0.0, bias_shift=0.0)
+        SaturationForm.from_fit(x, ctx), shoulder=0.0)
     params = gmt.TransducerParameters()
     m = np.linspace(-5e4, 5e4, 11)
     assert np.allclose(RicherSaturationForm.law(RicherSaturationForm.from_fit(start, ctx),

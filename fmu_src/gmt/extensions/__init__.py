@@ -41,7 +41,7 @@ joined by ``+`` in stage order (:func:`combination_name`).
 from __future__ import annotations
 
 from ..errors import ParameterError
-from ._base import (HIGHER_HARMONICS, STAGES, Extension, FieldState, FitSpec, Parameter,
+from ._base import (GROWS_WITH_DRIVE, HIGHER_HARMONICS, STAGES, Extension, FieldState, FitSpec, Parameter,
                     harmonic_remainder)
 from .delay import DelayForm, TransportDelay
 from .diffusion import (DIFFUSION_GEOMETRIES, CylinderDiffusionForm,
@@ -171,7 +171,7 @@ def parse_name(name) -> tuple:
 
 
 __all__ = [
-    "HIGHER_HARMONICS", "STAGES", "Extension", "FieldState", "FitSpec", "Parameter",
+    "GROWS_WITH_DRIVE", "HIGHER_HARMONICS", "STAGES", "Extension", "FieldState", "FitSpec", "Parameter",
     "harmonic_remainder",
     "DelayForm", "TransportDelay", "DIFFUSION_GEOMETRIES", "CylinderDiffusionForm",
     "EddyCurrentDiffusion", "ModalBank", "SlabDiffusionForm", "SlabMagnetizationForm",

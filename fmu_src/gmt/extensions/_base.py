@@ -234,6 +234,10 @@ Y_LINEAR_LOOKALIKE = (
 #: and B's harmonics from the third up, which a change of the fundamentals alone (a linear
 #: lag of M) does not produce (smeha.diagnose.rules.shows_signature).
 HIGHER_HARMONICS = "higher harmonics"
+#: The ``signature`` of a memoryless nonlinearity of M (a saturation): what it changes grows
+#: with the drive faster than a linear effect's (misfit proportional to the drive, chi^2 to
+#: its square), even where its harmonics are within noise (smeha.diagnose.rules.grows_with_drive).
+GROWS_WITH_DRIVE = "grows with the drive"
 
 
 class Extension:
@@ -257,7 +261,9 @@ class Extension:
     signature : str
         What a cause of this form must also explain to be named, first or beside
         others: :data:`HIGHER_HARMONICS` for y's and B's harmonics from the third up (a
-        nonlinearity of M, which a change of the fundamentals alone does not show); ""
+        nonlinearity of M, which a change of the fundamentals alone does not show);
+        :data:`GROWS_WITH_DRIVE` for a change that grows with the drive faster than a
+        linear effect's (a memoryless nonlinearity of M); ""
         nothing more than its channels (smeha.diagnose.rules.shows_signature).
     lookalike : str
         What else, outside the candidates, leaves the same signature in the

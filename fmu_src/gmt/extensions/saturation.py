@@ -5,13 +5,18 @@ saturation magnetisation M_s cannot follow it: its total magnetisation (bias
 included) is the linear one mapped through an anhysteretic law S, odd, monotone,
 of unit slope at zero and tending to +-1,
 
-    M_b + M_sat = M_s S(k (M_b + M) / M_s),
+    M_b + M_sat = M_s S(k (M_b + M) / M_s + d),
 
-where k is the law's initial slope against the paper's susceptibility (1 where
-the paper's linear M is the law's tangent at zero; the law of Jiles & Atherton,
-M_s S(H_e / a), has k = M_s / (a chi) for the paper's susceptibility chi). With
-k = 1 it tends to M_b + M as M_s -> inf. The bias itself sits on that curve: the
-total at M = 0 is M_s S(k M_b / M_s), and the slope there is below k, so the
+where k is the law's initial slope against the paper's susceptibility and d shifts
+the bias along the curve. With d = 0 the law passes through zero with the paper's
+M extrapolated to it (k = 1: the paper's linear M is the law's tangent at zero;
+the law of Jiles & Atherton, M_s S(H_e / a), has k = M_s / (a chi) for the paper's
+susceptibility chi); a law of which the paper's M is the tangent at the bias, the
+paper's model being the small-signal model about its operating point, has
+k = 1 / S'(u_b) and d = u_b - k M_b / M_s for the bias at u_b on the curve, S(u_b)
+= M_b / M_s (labsim's arctangent law at a bias of 0.56 M_s: k = 2.42, d = -0.59).
+With k = 1, d = 0 it tends to M_b + M as M_s -> inf. The bias itself sits on that curve: the
+total at M = 0 is M_s S(k M_b / M_s + d), and the slope there is below k, so the
 strain per unit magnetisation falls (eq 25), and the loop flattens towards
 saturation and steepens away from it, more at larger amplitude. The paper's
 part M is the linear magnetisation the coil would see without saturation; the
@@ -41,17 +46,16 @@ monotone), and vanishes at |S| = 1 (so |S| < 1 for q >= 1; for q < 1 S reaches
 
 and measured curves between and beyond these. The richer form
 (:class:`RicherSaturationForm`) multiplies (1) by (1 + c S^2), c > -1, the next
-term of an even susceptibility in S, and shifts the bias along the curve by d
-(S(k (M_b + M) / M_s + d): a law of which the paper's M is the tangent at the bias,
-not at zero): the check of the diagnosis behind a later cause that acts on the
-magnetisation beside a saturation (:mod:`smeha.diagnose.resolution`).
+term of an even susceptibility in S: the check of the diagnosis behind a later
+cause that acts on the magnetisation beside a saturation
+(:mod:`smeha.diagnose.resolution`).
 
 * periodic form: M_sat(M) over one period (:meth:`SaturationForm.steady_output`;
   the paper's part of M is the one whose saturated total gives the measured
   B_m, :func:`gmt.extensions.paperpart.paper_permeability`);
 * time-stepped form: memoryless, per sample M becomes M_sat(M);
-* parameters: M_s [A/m] > M_b; k, p and q [-] (1, 2 and 1 by default: tanh
-  tangent to the paper at zero); the diagnosis fits M_b/M_s in (0, 1), k, p and q.
+* parameters: M_s [A/m] > M_b; k, p, q and d [-] (1, 2, 1 and 0 by default: tanh
+  tangent to the paper at zero); the diagnosis fits M_b/M_s in (0, 1), k, p, q and d.
 """
 from __future__ import annotations
 
@@ -62,7 +66,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError, check_range
-from ._base import Extension, FitSpec, Parameter
+from ._base import GROWS_WITH_DRIVE, Extension, FitSpec, Parameter
 from .magnetic import MagnetizationStage
 
 #: The reduced magnetisation's table runs over s = 1 - exp(-t), t = TABLE_SPAN w^3 for
@@ -73,13 +77,15 @@ from .magnetic import MagnetizationStage
 TABLE_SPAN = 24.0
 TABLE_STEPS = 1200
 
-#: Range of the law's initial slope k against the paper's susceptibility, [-].
-SLOPE_RANGE = (0.5, 2.0)
+#: Range of the law's initial slope k against the paper's susceptibility, [-]: up to 4, as
+#: a bias shifted along the curve asks (the arctangent law whose tangent at a bias of 0.56
+#: M_s is the paper's has k = 2.42 at zero).
+SLOPE_RANGE = (0.5, 4.0)
 #: Range of the knee and tail exponents p, q of eq (1), [-].
 EXPONENT_RANGE = (0.5, 4.0)
 #: Range of the richer form's shoulder c of (1 + c S^2), [-].
 SHOULDER_RANGE = (-0.9, 8.0)
-#: Range of the richer form's shift d of the bias on the law's curve, [-] (of u).
+#: Range of the shift d of the bias along the law's curve, [-] (of u).
 SHIFT_RANGE = (-1.0, 1.0)
 
 
@@ -164,6 +170,9 @@ class SoftSaturation:
         p and q of eq (1), [-], in :data:`EXPONENT_RANGE` (2 and 1: tanh).
     shoulder : float
         c of the richer form's (1 + c S^2), [-], in :data:`SHOULDER_RANGE` (0: eq (1)).
+    bias_shift : float
+        d, [-], in :data:`SHIFT_RANGE` (0: the law through zero with the paper's M
+        extrapolated to it).
     """
 
     saturation_magnetization: float
@@ -188,7 +197,7 @@ class SoftSaturation:
                     low_open=False, high_open=False)
 
     def magnetization(self, magnetization):
-        """M_sat = M_s S(k (M_b + M) / M_s) - M_b of the linear M, [A/m] (per sample)."""
+        """M_sat = M_s S(k (M_b + M) / M_s + d) - M_b of the linear M, [A/m] (per sample)."""
         ms = self.saturation_magnetization
         total = self.bias_magnetization + np.asarray(magnetization, dtype=float)
         return ms * anhysteretic(self.initial_slope * total / ms + self.bias_shift,
@@ -209,21 +218,37 @@ class SaturationForm(MagnetizationStage, Extension):
     cause = "magnetization_saturation"
     stage = "magnetization"
     signals = "B and y"
+    # a memoryless nonlinearity of M: what it changes grows with the drive faster than a
+    # linear effect's. Fitted with its bias anywhere on the curve, a law can reshape the
+    # fundamentals as a linear filter does: labsim's eddy currents with a one-mass
+    # resonance (20 kHz clock, seed 1) were named saturation, which removed 4.2e5 of the
+    # held-out excess at 0.6 A and 8.9e5 at 1 A (2.1 times; a weak saturation, strength 0.1:
+    # 53 times, with its harmonics within noise)
+    signature = GROWS_WITH_DRIVE
     parameters = (Parameter("saturation_magnetization_A_per_m", "A/m", 0.0, math.inf),
                   Parameter("initial_slope", "-", *SLOPE_RANGE, low_open=False,
                             high_open=False, optional=True),
                   Parameter("knee_exponent", "-", *EXPONENT_RANGE, low_open=False,
                             high_open=False, optional=True),
                   Parameter("tail_exponent", "-", *EXPONENT_RANGE, low_open=False,
+                            high_open=False, optional=True),
+                  Parameter("bias_shift", "-", *SHIFT_RANGE, low_open=False,
                             high_open=False, optional=True))
-    # one start, the tanh law tangent to the paper at zero: started also from M_b/M_s 0.6
-    # and from Froehlich-Kennelly, the fits ended within 2 of its held-out score on
-    # labsim's Langevin law (seed 3 at 800 a period) and outside lab D, at 3 times the cost
-    fit = FitSpec(("M_b/M_s", "initial_slope", "knee_exponent", "tail_exponent"),
-                  ((0.3, 1.0, 2.0, 1.0),),
-                  (1e-3, SLOPE_RANGE[0]) + (EXPONENT_RANGE[0],) * 2,
-                  (0.97, SLOPE_RANGE[1]) + (EXPONENT_RANGE[1],) * 2,
-                  neutral=(1e-3, 1.0, 2.0, 1.0), method="dogbox")
+    # two starts, the tanh law through zero with the paper's M extrapolated to it (k = 1,
+    # d = 0) and the tanh law tangent to the paper at a bias of M_s / 2 (k = 1 / sech^2
+    # u_b = 4/3, d = u_b - 2/3, tanh u_b = 1/2). From the first alone the fit reached
+    # labsim's arctangent law tangent at the bias alone (seed 0 at 800 a period: k = 2.44,
+    # d = -0.57, held-out chi^2/n 1.07) but beside its eddy currents or mechanics ended
+    # above the paper's model (seed 0: held-out chi^2/n 2.7e6 against 3.6e6; unexplained),
+    # and beside Froehlich-Kennelly's a hysteresis was named with the delay; from both
+    # each pair is named, and labsim's mean-field Langevin law alone as before (gain 112)
+    fit = FitSpec(("M_b/M_s", "initial_slope", "knee_exponent", "tail_exponent",
+                   "bias_shift"),
+                  ((0.3, 1.0, 2.0, 1.0, 0.0),
+                   (0.5, 4.0 / 3.0, 2.0, 1.0, math.atanh(0.5) - 2.0 / 3.0)),
+                  (1e-3, SLOPE_RANGE[0]) + (EXPONENT_RANGE[0],) * 2 + (SHIFT_RANGE[0],),
+                  (0.97, SLOPE_RANGE[1]) + (EXPONENT_RANGE[1],) * 2 + (SHIFT_RANGE[1],),
+                  neutral=(1e-3, 1.0, 2.0, 1.0, 0.0), method="dogbox")
     finer = None
 
     @classmethod
@@ -231,7 +256,7 @@ class SaturationForm(MagnetizationStage, Extension):
         return {"saturation_magnetization_A_per_m":
                 context["params"].bias_magnetization / x[0],
                 "initial_slope": float(x[1]), "knee_exponent": float(x[2]),
-                "tail_exponent": float(x[3])}
+                "tail_exponent": float(x[3]), "bias_shift": float(x[4])}
 
     @classmethod
     def at_bounds(cls, x, tolerance=1e-3):
@@ -296,33 +321,30 @@ class SaturationForm(MagnetizationStage, Extension):
 
 
 class RicherSaturationForm(SaturationForm):
-    """Eq (1) times (1 + c S^2), the bias shifted by d: not a candidate of its own, but the check of the
+    """Eq (1) times (1 + c S^2): not a candidate of its own, but the check of the
     diagnosis behind a later cause that acts on the magnetisation beside a saturation
     (:mod:`smeha.diagnose.resolution`), never named."""
 
     parameters = SaturationForm.parameters + (
         Parameter("shoulder", "-", *SHOULDER_RANGE, low_open=False, high_open=False,
-                  optional=True),
-        Parameter("bias_shift", "-", *SHIFT_RANGE, low_open=False, high_open=False,
-                  optional=True))
+                  optional=True),)
 
-    fit = FitSpec(SaturationForm.fit.names + ("shoulder", "bias_shift"),
-                  tuple(s + (0.0, 0.0) for s in SaturationForm.fit.starts),
-                  SaturationForm.fit.lower + (SHOULDER_RANGE[0], SHIFT_RANGE[0]),
-                  SaturationForm.fit.upper + (SHOULDER_RANGE[1], SHIFT_RANGE[1]),
-                  neutral=SaturationForm.fit.neutral + (0.0, 0.0), method="dogbox")
+    fit = FitSpec(SaturationForm.fit.names + ("shoulder",),
+                  tuple(s + (0.0,) for s in SaturationForm.fit.starts),
+                  SaturationForm.fit.lower + (SHOULDER_RANGE[0],),
+                  SaturationForm.fit.upper + (SHOULDER_RANGE[1],),
+                  neutral=SaturationForm.fit.neutral + (0.0,), method="dogbox")
     finer = None
 
     @classmethod
     def from_fit(cls, x, context):
-        return dict(SaturationForm.from_fit(x[:4], context), shoulder=float(x[4]),
-                    bias_shift=float(x[5]))
+        return dict(SaturationForm.from_fit(x[:5], context), shoulder=float(x[5]))
 
 
 def _richer_start(x):
     """Unknowns ``x`` of :class:`SaturationForm` carried to the richer form's: the same
-    law (c = 0, d = 0), a start for its fit."""
-    return tuple(x) + (0.0, 0.0)
+    law (c = 0), a start for its fit."""
+    return tuple(x) + (0.0,)
 
 
 SaturationForm.finer = RicherSaturationForm
