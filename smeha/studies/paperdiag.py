@@ -85,11 +85,23 @@ def _residuals(context, cand, extra, freqs, measured):
 
 
 def _tied(cand):
-    """The candidate's unknowns, with the hysteresis weights tied to one scale."""
+    """The candidate's unknowns, with the hysteresis weights tied to one scale and the
+    saturation law through zero (its bias shift held at 0: six readings judge at most four
+    unknowns by AICc, which needs n - k - 1 > 0)."""
     if cand.cause == "rate_independent_hysteresis":
         n = len(cand.names)
         return (("scale",), ((0.5,), (2.0,)), (0.0,), (100.0,),
                 lambda x: tuple([x[0]] * n))
+    if cand.cause == "magnetization_saturation":
+        held = cand.names.index("bias_shift")
+
+        def expand(x):
+            return tuple(x[:held]) + (0.0,) + tuple(x[held:])
+
+        def drop(values):
+            return tuple(v for i, v in enumerate(values) if i != held)
+        starts = list(dict.fromkeys(drop(s) for s in cand.starts()))
+        return (drop(cand.names), starts, drop(cand.lower), drop(cand.upper), expand)
     return (cand.names, cand.starts(), cand.lower, cand.upper, lambda x: tuple(x))
 
 
