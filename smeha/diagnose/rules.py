@@ -280,6 +280,20 @@ def removed_by_level(current: Fit, new: Fit, added) -> dict:
     return {level: before[level] - after[level] for level in before}
 
 
+def _signature_refusal(current: Fit, new: Fit, added) -> str:
+    """Why ``new`` does not show ``added``'s signature (:func:`shows_signature`), in words."""
+    if added.signature == GROWS_WITH_DRIVE:
+        removed = removed_by_level(current, new, added)
+        return ("what it removes does not grow with the drive as a nonlinearity's: "
+                + ", ".join(f"{v:.4g} at {level:.3g} A" for level, v in sorted(removed.items()))
+                + " (from the lowest level to the highest it must grow by more than the "
+                f"amplitudes' ratio to the power {DRIVE_POWER:g})")
+    return (f"it changes the fundamentals alone: the held-out chi^2 of y's and B's "
+            f"harmonics from the third up {current.heldout_chi2_higher:.4g} -> "
+            f"{new.heldout_chi2_higher:.4g} (a loop's harmonics must fall by more than "
+            f"{MIN_BIC_DROP:g})")
+
+
 def firm_in(fit: Fit, cause: str) -> bool:
     """True when none of ``cause``'s unknowns in ``fit`` sits on a bound. A cause added
     after the first, or exchanged in, must be firm: the data pushing its unknowns out of
@@ -381,17 +395,8 @@ def refusal(paper: Fit, current: Fit, new: Fit, other_forms, sense: bool,
                 f"{shares_in_words(current, new, added)} of the excess in "
                 f"{_listed(channels(added), current)} (at least {100 * MIN_EXPLAINED:g} % "
                 "must go at each)")
-    if not shows_signature(current, new, added) and added.signature == GROWS_WITH_DRIVE:
-        removed = removed_by_level(current, new, added)
-        return ("what it removes does not grow with the drive as a nonlinearity's: "
-                + ", ".join(f"{v:.4g} at {level:.3g} A" for level, v in sorted(removed.items()))
-                + f" (from the lowest level to the highest it must grow by more than the "
-                f"amplitudes' ratio to the power {DRIVE_POWER:g})")
     if not shows_signature(current, new, added):
-        return (f"it changes the fundamentals alone: the held-out chi^2 of y's and B's "
-                f"harmonics from the third up {current.heldout_chi2_higher:.4g} -> "
-                f"{new.heldout_chi2_higher:.4g} (a loop's harmonics must fall by more than "
-                f"{MIN_BIC_DROP:g})")
+        return _signature_refusal(current, new, added)
     if not significant(paper, current, new, added, sense=sense):
         floor = MIN_SHARE_WITH_B if sense else MIN_SHARE
         return (f"it removes {100 * share(paper, current, new, added):.3g} % of the paper's "

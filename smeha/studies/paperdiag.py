@@ -94,9 +94,10 @@ def _tied(cand):
                 lambda x: tuple([x[0]] * n))
     if cand.cause == "magnetization_saturation":
         held = cand.names.index("bias_shift")
+        neutral = cand.members[0].fit.neutral[held]  # the law through zero
 
         def expand(x):
-            return tuple(x[:held]) + (0.0,) + tuple(x[held:])
+            return tuple(x[:held]) + (neutral,) + tuple(x[held:])
 
         def drop(values):
             return tuple(v for i, v in enumerate(values) if i != held)

@@ -41,8 +41,8 @@ joined by ``+`` in stage order (:func:`combination_name`).
 from __future__ import annotations
 
 from ..errors import ParameterError
-from ._base import (GROWS_WITH_DRIVE, HIGHER_HARMONICS, STAGES, Extension, FieldState, FitSpec, Parameter,
-                    harmonic_remainder)
+from ._base import (GROWS_WITH_DRIVE, HIGHER_HARMONICS, STAGES, Extension, FieldState,
+                    FitSpec, Parameter, harmonic_remainder)
 from .delay import DelayForm, TransportDelay
 from .diffusion import (DIFFUSION_GEOMETRIES, CylinderDiffusionForm,
                         CylinderMagnetizationForm, EddyCurrentDiffusion, ModalBank,
@@ -171,8 +171,8 @@ def parse_name(name) -> tuple:
 
 
 __all__ = [
-    "GROWS_WITH_DRIVE", "HIGHER_HARMONICS", "STAGES", "Extension", "FieldState", "FitSpec", "Parameter",
-    "harmonic_remainder",
+    "GROWS_WITH_DRIVE", "HIGHER_HARMONICS", "STAGES", "Extension", "FieldState", "FitSpec",
+    "Parameter", "harmonic_remainder",
     "DelayForm", "TransportDelay", "DIFFUSION_GEOMETRIES", "CylinderDiffusionForm",
     "EddyCurrentDiffusion", "ModalBank", "SlabDiffusionForm", "SlabMagnetizationForm",
     "CylinderMagnetizationForm", "DriftForm", "LinearDrift",
