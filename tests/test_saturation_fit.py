@@ -9,7 +9,9 @@ it the held-out chi^2/n stayed at 1.18e4 on seed 0 at 800 samples a period (the 
 holding it lost their second cause: 11 of 25 named at 800 a period, seeds 0-4).
 
 Data: labsim's arctangent law alone at 400 samples a period (the outside lab files' clock),
-seed 224, fixed before any result was seen.
+seed 224, fixed before any result was seen; and at the 20 kHz lab clock, seed 0, where the
+fit with the shift allowed up to d = +1 ended on that bound from both starts (k = 0.5,
+d = 1, held-out chi^2/n 9.1e4; the report: named, but weak, gain 1.84).
 """
 from __future__ import annotations
 
@@ -24,9 +26,11 @@ from smeha.diagnose.workflow import _prepared
 
 
 @pytest.mark.integration
-def test_a_law_tangent_to_the_paper_at_the_bias_is_fitted_to_within_noise():
-    data = runs({"magnetization_saturation": 1.0}, seed=224, noise_um=0.05,
-                samples_per_cycle=400, formulations={"magnetization_saturation": "arctangent"})
+@pytest.mark.parametrize("seed, clock", [(224, {"samples_per_cycle": 400}),
+                                         (0, {"sample_rate": 20e3})])
+def test_a_law_tangent_to_the_paper_at_the_bias_is_fitted_to_within_noise(seed, clock):
+    data = runs({"magnetization_saturation": 1.0}, seed=seed, noise_um=0.05,
+                formulations={"magnetization_saturation": "arctangent"}, **clock)
     *_, ev, base0, train, held = _prepared(data, None, gmt.TransducerParameters())
     paper = fit_and_score(ev, train, held, PAPER, base0)
     law = next(c for c in candidates() if c.label == "magnetization_saturation")
