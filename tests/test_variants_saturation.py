@@ -94,7 +94,8 @@ def test_the_law_reduces_to_the_paper_and_keeps_the_bias_on_its_curve():
 
 
 @pytest.mark.parametrize("field, value", [("knee_exponent", 0.1), ("tail_exponent", 9.0),
-                                          ("initial_slope", 5.0), ("shoulder", -1.0)])
+                                          ("initial_slope", 12.0), ("bias_shift", 0.5),
+                                          ("shoulder", -1.0)])
 def test_a_law_outside_its_ranges_is_refused_naming_the_parameter(field, value):
     kwargs = {"saturation_magnetization": 4e5, "bias_magnetization": 2.5e5, field: value}
     with pytest.raises(gmt.ParameterError, match=f"{field} = {value:g}"):
